@@ -1,0 +1,105 @@
+#include "core/factors/noise_model.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "tests/testing/factor_testing.h"
+
+namespace slamd::core {
+namespace {
+
+TEST(NoiseModelTest, CovarianceInformationAndSqrtInformationAgree) {
+  std::mt19937 rng(7);
+  for (int n = 1; n <= 6; ++n) {
+    const Eigen::MatrixXd cov = testing::RandomSpd(rng, n);
+    const Result<NoiseModel> a = NoiseModel::FromCovariance(cov);
+    ASSERT_TRUE(a.ok()) << a.status().ToString();
+    const Result<NoiseModel> b = NoiseModel::FromInformation(cov.inverse());
+    ASSERT_TRUE(b.ok());
+    const Eigen::MatrixXd R = a->sqrt_information();
+    const Result<NoiseModel> c = NoiseModel::FromSqrtInformation(R);
+    ASSERT_TRUE(c.ok());
+    EXPECT_TRUE(a->Equals(*b, 1e-8));
+    EXPECT_TRUE(a->Equals(*c, 1e-8));
+    EXPECT_TRUE((R.transpose() * R - cov.inverse()).isZero(1e-8));
+    EXPECT_TRUE(R.isUpperTriangular());
+    EXPECT_TRUE((a->Covariance() - cov).isZero(1e-8));
+    // Mahalanobis distance = eᵀ Σ⁻¹ e.
+    const Eigen::VectorXd e = Eigen::VectorXd::LinSpaced(n, -1.0, 2.0);
+    EXPECT_NEAR(a->SquaredMahalanobis(e), e.dot(cov.inverse() * e), 1e-9);
+  }
+}
+
+TEST(NoiseModelTest, NonTriangularSqrtInformationIsRefactored) {
+  Eigen::Matrix2d S;
+  S << 1, 0, 2, 3;  // lower triangular: Ω = SᵀS
+  const Result<NoiseModel> m = NoiseModel::FromSqrtInformation(S);
+  ASSERT_TRUE(m.ok());
+  EXPECT_TRUE((m->Information() - S.transpose() * S).isZero(1e-12));
+}
+
+TEST(NoiseModelTest, DiagonalAndIsotropic) {
+  const Result<NoiseModel> d = NoiseModel::Diagonal(Eigen::Vector3d(0.1, 0.2, 0.05));
+  ASSERT_TRUE(d.ok());
+  EXPECT_EQ(d->kind(), NoiseModel::Kind::kDiagonal);
+  EXPECT_TRUE((d->Sigmas() - Eigen::Vector3d(0.1, 0.2, 0.05)).isZero(1e-12));
+  const Result<NoiseModel> i = NoiseModel::Isotropic(2, 0.5);
+  ASSERT_TRUE(i.ok());
+  EXPECT_TRUE((i->Information() - 4.0 * Eigen::Matrix2d::Identity()).isZero(1e-12));
+}
+
+TEST(NoiseModelTest, WhitenFixedSize) {
+  std::mt19937 rng(3);
+  const Eigen::MatrixXd cov = testing::RandomSpd(rng, 3);
+  const NoiseModel m = *NoiseModel::FromCovariance(cov);
+  Eigen::Vector3d e(1, -2, 0.5);
+  const Eigen::Vector3d expected = Eigen::MatrixXd(m.sqrt_information()) * e;
+  m.WhitenInPlace(&e);
+  EXPECT_TRUE((e - expected).isZero(1e-12));
+  Eigen::Matrix<double, 3, 2> J = Eigen::Matrix<double, 3, 2>::Ones();
+  const Eigen::Matrix<double, 3, 2> expected_J = Eigen::MatrixXd(m.sqrt_information()) * J;
+  m.WhitenInPlace(&J);
+  EXPECT_TRUE((J - expected_J).isZero(1e-12));
+}
+
+TEST(NoiseModelTest, RejectsBadInputWithReasons) {
+  Eigen::Matrix2d indefinite;
+  indefinite << 1, 2, 2, 1;
+  Result<NoiseModel> r = NoiseModel::FromCovariance(indefinite);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("not positive definite"), std::string::npos);
+
+  Eigen::Matrix2d asymmetric;
+  asymmetric << 1, 0.5, 0, 1;
+  r = NoiseModel::FromInformation(asymmetric);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("not symmetric"), std::string::npos);
+
+  Eigen::Matrix2d nan = Eigen::Matrix2d::Identity();
+  nan(1, 1) = std::nan("");
+  r = NoiseModel::FromInformation(nan);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("NaN"), std::string::npos);
+
+  r = NoiseModel::FromInformation(Eigen::MatrixXd::Identity(2, 3));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("not square"), std::string::npos);
+
+  r = NoiseModel::FromInformation(Eigen::MatrixXd::Identity(7, 7));
+  EXPECT_FALSE(r.ok());
+
+  Eigen::Matrix2d ill = Eigen::Matrix2d::Identity();
+  ill(1, 1) = 1e-16;
+  r = NoiseModel::FromInformation(ill);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("ill-conditioned"), std::string::npos);
+
+  EXPECT_FALSE(NoiseModel::Isotropic(3, 0.0).ok());
+  EXPECT_FALSE(NoiseModel::Isotropic(3, -1.0).ok());
+  EXPECT_FALSE(NoiseModel::Diagonal(Eigen::Vector2d(1.0, std::nan(""))).ok());
+  EXPECT_FALSE(NoiseModel::Diagonal(Eigen::Vector2d(1.0, -1.0)).ok());
+}
+
+}  // namespace
+}  // namespace slamd::core
