@@ -1,0 +1,22 @@
+// The slamctl subcommands. Each Register function adds one subcommand (its options and its
+// callback) to the top-level app; main.cc only wires them together.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace slamd::clients {
+
+// `slamctl bench DATASET`: offline timing and accuracy of the core solvers on a dataset.
+void RegisterBench(CLI::App& app);
+
+// Exit codes shared by every subcommand.
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailure = 1;  // the work itself failed (solver error, unreadable file)
+inline constexpr int kExitUsage = 2;    // bad arguments
+
+// Thrown by a subcommand callback to end the program with a code after printing its message.
+struct CommandExit {
+  int code;
+};
+
+}  // namespace slamd::clients

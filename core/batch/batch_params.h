@@ -1,0 +1,51 @@
+// BatchParams: options of the batch nonlinear least-squares solver (batch_solver.h), and the
+// validated-options macro the other params structs use too.
+#pragma once
+
+#include <string>
+
+#include "core/base/status.h"
+
+namespace slamd::core {
+
+struct BatchParams {
+  enum class Algorithm {
+    kGaussNewton,         // undamped steps, always accepted: fast near the optimum, no safeguard
+    kLevenbergMarquardt,  // trust region with gain-ratio damping updates (Madsen, Nielsen, Tingleff)
+  };
+  enum class Damping {
+    kIdentity,  // H + λI (GTSAM's default; invariant to nothing but cheap and robust)
+    kDiagonal,  // H + λ·diag(H), diag clamped to [1e-6, 1e32] (Marquardt: scale-invariant)
+  };
+
+  Algorithm algorithm = Algorithm::kLevenbergMarquardt;
+  Damping damping = Damping::kIdentity;
+  // Upper bound on accepted-or-rejected iterations (linearisations). >= 1.
+  int max_iterations = 100;
+  // Stop when an accepted step lowers the cost by less than this fraction of it. >= 0.
+  double relative_tolerance = 1e-5;
+  // Stop when an accepted step lowers the cost by less than this (chi2 units). >= 0.
+  double absolute_tolerance = 1e-5;
+  // Levenberg-Marquardt: the first damping λ. > 0.
+  double initial_lambda = 1e-5;
+  // Levenberg-Marquardt: give up when λ grows past this (no step lowers the cost). > initial_lambda.
+  double max_lambda = 1e10;
+  // 0: silent; 1: one line per iteration to stderr (the core otherwise never prints).
+  int verbosity = 0;
+
+  // Checks every field; the message names the field, its value and the constraint.
+  Status Validate() const;
+};
+
+// Used by Validate() implementations: returns InvalidArgument naming the struct and field when
+// the constraint does not hold, e.g. "BatchParams::max_iterations = 0; violates >= 1".
+#define SLAMD_PARAM_CHECK(Struct, field, op, bound)                                     \
+  do {                                                                                  \
+    if (!(field op bound)) {                                                            \
+      return ::slamd::core::InvalidArgument(std::string(#Struct "::" #field " = ") +    \
+                                            std::to_string(field) + "; violates " #op " " \
+                                            #bound);                                    \
+    }                                                                                   \
+  } while (false)
+
+}  // namespace slamd::core

@@ -1,0 +1,143 @@
+#include "core/batch/batch_solver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "core/base/timing.h"
+#include "core/batch/normal_equations.h"
+
+namespace slamd::core {
+
+const char* BatchTerminationName(BatchTermination t) {
+  switch (t) {
+    case BatchTermination::kConverged: return "converged";
+    case BatchTermination::kMaxIterations: return "max iterations";
+    case BatchTermination::kLambdaOverflow: return "lambda overflow";
+    case BatchTermination::kNumericalFailure: return "numerical failure";
+    case BatchTermination::kInvalidInput: return "invalid input";
+  }
+  return "unknown";
+}
+
+std::string BatchSummary::Brief() const {
+  char line[256];
+  std::snprintf(line, sizeof(line), "%d iterations (%d solves), chi2 %.9g -> %.9g, %s, %.4f s",
+                iterations, linear_solves, initial_chi2, final_chi2,
+                BatchTerminationName(termination), total_s);
+  return line;
+}
+
+namespace {
+
+// True when an accepted decrease from `before` to `after` is small enough to stop.
+bool Converged(double before, double after, const BatchParams& p) {
+  const double decrease = before - after;
+  return decrease < p.absolute_tolerance || decrease < p.relative_tolerance * before;
+}
+
+}  // namespace
+
+BatchResult Optimize(const FactorGraph& graph, const Values& initial, const BatchParams& params) {
+  Stopwatch total;
+  BatchResult result{.status = params.Validate(), .values = initial, .summary = {}};
+  BatchSummary& sum = result.summary;
+  if (!result.status.ok()) return result;
+
+  Stopwatch phase;
+  Result<std::unique_ptr<internal::NormalEquations>> created =
+      internal::NormalEquations::Create(graph, initial);
+  if (!created.ok()) {
+    result.status = created.status();
+    return result;
+  }
+  internal::NormalEquations& equations = **created;
+  sum.setup_s = phase.Lap();
+
+  const bool lm = params.algorithm == BatchParams::Algorithm::kLevenbergMarquardt;
+  const bool diagonal = params.damping == BatchParams::Damping::kDiagonal;
+  Values& x = result.values;
+  Values candidate = x;
+  double cost = graph.Cost(x);
+  sum.initial_cost = cost;
+  sum.initial_chi2 = graph.Chi2(x);
+  double lambda = params.initial_lambda;
+  double nu = 2.0;
+  Eigen::VectorXd delta;
+  sum.evaluate_s += phase.Lap();
+  sum.termination = BatchTermination::kMaxIterations;
+
+  while (sum.iterations < params.max_iterations) {
+    ++sum.iterations;
+    equations.Linearize(x);
+    sum.linearize_s += phase.Lap();
+    if (lm) equations.SaveUndamped();
+
+    bool accepted = false;
+    bool stop = false;
+    double new_cost = cost;
+    while (!accepted) {
+      if (lm) equations.Damp(lambda, diagonal);
+      ++sum.linear_solves;
+      const Status solved = equations.Solve(&delta);
+      phase.Lap();
+      if (!solved.ok()) {
+        if (!lm || lambda * nu > params.max_lambda) {
+          result.status = solved;
+          sum.termination = BatchTermination::kNumericalFailure;
+          stop = true;
+          break;
+        }
+        lambda *= nu;  // indefinite at this damping: damp harder
+        nu *= 2.0;
+        continue;
+      }
+      equations.RetractAll(x, delta, &candidate);
+      new_cost = graph.Cost(candidate);
+      sum.evaluate_s += phase.Lap();
+      if (!lm) {
+        accepted = true;
+        break;
+      }
+      // Predicted decrease of the quadratic model: 2δᵀb − δᵀHδ = δᵀb + λ·δᵀDδ.
+      const double predicted = delta.dot(equations.rhs()) + lambda * equations.DampingNorm(delta, diagonal);
+      const double rho = (cost - new_cost) / predicted;
+      if (params.verbosity > 0) {
+        std::fprintf(stderr, "  iter %d lambda %.3g cost %.10g -> %.10g rho %.3g\n", sum.iterations,
+                     lambda, cost, new_cost, rho);
+      }
+      if (predicted > 0.0 && rho > 0.0) {
+        accepted = true;
+        const double t = 2.0 * rho - 1.0;
+        lambda *= std::max(1.0 / 3.0, 1.0 - t * t * t);
+        nu = 2.0;
+      } else {
+        ++sum.rejected_steps;
+        lambda *= nu;
+        nu *= 2.0;
+        if (lambda > params.max_lambda) {
+          sum.termination = BatchTermination::kLambdaOverflow;
+          stop = true;
+          break;
+        }
+      }
+    }
+    if (stop) break;
+    std::swap(x, candidate);
+    const double before = cost;
+    cost = new_cost;
+    if (Converged(before, cost, params)) {
+      sum.termination = BatchTermination::kConverged;
+      break;
+    }
+  }
+  sum.factorize_s = equations.factorize_seconds();
+  sum.solve_s = equations.solve_seconds();
+  sum.final_cost = cost;
+  sum.final_chi2 = graph.Chi2(x);
+  sum.final_lambda = lambda;
+  sum.total_s = total.Seconds();
+  return result;
+}
+
+}  // namespace slamd::core

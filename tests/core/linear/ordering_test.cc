@@ -1,0 +1,202 @@
+#include "core/linear/ordering.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <numeric>
+#include <random>
+#include <set>
+#include <vector>
+
+namespace slamd::core {
+namespace {
+
+// Factors of a rows x cols grid: a prior on variable 0 and one between factor per grid edge.
+FactorIncidence GridIncidence(int rows, int cols, const std::vector<int>& label) {
+  FactorIncidence incidence;
+  incidence.AddFactor({label[0]});
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      const int v = r * cols + c;
+      if (c + 1 < cols) incidence.AddFactor({label[v], label[v + 1]});
+      if (r + 1 < rows) incidence.AddFactor({label[v], label[v + cols]});
+    }
+  }
+  return incidence;
+}
+
+// Independent reference: block-level nonzeros of the Cholesky factor of the graph's Hessian
+// pattern for an elimination order, by symbolic elimination (the not-yet-eliminated neighbours
+// of each eliminated variable become a clique; it is enough to pass them to the first of them).
+long FactorBlockNonZeros(int num_vars, const FactorIncidence& incidence,
+                         const std::vector<int>& order) {
+  std::vector<int> pos(num_vars);
+  for (int k = 0; k < num_vars; ++k) pos[order[k]] = k;
+  std::vector<std::set<int>> later(num_vars);  // neighbours eliminated later, by position
+  for (int f = 0; f < incidence.NumFactors(); ++f) {
+    for (int i = incidence.offsets[f]; i < incidence.offsets[f + 1]; ++i) {
+      for (int j = incidence.offsets[f]; j < incidence.offsets[f + 1]; ++j) {
+        const int a = incidence.vars[i], b = incidence.vars[j];
+        if (pos[a] < pos[b]) later[pos[a]].insert(pos[b]);
+      }
+    }
+  }
+  long nnz = num_vars;  // diagonal blocks
+  for (int k = 0; k < num_vars; ++k) {
+    nnz += static_cast<long>(later[k].size());
+    if (later[k].empty()) continue;
+    const int parent = *later[k].begin();
+    for (int u : later[k]) {
+      if (u != parent) later[parent].insert(u);
+    }
+  }
+  return nnz;
+}
+
+FactorIncidence RandomIncidence(int num_vars, int num_factors, std::mt19937* rng) {
+  FactorIncidence incidence;
+  std::uniform_int_distribution<int> var(0, num_vars - 1), arity(1, 3);
+  for (int f = 0; f < num_factors; ++f) {
+    std::vector<int> vars;
+    const int size = arity(*rng);
+    while (static_cast<int>(vars.size()) < size) {
+      const int v = var(*rng);
+      if (std::find(vars.begin(), vars.end(), v) == vars.end()) vars.push_back(v);
+    }
+    incidence.AddFactor(vars);
+  }
+  return incidence;
+}
+
+TEST(OrderingTest, ColamdReturnsPermutationIncludingUntouchedVariables) {
+  std::mt19937 rng(7);
+  // Variables 40..49 are touched by no factor.
+  FactorIncidence incidence = RandomIncidence(40, 80, &rng);
+  const Result<std::vector<int>> order = ColamdOrdering(50, incidence);
+  ASSERT_TRUE(order.ok()) << order.status().ToString();
+  ASSERT_EQ(order->size(), 50u);
+  EXPECT_TRUE(IsPermutation(*order));
+}
+
+TEST(OrderingTest, EmptyAndTrivialInputs) {
+  FactorIncidence none;
+  const auto empty = ColamdOrdering(0, none);
+  ASSERT_TRUE(empty.ok());
+  EXPECT_TRUE(empty->empty());
+  const auto unconnected = ColamdOrdering(4, none);
+  ASSERT_TRUE(unconnected.ok());
+  EXPECT_TRUE(IsPermutation(*unconnected));
+  EXPECT_EQ(unconnected->size(), 4u);
+  const auto grouped = ConstrainedColamdOrdering(4, none, {3, 1, 2, 0});
+  ASSERT_TRUE(grouped.ok());
+  EXPECT_EQ(*grouped, (std::vector<int>{3, 1, 2, 0}));
+}
+
+TEST(OrderingTest, DuplicateVariablesInAFactorAreTolerated) {
+  FactorIncidence incidence;
+  incidence.AddFactor({0, 1, 0});
+  incidence.AddFactor({1, 2});
+  const auto order = ColamdOrdering(3, incidence);
+  ASSERT_TRUE(order.ok()) << order.status().ToString();
+  EXPECT_TRUE(IsPermutation(*order));
+}
+
+TEST(OrderingTest, RejectsMalformedIncidence) {
+  FactorIncidence out_of_range;
+  out_of_range.AddFactor({0, 5});
+  EXPECT_EQ(ColamdOrdering(3, out_of_range).status().code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(ConstrainedColamdOrdering(3, out_of_range, {0, 0, 0}).status().code(),
+            StatusCode::kInvalidArgument);
+
+  FactorIncidence bad_offsets;
+  bad_offsets.vars = {0, 1};
+  bad_offsets.offsets = {0, 3};
+  EXPECT_EQ(ColamdOrdering(3, bad_offsets).status().code(), StatusCode::kInvalidArgument);
+  bad_offsets.offsets = {1, 2};
+  EXPECT_EQ(ColamdOrdering(3, bad_offsets).status().code(), StatusCode::kInvalidArgument);
+
+  FactorIncidence fine;
+  fine.AddFactor({0, 1});
+  EXPECT_EQ(ConstrainedColamdOrdering(3, fine, {0, 1}).status().code(),
+            StatusCode::kInvalidArgument);  // wrong group size
+  EXPECT_EQ(ColamdOrdering(-1, fine).status().code(), StatusCode::kInvalidArgument);
+}
+
+TEST(OrderingTest, ConstrainedGroupsAreRespected) {
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 20; ++trial) {
+    const int n = 30 + trial * 5;
+    const FactorIncidence incidence = RandomIncidence(n, 3 * n, &rng);
+    std::vector<int> group(n);
+    // Arbitrary, sparse, even negative group numbers: only their relative order counts.
+    std::uniform_int_distribution<int> pick(0, 3);
+    const int values[4] = {-7, 0, 2, 100};
+    for (int& g : group) g = values[pick(rng)];
+    const auto order = ConstrainedColamdOrdering(n, incidence, group);
+    ASSERT_TRUE(order.ok()) << order.status().ToString();
+    ASSERT_TRUE(IsPermutation(*order));
+    for (int k = 1; k < n; ++k) {
+      EXPECT_LE(group[(*order)[k - 1]], group[(*order)[k]]) << "trial " << trial << " k " << k;
+    }
+  }
+}
+
+TEST(OrderingTest, NewestVariablesLastAsInIsam2) {
+  // A chain 0-1-...-19; force 18 and 19 to the end.
+  FactorIncidence incidence;
+  incidence.AddFactor({0});
+  for (int v = 0; v + 1 < 20; ++v) incidence.AddFactor({v, v + 1});
+  std::vector<int> group(20, 0);
+  group[18] = group[19] = 1;
+  const auto order = ConstrainedColamdOrdering(20, incidence, group);
+  ASSERT_TRUE(order.ok());
+  const std::set<int> last_two = {(*order)[18], (*order)[19]};
+  EXPECT_EQ(last_two, (std::set<int>{18, 19}));
+}
+
+TEST(OrderingTest, ColamdBeatsNaturalOrderOnGrids) {
+  const int rows = 30, cols = 30, n = rows * cols;
+  std::vector<int> identity(n);
+  std::iota(identity.begin(), identity.end(), 0);
+  std::vector<int> shuffled = identity;
+  std::mt19937 rng(3);
+  std::shuffle(shuffled.begin(), shuffled.end(), rng);
+  for (const auto& label : {identity, shuffled}) {
+    const FactorIncidence incidence = GridIncidence(rows, cols, label);
+    const auto order = ColamdOrdering(n, incidence);
+    ASSERT_TRUE(order.ok());
+    const long natural_fill = FactorBlockNonZeros(n, incidence, identity);
+    const long colamd_fill = FactorBlockNonZeros(n, incidence, *order);
+    EXPECT_LT(colamd_fill, natural_fill);
+    // Row-major order of a w x w grid gives about n * w; minimum degree is far below.
+    EXPECT_LT(colamd_fill, 0.6 * rows * n) << "natural " << natural_fill;
+  }
+}
+
+TEST(OrderingTest, ConstrainedWithOneGroupMatchesQualityOfColamd) {
+  const int rows = 20, cols = 20, n = rows * cols;
+  std::vector<int> identity(n);
+  std::iota(identity.begin(), identity.end(), 0);
+  const FactorIncidence incidence = GridIncidence(rows, cols, identity);
+  const auto plain = ColamdOrdering(n, incidence);
+  const auto constrained = ConstrainedColamdOrdering(n, incidence, std::vector<int>(n, 5));
+  ASSERT_TRUE(plain.ok() && constrained.ok());
+  const long a = FactorBlockNonZeros(n, incidence, *plain);
+  const long b = FactorBlockNonZeros(n, incidence, *constrained);
+  EXPECT_LT(b, 1.5 * a);
+  EXPECT_LT(b, FactorBlockNonZeros(n, incidence, identity));
+}
+
+TEST(OrderingTest, InversePermutation) {
+  const std::vector<int> perm = {2, 0, 3, 1};
+  const std::vector<int> inverse = InversePermutation(perm);
+  EXPECT_EQ(inverse, (std::vector<int>{1, 3, 0, 2}));
+  for (int k = 0; k < 4; ++k) EXPECT_EQ(inverse[perm[k]], k);
+  EXPECT_TRUE(IsPermutation(perm));
+  EXPECT_FALSE(IsPermutation({0, 0, 1}));
+  EXPECT_FALSE(IsPermutation({0, 3, 1}));
+  EXPECT_FALSE(IsPermutation({-1, 0}));
+}
+
+}  // namespace
+}  // namespace slamd::core
