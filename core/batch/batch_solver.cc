@@ -6,6 +6,7 @@
 
 #include "core/base/timing.h"
 #include "core/batch/normal_equations.h"
+#include "core/factors/prior_factor.h"
 
 namespace slamd::core {
 
@@ -36,7 +37,31 @@ bool Converged(double before, double after, const BatchParams& p) {
   return decrease < p.absolute_tolerance || decrease < p.relative_tolerance * before;
 }
 
+// The damping after a rejected step (Nielsen: λ·ν, ν doubling), starting at the floor when the
+// rejected step was undamped.
+double Increase(double lambda, double* nu, const BatchParams& p) {
+  if (lambda < p.lambda_floor) return p.lambda_floor;
+  const double next = lambda * *nu;
+  *nu *= 2.0;
+  return next;
+}
+
 }  // namespace
+
+Status AddGaugePrior(const Values& values, Key pose, double sigma, FactorGraph* graph) {
+  if (const Pose2* p = values.Find<Pose2>(pose)) {
+    Result<NoiseModel> noise = NoiseModel::Isotropic(3, sigma);
+    if (!noise.ok()) return noise.status();
+    graph->Emplace<PriorFactor<Pose2>>(pose, *p, *noise);
+  } else if (const Pose3* q = values.Find<Pose3>(pose)) {
+    Result<NoiseModel> noise = NoiseModel::Isotropic(6, sigma);
+    if (!noise.ok()) return noise.status();
+    graph->Emplace<PriorFactor<Pose3>>(pose, *q, *noise);
+  } else {
+    return InvalidArgument("gauge prior: " + KeyToString(pose) + " is not a pose in the values");
+  }
+  return Status::Ok();
+}
 
 BatchResult Optimize(const FactorGraph& graph, const Values& initial, const BatchParams& params) {
   Stopwatch total;
@@ -88,8 +113,7 @@ BatchResult Optimize(const FactorGraph& graph, const Values& initial, const Batc
           stop = true;
           break;
         }
-        lambda *= nu;  // indefinite at this damping: damp harder
-        nu *= 2.0;
+        lambda = Increase(lambda, &nu, params);  // indefinite at this damping: damp harder
         continue;
       }
       equations.RetractAll(x, delta, &candidate);
@@ -110,11 +134,11 @@ BatchResult Optimize(const FactorGraph& graph, const Values& initial, const Batc
         accepted = true;
         const double t = 2.0 * rho - 1.0;
         lambda *= std::max(1.0 / 3.0, 1.0 - t * t * t);
+        if (lambda < params.lambda_floor) lambda = 0.0;  // back to undamped steps
         nu = 2.0;
       } else {
         ++sum.rejected_steps;
-        lambda *= nu;
-        nu *= 2.0;
+        lambda = Increase(lambda, &nu, params);
         if (lambda > params.max_lambda) {
           sum.termination = BatchTermination::kLambdaOverflow;
           stop = true;
@@ -126,7 +150,9 @@ BatchResult Optimize(const FactorGraph& graph, const Values& initial, const Batc
     std::swap(x, candidate);
     const double before = cost;
     cost = new_cost;
-    if (Converged(before, cost, params)) {
+    // A small decrease means convergence only for a (nearly) undamped step: a heavily damped
+    // step is small because of the damping, not because the optimum is near.
+    if (Converged(before, cost, params) && (!lm || lambda <= 10.0 * params.lambda_floor)) {
       sum.termination = BatchTermination::kConverged;
       break;
     }

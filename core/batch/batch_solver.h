@@ -55,6 +55,10 @@ struct BatchResult {
   BatchSummary summary;
 };
 
+// Fixes the gauge of a pose graph (datasets leave it free): adds a prior on `pose` at its value in
+// `values` with isotropic sigma `sigma` (metres and radians). At the optimum it contributes ~0.
+Status AddGaugePrior(const Values& values, Key pose, double sigma, FactorGraph* graph);
+
 // Optimises `initial` against `graph`. Validates params and the graph first.
 BatchResult Optimize(const FactorGraph& graph, const Values& initial, const BatchParams& params = {});
 

@@ -16,7 +16,8 @@ TEST(BatchParamsTest, EachViolationNamesTheField) {
       {{.max_iterations = 0}, "max_iterations"},
       {{.relative_tolerance = -1.0}, "relative_tolerance"},
       {{.absolute_tolerance = -1.0}, "absolute_tolerance"},
-      {{.initial_lambda = 0.0}, "initial_lambda"},
+      {{.initial_lambda = -1.0}, "initial_lambda"},
+      {{.lambda_floor = 0.0}, "lambda_floor"},
       {{.initial_lambda = 1.0, .max_lambda = 0.5}, "max_lambda"},
       {{.verbosity = -1}, "verbosity"},
   };

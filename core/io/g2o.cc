@@ -1,0 +1,263 @@
+// The g2o format: reading one line (ReadG2oLine) and writing a whole Dataset (WriteG2o).
+// Layouts and conventions: dataset.h.
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <string>
+
+#include "core/factors/between_factor.h"
+#include "core/factors/relative_point_factor.h"
+#include "core/io/dataset.h"
+#include "core/io/reader_internal.h"
+
+namespace slamd::core {
+namespace internal {
+namespace {
+
+// Rotation from a g2o quaternion, stored x y z w (w LAST).
+Status ReadQuaternion(const SourceLine& line, const double* xyzw, Rot3* R) {
+  const double norm = Eigen::Vector4d(xyzw[0], xyzw[1], xyzw[2], xyzw[3]).norm();
+  if (!(norm > 1e-6) || !std::isfinite(norm)) {
+    return line.Error("a quaternion qx qy qz qw of finite, non-zero norm");
+  }
+  *R = Rot3::FromQuaternion(xyzw[3], xyzw[0], xyzw[1], xyzw[2]);
+  return Status::Ok();
+}
+
+Status ReadVertexSe2(const SourceLine& line, DatasetBuilder* builder) {
+  SLAMD_RETURN_IF_ERROR(line.ExpectValues(4, "VERTEX_SE2 id x y θ"));
+  SLAMD_RETURN_IF_ERROR(builder->SetDimension(line, false));
+  std::uint64_t id;
+  double v[3];
+  SLAMD_RETURN_IF_ERROR(line.Id(0, &id));
+  SLAMD_RETURN_IF_ERROR(line.Numbers(1, 3, v));
+  return builder->AddPoseVertex(line, id, Pose2(v[0], v[1], v[2]));
+}
+
+Status ReadEdgeSe2(const SourceLine& line, DatasetBuilder* builder) {
+  SLAMD_RETURN_IF_ERROR(line.ExpectValues(11, "EDGE_SE2 i j dx dy dθ I11 I12 I13 I22 I23 I33"));
+  SLAMD_RETURN_IF_ERROR(builder->SetDimension(line, false));
+  std::uint64_t i, j;
+  double v[9];
+  SLAMD_RETURN_IF_ERROR(line.Id(0, &i));
+  SLAMD_RETURN_IF_ERROR(line.Id(1, &j));
+  SLAMD_RETURN_IF_ERROR(line.Numbers(2, 9, v));
+  Result<NoiseModel> noise = NoiseFromInformation(line, SymmetricFromUpperRowMajor(v + 3, 3));
+  if (!noise.ok()) return noise.status();
+  return builder->AddPoseEdge(line, i, j, Pose2(v[0], v[1], v[2]), std::move(noise).value());
+}
+
+Status ReadVertexXy(const SourceLine& line, DatasetBuilder* builder) {
+  SLAMD_RETURN_IF_ERROR(line.ExpectValues(3, "VERTEX_XY id x y"));
+  SLAMD_RETURN_IF_ERROR(builder->SetDimension(line, false));
+  std::uint64_t id;
+  double v[2];
+  SLAMD_RETURN_IF_ERROR(line.Id(0, &id));
+  SLAMD_RETURN_IF_ERROR(line.Numbers(1, 2, v));
+  return builder->AddLandmarkVertex(line, id, Point2(v[0], v[1]));
+}
+
+Status ReadEdgeSe2Xy(const SourceLine& line, DatasetBuilder* builder) {
+  SLAMD_RETURN_IF_ERROR(line.ExpectValues(7, "EDGE_SE2_XY i j dx dy I11 I12 I22"));
+  SLAMD_RETURN_IF_ERROR(builder->SetDimension(line, false));
+  std::uint64_t i, j;
+  double v[5];
+  SLAMD_RETURN_IF_ERROR(line.Id(0, &i));
+  SLAMD_RETURN_IF_ERROR(line.Id(1, &j));
+  SLAMD_RETURN_IF_ERROR(line.Numbers(2, 5, v));
+  Result<NoiseModel> noise = NoiseFromInformation(line, SymmetricFromUpperRowMajor(v + 2, 2));
+  if (!noise.ok()) return noise.status();
+  return builder->AddLandmarkObservation(line, i, j, Point2(v[0], v[1]), std::move(noise).value());
+}
+
+Status ReadVertexSe3Quat(const SourceLine& line, DatasetBuilder* builder) {
+  SLAMD_RETURN_IF_ERROR(line.ExpectValues(8, "VERTEX_SE3:QUAT id x y z qx qy qz qw"));
+  SLAMD_RETURN_IF_ERROR(builder->SetDimension(line, true));
+  std::uint64_t id;
+  double v[7];
+  SLAMD_RETURN_IF_ERROR(line.Id(0, &id));
+  SLAMD_RETURN_IF_ERROR(line.Numbers(1, 7, v));
+  Rot3 R;
+  SLAMD_RETURN_IF_ERROR(ReadQuaternion(line, v + 3, &R));
+  return builder->AddPoseVertex(line, id, Pose3(R, Point3(v[0], v[1], v[2])));
+}
+
+Status ReadEdgeSe3Quat(const SourceLine& line, DatasetBuilder* builder) {
+  SLAMD_RETURN_IF_ERROR(
+      line.ExpectValues(30, "EDGE_SE3:QUAT i j dx dy dz qx qy qz qw + 21 information values"));
+  SLAMD_RETURN_IF_ERROR(builder->SetDimension(line, true));
+  std::uint64_t i, j;
+  double v[28];
+  SLAMD_RETURN_IF_ERROR(line.Id(0, &i));
+  SLAMD_RETURN_IF_ERROR(line.Id(1, &j));
+  SLAMD_RETURN_IF_ERROR(line.Numbers(2, 28, v));
+  Rot3 R;
+  SLAMD_RETURN_IF_ERROR(ReadQuaternion(line, v + 3, &R));
+  // g2o's (t, R) information order is slamd's Pose3 tangent order: no block swap.
+  Result<NoiseModel> noise = NoiseFromInformation(line, SymmetricFromUpperRowMajor(v + 7, 6));
+  if (!noise.ok()) return noise.status();
+  return builder->AddPoseEdge(line, i, j, Pose3(R, Point3(v[0], v[1], v[2])),
+                              std::move(noise).value());
+}
+
+Status ReadFix(const SourceLine& line, DatasetBuilder* builder) {
+  if (line.num_values() < 1) return line.Error("FIX id [id ...]");
+  for (int k = 0; k < line.num_values(); ++k) {
+    std::uint64_t id;
+    SLAMD_RETURN_IF_ERROR(line.Id(k, &id));
+    builder->AddFixed(line, id);
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status ReadG2oLine(const SourceLine& line, DatasetBuilder* builder) {
+  const std::string_view tag = line.tag();
+  if (tag == "VERTEX_SE2") return ReadVertexSe2(line, builder);
+  if (tag == "EDGE_SE2") return ReadEdgeSe2(line, builder);
+  if (tag == "VERTEX_XY") return ReadVertexXy(line, builder);
+  if (tag == "EDGE_SE2_XY") return ReadEdgeSe2Xy(line, builder);
+  if (tag == "VERTEX_SE3:QUAT") return ReadVertexSe3Quat(line, builder);
+  if (tag == "EDGE_SE3:QUAT") return ReadEdgeSe3Quat(line, builder);
+  if (tag == "FIX") return ReadFix(line, builder);
+  return line.Problem(
+      "expected a g2o tag (VERTEX_SE2, EDGE_SE2, VERTEX_XY, EDGE_SE2_XY, "
+      "VERTEX_SE3:QUAT, EDGE_SE3:QUAT, FIX), got the unknown tag '" +
+      std::string(tag) + "'");
+}
+
+}  // namespace internal
+
+namespace {
+
+// Appends numbers in their shortest exact form (to_chars round-trips every double).
+class LineWriter {
+ public:
+  explicit LineWriter(std::string* out) : out_(out) {}
+  LineWriter& Tag(const char* tag) {
+    out_->append(tag);
+    return *this;
+  }
+  LineWriter& Id(Key key) {
+    out_->append(" ").append(std::to_string(KeyIndex(key)));
+    return *this;
+  }
+  LineWriter& Num(double x) {
+    char buf[32];
+    const auto result = std::to_chars(buf, buf + sizeof(buf), x);
+    out_->append(" ").append(buf, result.ptr);
+    return *this;
+  }
+  LineWriter& UpperTriangle(const Eigen::MatrixXd& m) {
+    for (int r = 0; r < m.rows(); ++r) {
+      for (int c = r; c < m.cols(); ++c) Num(m(r, c));
+    }
+    return *this;
+  }
+  LineWriter& Quaternion(const Rot3& R) {  // x y z w
+    const Eigen::Quaterniond q = R.ToQuaternion();
+    return Num(q.x()).Num(q.y()).Num(q.z()).Num(q.w());
+  }
+  void End() { out_->append("\n"); }
+
+ private:
+  std::string* out_;
+};
+
+Status CheckKey(Key key, unsigned char symbol) {
+  if (KeySymbol(key) == symbol && KeyRobot(key) == 0) return Status::Ok();
+  return InvalidArgument("WriteG2o: key " + KeyToString(key) + " is not a '" +
+                         std::string(1, static_cast<char>(symbol)) +
+                         "' key without a robot id, so it has no g2o id");
+}
+
+Status WriteVertex(const Dataset& dataset, Key key, bool landmark, std::string* out) {
+  SLAMD_RETURN_IF_ERROR(CheckKey(key, landmark ? 'l' : 'x'));
+  const int slot = dataset.initial.SlotOf(key);
+  if (slot < 0) {
+    return InvalidArgument("WriteG2o: " + KeyToString(key) + " has no value in dataset.initial");
+  }
+  LineWriter w(out);
+  const Variable& v = dataset.initial.VariableAt(slot);
+  const bool is_point = std::holds_alternative<Point2>(v) || std::holds_alternative<Point3>(v);
+  if (is_point != landmark) {
+    return InvalidArgument(
+        "WriteG2o: " + KeyToString(key) + " holds a " + VariableTypeName(TypeOf(v)) +
+        ", expected a " +
+        (landmark ? "point (it is in dataset.landmarks)" : "pose (it is in dataset.poses)"));
+  }
+  if (const Pose2* p = std::get_if<Pose2>(&v)) {
+    w.Tag("VERTEX_SE2").Id(key).Num(p->x()).Num(p->y()).Num(p->theta()).End();
+  } else if (const Pose3* p = std::get_if<Pose3>(&v)) {
+    const Point3& t = p->translation();
+    w.Tag("VERTEX_SE3:QUAT")
+        .Id(key)
+        .Num(t.x())
+        .Num(t.y())
+        .Num(t.z())
+        .Quaternion(p->rotation())
+        .End();
+  } else if (const Point2* p = std::get_if<Point2>(&v)) {
+    w.Tag("VERTEX_XY").Id(key).Num(p->x()).Num(p->y()).End();
+  } else {
+    return InvalidArgument("WriteG2o: " + KeyToString(key) + " is a " +
+                           VariableTypeName(TypeOf(v)) + ", which has no g2o vertex here");
+  }
+  return Status::Ok();
+}
+
+Status WriteFactor(const Factor& factor, std::size_t index, std::string* out) {
+  LineWriter w(out);
+  const KeyVector& keys = factor.keys();
+  const Eigen::MatrixXd information = factor.noise_model().Information();
+  if (const auto* f = dynamic_cast<const BetweenFactor<Pose2>*>(&factor)) {
+    SLAMD_RETURN_IF_ERROR(CheckKey(keys[0], 'x'));
+    SLAMD_RETURN_IF_ERROR(CheckKey(keys[1], 'x'));
+    const Pose2& z = f->measured();
+    w.Tag("EDGE_SE2").Id(keys[0]).Id(keys[1]).Num(z.x()).Num(z.y()).Num(z.theta());
+    w.UpperTriangle(information).End();
+  } else if (const auto* f = dynamic_cast<const BetweenFactor<Pose3>*>(&factor)) {
+    SLAMD_RETURN_IF_ERROR(CheckKey(keys[0], 'x'));
+    SLAMD_RETURN_IF_ERROR(CheckKey(keys[1], 'x'));
+    const Point3& t = f->measured().translation();
+    w.Tag("EDGE_SE3:QUAT").Id(keys[0]).Id(keys[1]).Num(t.x()).Num(t.y()).Num(t.z());
+    w.Quaternion(f->measured().rotation()).UpperTriangle(information).End();
+  } else if (const auto* f = dynamic_cast<const RelativePointFactor<Pose2, Point2>*>(&factor)) {
+    SLAMD_RETURN_IF_ERROR(CheckKey(keys[0], 'x'));
+    SLAMD_RETURN_IF_ERROR(CheckKey(keys[1], 'l'));
+    const Point2& z = f->measured();
+    w.Tag("EDGE_SE2_XY").Id(keys[0]).Id(keys[1]).Num(z.x()).Num(z.y());
+    w.UpperTriangle(information).End();
+  } else {
+    return InvalidArgument("WriteG2o: factor " + std::to_string(index) + " (" + factor.Name() +
+                           ") has no g2o form");
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status WriteG2o(const Dataset& dataset, const std::string& path) {
+  // Everything is formatted first, so that an unwritable dataset leaves no partial file.
+  std::string out;
+  for (const Key key : dataset.fixed) {
+    SLAMD_RETURN_IF_ERROR(CheckKey(key, 'x'));
+    LineWriter(&out).Tag("FIX").Id(key).End();
+  }
+  for (const Key key : dataset.poses) SLAMD_RETURN_IF_ERROR(WriteVertex(dataset, key, false, &out));
+  for (const Key key : dataset.landmarks) {
+    SLAMD_RETURN_IF_ERROR(WriteVertex(dataset, key, true, &out));
+  }
+  for (std::size_t i = 0; i < dataset.graph.size(); ++i) {
+    SLAMD_RETURN_IF_ERROR(WriteFactor(*dataset.graph[i], i, &out));
+  }
+  std::ofstream file(path, std::ios::binary | std::ios::trunc);
+  if (!file) return IoError("WriteG2o: cannot open '" + path + "' for writing");
+  file.write(out.data(), static_cast<std::streamsize>(out.size()));
+  file.close();
+  if (!file) return IoError("WriteG2o: writing '" + path + "' failed");
+  return Status::Ok();
+}
+
+}  // namespace slamd::core

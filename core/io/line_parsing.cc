@@ -1,0 +1,130 @@
+// SourceLine and the noise helpers of reader_internal.h.
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <string>
+
+#include "core/base/key.h"
+#include "core/io/reader_internal.h"
+
+namespace slamd::core::internal {
+namespace {
+
+bool IsBlank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+
+// Long lines are cut in messages: the point is to find the line, not to print it.
+std::string Quoted(std::string_view text) {
+  constexpr std::size_t kMaxShown = 160;
+  std::string out = "'";
+  out.append(text.substr(0, kMaxShown));
+  if (text.size() > kMaxShown) out += "...";
+  out += "'";
+  return out;
+}
+
+}  // namespace
+
+SourceLine::SourceLine(const std::string& path, int number, std::string_view text)
+    : path_(&path), number_(number), text_(text) {
+  std::size_t i = 0;
+  while (i < text.size()) {
+    while (i < text.size() && IsBlank(text[i])) ++i;
+    const std::size_t start = i;
+    while (i < text.size() && !IsBlank(text[i])) ++i;
+    if (i > start) fields_.push_back(text.substr(start, i - start));
+  }
+  // Messages quote the line without its trailing blanks (and '\r').
+  while (!text_.empty() && IsBlank(text_.back())) text_.remove_suffix(1);
+}
+
+Status SourceLine::Problem(std::string_view message) const {
+  return DataLoss(*path_ + ":" + std::to_string(number_) + ": " + std::string(message));
+}
+
+Status SourceLine::Error(std::string_view expected) const {
+  return Problem("expected " + std::string(expected) + ", got " + Quoted(text_));
+}
+
+Status SourceLine::ExpectValues(int count, std::string_view layout) const {
+  if (num_values() == count) return Status::Ok();
+  return Error(std::string(layout) + " (" + std::to_string(count) + " values after the tag, not " +
+               std::to_string(num_values()) + ")");
+}
+
+Status SourceLine::ExpectValues(int count_a, int count_b, std::string_view layout) const {
+  if (num_values() == count_a || num_values() == count_b) return Status::Ok();
+  return Error(std::string(layout) + " (" + std::to_string(count_a) + " or " +
+               std::to_string(count_b) + " values after the tag, not " +
+               std::to_string(num_values()) + ")");
+}
+
+Status SourceLine::Number(int i, double* out) const {
+  SLAMD_CHECK(i >= 0 && i < num_values()) << "reader bug: value " << i << " of " << num_values();
+  std::string_view field = fields_[i + 1];
+  // from_chars rejects a leading '+', which some writers emit.
+  if (field.size() > 1 && field[0] == '+' && field[1] != '-') field.remove_prefix(1);
+  const char* end = field.data() + field.size();
+  const auto [ptr, ec] = std::from_chars(field.data(), end, *out);
+  bool ok = ec == std::errc() && ptr == end;
+  if (ec == std::errc::result_out_of_range && ptr == end) {
+    // Overflow or underflow: strtod tells which (underflow to a tiny value or 0 is fine).
+    *out = std::strtod(std::string(field).c_str(), nullptr);
+    ok = true;
+  }
+  if (ok && std::isfinite(*out)) return Status::Ok();
+  return Problem("expected a finite number as value " + std::to_string(i + 1) + " of " +
+                 std::string(tag()) + ", got " + Quoted(fields_[i + 1]));
+}
+
+Status SourceLine::Id(int i, std::uint64_t* out) const {
+  SLAMD_CHECK(i >= 0 && i < num_values()) << "reader bug: value " << i << " of " << num_values();
+  const std::string_view field = fields_[i + 1];
+  const char* end = field.data() + field.size();
+  const auto [ptr, ec] = std::from_chars(field.data(), end, *out);
+  if (ec == std::errc() && ptr == end && *out <= kMaxKeyIndex) return Status::Ok();
+  return Problem("expected an id (an integer in 0..2^48-1) as value " + std::to_string(i + 1) +
+                 " of " + std::string(tag()) + ", got " + Quoted(field));
+}
+
+Status SourceLine::Numbers(int first, int count, double* out) const {
+  for (int k = 0; k < count; ++k) SLAMD_RETURN_IF_ERROR(Number(first + k, out + k));
+  return Status::Ok();
+}
+
+Eigen::MatrixXd SymmetricFromUpperRowMajor(const double* values, int n) {
+  Eigen::MatrixXd m(n, n);
+  for (int r = 0, k = 0; r < n; ++r) {
+    for (int c = r; c < n; ++c, ++k) m(r, c) = m(c, r) = values[k];
+  }
+  return m;
+}
+
+Eigen::MatrixXd UpperTriangularFromRowMajor(const double* values, int n) {
+  Eigen::MatrixXd m = Eigen::MatrixXd::Zero(n, n);
+  for (int r = 0, k = 0; r < n; ++r) {
+    for (int c = r; c < n; ++c, ++k) m(r, c) = values[k];
+  }
+  return m;
+}
+
+Result<NoiseModel> NoiseFromInformation(const SourceLine& line,
+                                        const Eigen::MatrixXd& information) {
+  Result<NoiseModel> noise = NoiseModel::FromInformation(information);
+  if (!noise.ok()) return line.Problem("invalid noise: " + noise.status().message());
+  return noise;
+}
+
+Result<NoiseModel> NoiseFromSqrtInformation(const SourceLine& line,
+                                            const Eigen::MatrixXd& sqrt_info) {
+  Result<NoiseModel> noise = NoiseModel::FromSqrtInformation(sqrt_info);
+  if (!noise.ok()) return line.Problem("invalid noise: " + noise.status().message());
+  return noise;
+}
+
+Result<NoiseModel> NoiseFromCovariance(const SourceLine& line, const Eigen::MatrixXd& covariance) {
+  Result<NoiseModel> noise = NoiseModel::FromCovariance(covariance);
+  if (!noise.ok()) return line.Problem("invalid noise: " + noise.status().message());
+  return noise;
+}
+
+}  // namespace slamd::core::internal

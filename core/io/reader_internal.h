@@ -1,0 +1,130 @@
+// Internal to core/io: what the format readers share. Not part of the public API.
+//
+//  * SourceLine: one non-blank, non-comment line split into fields, with helpers that parse the
+//    numeric fields and turn every problem into a "FILE:LINE: expected ..., got '...'" status.
+//  * Noise helpers: symmetric matrices from the upper triangles the formats store.
+//  * DatasetBuilder: collects vertices and measurements from any reader, then builds the
+//    Dataset (keys, factor graph, initial guess by composition along the edges).
+//  * The per-format line readers (g2o.cc, toro.cc, isam.cc).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/base/status.h"
+#include "core/factors/noise_model.h"
+#include "core/factors/variable.h"
+#include "core/io/dataset.h"
+
+namespace slamd::core::internal {
+
+class SourceLine {
+ public:
+  SourceLine(const std::string& path, int number, std::string_view text);
+
+  const std::string& path() const { return *path_; }
+  int number() const { return number_; }
+  std::string_view text() const { return text_; }
+  // The first field (the record type).
+  std::string_view tag() const { return fields_.empty() ? std::string_view() : fields_[0]; }
+  // Fields after the tag.
+  int num_values() const { return static_cast<int>(fields_.size()) - 1; }
+
+  // "FILE:LINE: expected <expected>, got '<text of the line>'" as kDataLoss.
+  Status Error(std::string_view expected) const;
+  // "FILE:LINE: <message>" as kDataLoss (for problems that are not about the syntax).
+  Status Problem(std::string_view message) const;
+
+  // Ok when num_values() is one of the allowed counts; otherwise an error such as
+  // "expected EDGE_SE2 i j dx dy dθ I11 I12 I13 I22 I23 I33 (11 numbers), got ...".
+  Status ExpectValues(int count, std::string_view layout) const;
+  Status ExpectValues(int count_a, int count_b, std::string_view layout) const;
+
+  // Field i after the tag (0-based) as a finite double / an id in [0, 2^48-1].
+  Status Number(int i, double* out) const;
+  Status Id(int i, std::uint64_t* out) const;
+  // Fields first .. first+count-1 as finite doubles.
+  Status Numbers(int first, int count, double* out) const;
+
+ private:
+  const std::string* path_;
+  int number_;
+  std::string_view text_;
+  std::vector<std::string_view> fields_;
+};
+
+// The symmetric n x n matrix whose upper triangle, row by row, is values[0..n(n+1)/2).
+Eigen::MatrixXd SymmetricFromUpperRowMajor(const double* values, int n);
+// The upper-triangular n x n matrix whose upper triangle, row by row, is values[...].
+Eigen::MatrixXd UpperTriangularFromRowMajor(const double* values, int n);
+// NoiseModel from an information / sqrt-information / covariance matrix; a failure is reported
+// against `line` ("FILE:LINE: invalid noise: <NoiseModel message>").
+Result<NoiseModel> NoiseFromInformation(const SourceLine& line, const Eigen::MatrixXd& information);
+Result<NoiseModel> NoiseFromSqrtInformation(const SourceLine& line,
+                                            const Eigen::MatrixXd& sqrt_info);
+Result<NoiseModel> NoiseFromCovariance(const SourceLine& line, const Eigen::MatrixXd& covariance);
+
+// Collects what the readers find and builds the Dataset. Every Add* validates before it stores.
+class DatasetBuilder {
+ public:
+  DatasetBuilder(std::string path, DatasetFormat format);
+
+  // Records the dimension (2D / 3D) of a line; the first line decides, and a later line of the
+  // other dimension is an error. Every Add* must be preceded by it (checked).
+  Status SetDimension(const SourceLine& line, bool is_3d);
+
+  Status AddPoseVertex(const SourceLine& line, std::uint64_t id, const Variable& pose);
+  Status AddLandmarkVertex(const SourceLine& line, std::uint64_t id, const Variable& point);
+  // A pose-pose measurement: x_j = x_i ∘ measured (Pose2 or Pose3). `equivalence` marks TORO
+  // EQUIV (counted apart from the edges).
+  Status AddPoseEdge(const SourceLine& line, std::uint64_t i, std::uint64_t j,
+                     const Variable& measured, NoiseModel noise, bool equivalence = false);
+  // Landmark `lm` seen from pose `pose` at `measured` (Point2 or Point3) in the pose's frame.
+  Status AddLandmarkObservation(const SourceLine& line, std::uint64_t pose, std::uint64_t lm,
+                                const Variable& measured, NoiseModel noise);
+  // g2o FIX: the pose must appear somewhere in the file (checked by Finish).
+  void AddFixed(const SourceLine& line, std::uint64_t id) { fixed_.push_back({id, line.number()}); }
+
+  // Builds keys, the graph and the initial guess (see dataset.h). Consumes the builder.
+  Result<Dataset> Finish(const ReadOptions& options) &&;
+
+ private:
+  struct PoseEdge {
+    std::uint64_t i, j;
+    Variable measured;
+  };
+  struct Observation {
+    std::uint64_t pose, landmark;
+    Variable measured;
+  };
+  // Step 1 of the initial guess (dataset.h): poses from vertices and composition.
+  Status InitialPoses(const ReadOptions& options, std::map<std::uint64_t, Variable>* poses) const;
+  // Step 2: landmarks from vertices or their first observation.
+  void InitialLandmarks(const ReadOptions& options, const std::map<std::uint64_t, Variable>& poses,
+                        std::map<std::uint64_t, Variable>* landmarks) const;
+
+  Dataset dataset_;
+  bool dimension_set_ = false;
+  std::map<std::uint64_t, Variable> pose_vertices_;
+  std::map<std::uint64_t, Variable> landmark_vertices_;
+  std::vector<std::uint64_t> pose_ids_;      // every pose id seen (vertex or edge); Finish sorts
+  std::vector<std::uint64_t> landmark_ids_;  // every landmark id seen; Finish sorts
+  std::vector<PoseEdge> edges_;              // pose-pose measurements in file order
+  std::vector<Observation> observations_;    // landmark measurements in file order
+  struct Fixed {
+    std::uint64_t id;
+    int line;
+  };
+  std::vector<Fixed> fixed_;
+};
+
+// Per-format line readers: handle one line of their format (unknown tags are errors).
+Status ReadG2oLine(const SourceLine& line, DatasetBuilder* builder);
+Status ReadToroLine(const SourceLine& line, DatasetBuilder* builder);
+Status ReadIsamLine(const SourceLine& line, ReadOptions::IsamNoise noise, DatasetBuilder* builder);
+
+}  // namespace slamd::core::internal

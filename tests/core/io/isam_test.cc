@@ -1,0 +1,136 @@
+// The iSAM text format: square-root information (Ω = RᵀR) or covariance noise, LANDMARK, and
+// EDGE3's Euler-angle noise converted to slamd's SE(3) chart.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "core/factors/between_factor.h"
+#include "core/factors/relative_point_factor.h"
+#include "core/io/dataset.h"
+#include "tests/testing/datasets.h"
+
+namespace slamd::core {
+namespace {
+
+using slamd::testing::WriteTempFile;
+
+Dataset MustRead(const std::string& text, const ReadOptions& options = {}) {
+  Result<Dataset> d = ReadDataset(WriteTempFile("isam.txt", text), options);
+  EXPECT_TRUE(d.ok()) << d.status().ToString();
+  return d.ok() ? std::move(d).value() : Dataset{};
+}
+
+TEST(Isam, SqrtInformationIsSquared) {
+  const Dataset d = MustRead(
+      "ODOMETRY 0 1 1 0 0.1 1 2 3 4 5 6\n"
+      "LANDMARK 1 0 2 -1 2 1 3\n");
+  Eigen::Matrix3d R;
+  R << 1, 2, 3, 0, 4, 5, 0, 0, 6;
+  const Eigen::Matrix3d omega = R.transpose() * R;  // [1 2 3; 2 20 26; 3 26 70]
+  EXPECT_NEAR(omega(1, 2), 26, 0);
+  EXPECT_TRUE(d.graph[0]->noise_model().Information().isApprox(omega, 1e-14));
+  Eigen::Matrix2d Rl;
+  Rl << 2, 1, 0, 3;
+  EXPECT_TRUE(d.graph[1]->noise_model().Information().isApprox(Rl.transpose() * Rl, 1e-14));
+  // The landmark: id namespace of its own, initialised from its observation.
+  EXPECT_EQ(d.landmarks, (KeyVector{MakeKey('l', 0)}));
+  const auto& obs = dynamic_cast<const RelativePointFactor<Pose2, Point2>&>(*d.graph[1]);
+  EXPECT_EQ(obs.keys(), (KeyVector{MakeKey('x', 1), MakeKey('l', 0)}));
+  const Pose2 x1(1, 0, 0.1);
+  EXPECT_TRUE(
+      d.initial.At<Point2>(MakeKey('l', 0)).isApprox(x1.TransformFrom(Point2(2, -1)), 1e-15));
+}
+
+TEST(Isam, CovarianceOption) {
+  ReadOptions options;
+  options.isam_noise = ReadOptions::IsamNoise::kCovariance;
+  const Dataset d = MustRead(
+      "ODOMETRY 0 1 1 0 0.1 4 1 0 9 0 16\n"
+      "LANDMARK 1 0 2 -1 0.5 0.1 0.25\n",
+      options);
+  Eigen::Matrix3d cov;
+  cov << 4, 1, 0, 1, 9, 0, 0, 0, 16;
+  EXPECT_TRUE(d.graph[0]->noise_model().Information().isApprox(cov.inverse(), 1e-14));
+  Eigen::Matrix2d cov_l;
+  cov_l << 0.5, 0.1, 0.1, 0.25;
+  EXPECT_TRUE(d.graph[1]->noise_model().Information().isApprox(cov_l.inverse(), 1e-14));
+}
+
+// iSAM's EDGE3 error: the difference of (x, y, z, yaw, pitch, roll) vectors.
+Vector6 IsamVector(const Pose3& p) {
+  const Vector3 rpy = p.rotation().RollPitchYaw();
+  Vector6 v;
+  v << p.translation(), rpy(2), rpy(1), rpy(0);
+  return v;
+}
+
+TEST(Isam, Edge3NoiseMatchesIsamErrorToFirstOrder) {
+  // Upper triangle s11..s66 in file order; distinct values, diagonally dominant.
+  const double s[21] = {10, 0.1, 0.2, 0.3, 0.4, 0.5,  //
+                        11, 0.6, 0.7, 0.8, 0.9,       //
+                        12, 1.0, 1.1, 1.2,            //
+                        13, 1.3, 1.4,                 //
+                        14, 1.5,                      //
+                        15};
+  std::string text = "EDGE3 0 1 1 2 3 0.3 -0.4 1.2";
+  for (const double v : s) {
+    text += ' ';
+    text += std::to_string(v);
+  }
+  const Dataset d = MustRead(text + "\n");
+  ASSERT_TRUE(d.is_3d);
+  const auto& f = dynamic_cast<const BetweenFactor<Pose3>&>(*d.graph[0]);
+  const Pose3& m = f.measured();
+  const Eigen::Matrix3d R_expected = (Eigen::AngleAxisd(1.2, Eigen::Vector3d::UnitZ()) *
+                                      Eigen::AngleAxisd(-0.4, Eigen::Vector3d::UnitY()) *
+                                      Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX()))
+                                         .toRotationMatrix();
+  EXPECT_TRUE(m.rotation().matrix().isApprox(R_expected, 1e-15));
+  EXPECT_TRUE(m.translation().isApprox(Point3(1, 2, 3), 0.0));
+  EXPECT_TRUE(d.initial.At<Pose3>(MakeKey('x', 1)).Equals(m, 1e-15));
+
+  // iSAM's sqrt-info in its (x, y, z, yaw, pitch, roll) order, as its Loader arranges the
+  // numbers: the rotation rows reversed (s66 s56 s46 / s55 s45 / s44).
+  Matrix6 S;
+  S << 10, 0.1, 0.2, 0.3, 0.4, 0.5,  //
+      0, 11, 0.6, 0.7, 0.8, 0.9,     //
+      0, 0, 12, 1.0, 1.1, 1.2,       //
+      0, 0, 0, 15, 1.5, 1.4,         //
+      0, 0, 0, 0, 14, 1.3,           //
+      0, 0, 0, 0, 0, 13;
+  // Reference: central differences of iSAM's error at ξ = 0 for p = m·Exp(ξ).
+  Matrix6 J;
+  const double h = 1e-6;
+  for (int k = 0; k < 6; ++k) {
+    const Vector6 dk = h * Vector6::Unit(k);
+    J.col(k) =
+        (IsamVector(m.Compose(Pose3::Exp(dk))) - IsamVector(m.Compose(Pose3::Exp(-dk)))) / (2 * h);
+  }
+  const Matrix6 expected = J.transpose() * S.transpose() * S * J;
+  const Eigen::MatrixXd info = f.noise_model().Information();
+  EXPECT_LE((info - expected).cwiseAbs().maxCoeff(), 1e-6 * expected.cwiseAbs().maxCoeff())
+      << info << "\n\n"
+      << expected;
+}
+
+TEST(Isam, Edge3WithoutNoiseUsesUnitSqrtInformation) {
+  const Dataset d = MustRead("EDGE3 0 1 1 0 0 0 0 0\nEDGE3 2 1 1 0 0 0 0 0.5\n");
+  // At zero angles J = I, so Ω = I.
+  EXPECT_TRUE(d.graph[0]->noise_model().Information().isApprox(Matrix6::Identity(), 1e-14));
+  // Reversed edge 2 -> 1: x2 = x1 ∘ z.
+  const Pose3 z(Rot3::FromRollPitchYaw(0, 0, 0.5), Point3(1, 0, 0));
+  EXPECT_TRUE(
+      d.initial.At<Pose3>(MakeKey('x', 1)).Equals(d.initial.At<Pose3>(MakeKey('x', 2)) * z, 1e-15));
+  EXPECT_EQ(d.num_pose_edges, 2u);
+}
+
+TEST(Isam, Edge3CovarianceIsRejected) {
+  ReadOptions options;
+  options.isam_noise = ReadOptions::IsamNoise::kCovariance;
+  const Status s =
+      ReadDataset(WriteTempFile("e3.txt", "EDGE3 0 1 1 0 0 0 0 0\n"), options).status();
+  EXPECT_EQ(s.code(), StatusCode::kDataLoss);
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("square-root information"));
+}
+
+}  // namespace
+}  // namespace slamd::core
