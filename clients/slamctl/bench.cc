@@ -77,6 +77,7 @@ void RunBench(const BenchOptions& opt) {
   if (opt.json) {
     JsonWriter phases;
     phases.Add("setup", s.setup_s)
+        .Add("order", s.order_s)
         .Add("linearize", s.linearize_s)
         .Add("factorize", s.factorize_s)
         .Add("solve", s.solve_s)
@@ -107,9 +108,9 @@ void RunBench(const BenchOptions& opt) {
                 read_s);
     std::printf("initial guess: %s (%.4f s)\n", opt.init.c_str(), init_s);
     std::printf("%s %s: %s\n", opt.solver.c_str(), opt.algorithm.c_str(), s.Brief().c_str());
-    std::printf("phases: setup %.4f s, linearize %.4f s, factorize %.4f s, solve %.4f s, "
+    std::printf("phases: setup %.4f s (ordering %.4f s), linearize %.4f s, factorize %.4f s, solve %.4f s, "
                 "evaluate %.4f s; peak RSS %.1f MB\n",
-                s.setup_s, s.linearize_s, s.factorize_s, s.solve_s, s.evaluate_s, PeakRssMb());
+                s.setup_s, s.order_s, s.linearize_s, s.factorize_s, s.solve_s, s.evaluate_s, PeakRssMb());
   }
   if (!result.status.ok()) Fail(kExitFailure, result.status.ToString());
   if (!opt.output.empty()) {

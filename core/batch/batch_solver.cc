@@ -78,6 +78,7 @@ BatchResult Optimize(const FactorGraph& graph, const Values& initial, const Batc
   }
   internal::NormalEquations& equations = **created;
   sum.setup_s = phase.Lap();
+  sum.order_s = equations.order_seconds();
 
   const bool lm = params.algorithm == BatchParams::Algorithm::kLevenbergMarquardt;
   const bool diagonal = params.damping == BatchParams::Damping::kDiagonal;

@@ -38,7 +38,8 @@ struct BatchSummary {
   double final_lambda = 0.0;
   BatchTermination termination = BatchTermination::kInvalidInput;
   // Wall-clock seconds per phase.
-  double setup_s = 0.0;        // checks, ordering, symbolic structure
+  double setup_s = 0.0;        // checks, ordering, symbolic structure (order_s included)
+  double order_s = 0.0;        // the block COLAMD ordering
   double linearize_s = 0.0;
   double factorize_s = 0.0;
   double solve_s = 0.0;        // triangular solves

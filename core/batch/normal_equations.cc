@@ -28,14 +28,18 @@ Result<std::unique_ptr<NormalEquations>> NormalEquations::Create(const FactorGra
                              " is not constrained by any factor");
     }
   }
+  Stopwatch order_timer;
   Result<std::vector<int>> order = ColamdOrdering(n, incidence);
   if (!order.ok()) return order.status();
+  const double order_s = order_timer.Seconds();
   std::vector<int> dims(n);
   for (int s = 0; s < n; ++s) dims[s] = values.DimAt(s);
   Result<BlockSparseSystem> system = BlockSparseSystem::Create(dims, *order, incidence);
   if (!system.ok()) return system.status();
-  return std::unique_ptr<NormalEquations>(
+  auto equations = std::unique_ptr<NormalEquations>(
       new NormalEquations(graph, values, std::move(system).value()));
+  equations->order_s_ = order_s;
+  return equations;
 }
 
 NormalEquations::NormalEquations(const FactorGraph& graph, const Values& values,

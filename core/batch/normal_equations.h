@@ -43,6 +43,7 @@ class NormalEquations {
   // δᵀ·D·δ for the damping matrix D of the last Damp() call (the predicted-decrease term).
   double DampingNorm(const Eigen::VectorXd& delta, bool diagonal) const;
 
+  double order_seconds() const { return order_s_; }  // the COLAMD ordering in Create()
   double factorize_seconds() const { return factorize_s_; }
   double solve_seconds() const { return solve_s_; }
   const BlockSparseSystem& system() const { return system_; }
@@ -58,6 +59,7 @@ class NormalEquations {
   std::unique_ptr<SparseCholesky> cholesky_;
   std::vector<double> undamped_;
   Eigen::VectorXd damping_;            // D of the last Damp() (diagonal mode), original order
+  double order_s_ = 0.0;
   double factorize_s_ = 0.0;
   double solve_s_ = 0.0;
 };

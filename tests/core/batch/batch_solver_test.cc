@@ -72,6 +72,8 @@ TEST(BatchSolverTest, SummaryIsConsistent) {
   EXPECT_NEAR(s.final_chi2, p.graph.Chi2(r.values), 1e-12);
   EXPECT_GT(s.total_s, 0.0);
   EXPECT_GE(s.total_s, s.linearize_s + s.factorize_s);
+  EXPECT_GT(s.order_s, 0.0);
+  EXPECT_GE(s.setup_s, s.order_s);
   EXPECT_NE(s.Brief().find("converged"), std::string::npos);
 }
 
