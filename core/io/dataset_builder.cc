@@ -32,6 +32,16 @@ Variable PointToWorld(const Variable& pose, const Variable& point) {
   return std::get<Pose3>(pose).TransformFrom(std::get<Point3>(point));
 }
 
+// Stores a vertex unless `id` already has one; `kind` ("pose" / "landmark") names it in the error.
+Status AddVertex(const SourceLine& line, std::uint64_t id, const Variable& value, const char* kind,
+                 std::map<std::uint64_t, Variable>* vertices, std::vector<std::uint64_t>* ids) {
+  if (!vertices->emplace(id, value).second) {
+    return line.Problem("duplicate vertex for " + std::string(kind) + " " + std::to_string(id));
+  }
+  ids->push_back(id);
+  return Status::Ok();
+}
+
 void SortUnique(std::vector<std::uint64_t>* ids) {
   std::sort(ids->begin(), ids->end());
   ids->erase(std::unique(ids->begin(), ids->end()), ids->end());
@@ -59,22 +69,14 @@ Status DatasetBuilder::AddPoseVertex(const SourceLine& line, std::uint64_t id,
                                      const Variable& pose) {
   SLAMD_CHECK(std::holds_alternative<Pose3>(pose) == dataset_.is_3d && dimension_set_)
       << "reader bug: SetDimension must precede AddPoseVertex";
-  if (!pose_vertices_.emplace(id, pose).second) {
-    return line.Problem("duplicate vertex for pose " + std::to_string(id));
-  }
-  pose_ids_.push_back(id);
-  return Status::Ok();
+  return AddVertex(line, id, pose, "pose", &pose_vertices_, &pose_ids_);
 }
 
 Status DatasetBuilder::AddLandmarkVertex(const SourceLine& line, std::uint64_t id,
                                          const Variable& point) {
   SLAMD_CHECK(std::holds_alternative<Point3>(point) == dataset_.is_3d && dimension_set_)
       << "reader bug: SetDimension must precede AddLandmarkVertex";
-  if (!landmark_vertices_.emplace(id, point).second) {
-    return line.Problem("duplicate vertex for landmark " + std::to_string(id));
-  }
-  landmark_ids_.push_back(id);
-  return Status::Ok();
+  return AddVertex(line, id, point, "landmark", &landmark_vertices_, &landmark_ids_);
 }
 
 Status DatasetBuilder::AddPoseEdge(const SourceLine& line, std::uint64_t i, std::uint64_t j,

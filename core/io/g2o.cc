@@ -24,73 +24,50 @@ Status ReadQuaternion(const SourceLine& line, const double* xyzw, Rot3* R) {
   return Status::Ok();
 }
 
-Status ReadVertexSe2(const SourceLine& line, DatasetBuilder* builder) {
-  SLAMD_RETURN_IF_ERROR(line.ExpectValues(4, "VERTEX_SE2 id x y θ"));
-  SLAMD_RETURN_IF_ERROR(builder->SetDimension(line, false));
-  std::uint64_t id;
-  double v[3];
-  SLAMD_RETURN_IF_ERROR(line.Id(0, &id));
-  SLAMD_RETURN_IF_ERROR(line.Numbers(1, 3, v));
-  return builder->AddPoseVertex(line, id, Pose2(v[0], v[1], v[2]));
-}
-
 Status ReadEdgeSe2(const SourceLine& line, DatasetBuilder* builder) {
-  SLAMD_RETURN_IF_ERROR(line.ExpectValues(11, "EDGE_SE2 i j dx dy dθ I11 I12 I13 I22 I23 I33"));
-  SLAMD_RETURN_IF_ERROR(builder->SetDimension(line, false));
   std::uint64_t i, j;
   double v[9];
-  SLAMD_RETURN_IF_ERROR(line.Id(0, &i));
-  SLAMD_RETURN_IF_ERROR(line.Id(1, &j));
-  SLAMD_RETURN_IF_ERROR(line.Numbers(2, 9, v));
+  SLAMD_RETURN_IF_ERROR(ReadEdgeFields(line, "EDGE_SE2 i j dx dy dθ I11 I12 I13 I22 I23 I33",
+                                       /*is_3d=*/false, 9, builder, &i, &j, v));
   Result<NoiseModel> noise = NoiseFromInformation(line, SymmetricFromUpperRowMajor(v + 3, 3));
   if (!noise.ok()) return noise.status();
   return builder->AddPoseEdge(line, i, j, Pose2(v[0], v[1], v[2]), std::move(noise).value());
 }
 
 Status ReadVertexXy(const SourceLine& line, DatasetBuilder* builder) {
-  SLAMD_RETURN_IF_ERROR(line.ExpectValues(3, "VERTEX_XY id x y"));
-  SLAMD_RETURN_IF_ERROR(builder->SetDimension(line, false));
   std::uint64_t id;
   double v[2];
-  SLAMD_RETURN_IF_ERROR(line.Id(0, &id));
-  SLAMD_RETURN_IF_ERROR(line.Numbers(1, 2, v));
+  SLAMD_RETURN_IF_ERROR(
+      ReadVertexFields(line, "VERTEX_XY id x y", /*is_3d=*/false, 2, builder, &id, v));
   return builder->AddLandmarkVertex(line, id, Point2(v[0], v[1]));
 }
 
 Status ReadEdgeSe2Xy(const SourceLine& line, DatasetBuilder* builder) {
-  SLAMD_RETURN_IF_ERROR(line.ExpectValues(7, "EDGE_SE2_XY i j dx dy I11 I12 I22"));
-  SLAMD_RETURN_IF_ERROR(builder->SetDimension(line, false));
   std::uint64_t i, j;
   double v[5];
-  SLAMD_RETURN_IF_ERROR(line.Id(0, &i));
-  SLAMD_RETURN_IF_ERROR(line.Id(1, &j));
-  SLAMD_RETURN_IF_ERROR(line.Numbers(2, 5, v));
+  SLAMD_RETURN_IF_ERROR(ReadEdgeFields(line, "EDGE_SE2_XY i j dx dy I11 I12 I22", /*is_3d=*/false,
+                                       5, builder, &i, &j, v));
   Result<NoiseModel> noise = NoiseFromInformation(line, SymmetricFromUpperRowMajor(v + 2, 2));
   if (!noise.ok()) return noise.status();
   return builder->AddLandmarkObservation(line, i, j, Point2(v[0], v[1]), std::move(noise).value());
 }
 
 Status ReadVertexSe3Quat(const SourceLine& line, DatasetBuilder* builder) {
-  SLAMD_RETURN_IF_ERROR(line.ExpectValues(8, "VERTEX_SE3:QUAT id x y z qx qy qz qw"));
-  SLAMD_RETURN_IF_ERROR(builder->SetDimension(line, true));
   std::uint64_t id;
   double v[7];
-  SLAMD_RETURN_IF_ERROR(line.Id(0, &id));
-  SLAMD_RETURN_IF_ERROR(line.Numbers(1, 7, v));
+  SLAMD_RETURN_IF_ERROR(ReadVertexFields(line, "VERTEX_SE3:QUAT id x y z qx qy qz qw",
+                                         /*is_3d=*/true, 7, builder, &id, v));
   Rot3 R;
   SLAMD_RETURN_IF_ERROR(ReadQuaternion(line, v + 3, &R));
   return builder->AddPoseVertex(line, id, Pose3(R, Point3(v[0], v[1], v[2])));
 }
 
 Status ReadEdgeSe3Quat(const SourceLine& line, DatasetBuilder* builder) {
-  SLAMD_RETURN_IF_ERROR(
-      line.ExpectValues(30, "EDGE_SE3:QUAT i j dx dy dz qx qy qz qw + 21 information values"));
-  SLAMD_RETURN_IF_ERROR(builder->SetDimension(line, true));
   std::uint64_t i, j;
   double v[28];
-  SLAMD_RETURN_IF_ERROR(line.Id(0, &i));
-  SLAMD_RETURN_IF_ERROR(line.Id(1, &j));
-  SLAMD_RETURN_IF_ERROR(line.Numbers(2, 28, v));
+  SLAMD_RETURN_IF_ERROR(
+      ReadEdgeFields(line, "EDGE_SE3:QUAT i j dx dy dz qx qy qz qw + 21 information values",
+                     /*is_3d=*/true, 28, builder, &i, &j, v));
   Rot3 R;
   SLAMD_RETURN_IF_ERROR(ReadQuaternion(line, v + 3, &R));
   // g2o's (t, R) information order is slamd's Pose3 tangent order: no block swap.
@@ -114,7 +91,7 @@ Status ReadFix(const SourceLine& line, DatasetBuilder* builder) {
 
 Status ReadG2oLine(const SourceLine& line, DatasetBuilder* builder) {
   const std::string_view tag = line.tag();
-  if (tag == "VERTEX_SE2") return ReadVertexSe2(line, builder);
+  if (tag == "VERTEX_SE2") return ReadPose2Vertex(line, "VERTEX_SE2 id x y θ", builder);
   if (tag == "EDGE_SE2") return ReadEdgeSe2(line, builder);
   if (tag == "VERTEX_XY") return ReadVertexXy(line, builder);
   if (tag == "EDGE_SE2_XY") return ReadEdgeSe2Xy(line, builder);

@@ -19,27 +19,21 @@ Result<NoiseModel> IsamNoiseModel(const SourceLine& line, const double* values, 
 }
 
 Status ReadOdometry(const SourceLine& line, IsamNoise kind, DatasetBuilder* builder) {
-  SLAMD_RETURN_IF_ERROR(
-      line.ExpectValues(11, std::string(line.tag()) + " i j dx dy dθ s11 s12 s13 s22 s23 s33"));
-  SLAMD_RETURN_IF_ERROR(builder->SetDimension(line, false));
   std::uint64_t i, j;
   double v[9];
-  SLAMD_RETURN_IF_ERROR(line.Id(0, &i));
-  SLAMD_RETURN_IF_ERROR(line.Id(1, &j));
-  SLAMD_RETURN_IF_ERROR(line.Numbers(2, 9, v));
+  SLAMD_RETURN_IF_ERROR(
+      ReadEdgeFields(line, std::string(line.tag()) + " i j dx dy dθ s11 s12 s13 s22 s23 s33",
+                     /*is_3d=*/false, 9, builder, &i, &j, v));
   Result<NoiseModel> noise = IsamNoiseModel(line, v + 3, 3, kind);
   if (!noise.ok()) return noise.status();
   return builder->AddPoseEdge(line, i, j, Pose2(v[0], v[1], v[2]), std::move(noise).value());
 }
 
 Status ReadLandmark(const SourceLine& line, IsamNoise kind, DatasetBuilder* builder) {
-  SLAMD_RETURN_IF_ERROR(line.ExpectValues(7, "LANDMARK pose landmark dx dy s11 s12 s22"));
-  SLAMD_RETURN_IF_ERROR(builder->SetDimension(line, false));
   std::uint64_t pose, landmark;
   double v[5];
-  SLAMD_RETURN_IF_ERROR(line.Id(0, &pose));
-  SLAMD_RETURN_IF_ERROR(line.Id(1, &landmark));
-  SLAMD_RETURN_IF_ERROR(line.Numbers(2, 5, v));
+  SLAMD_RETURN_IF_ERROR(ReadEdgeFields(line, "LANDMARK pose landmark dx dy s11 s12 s22",
+                                       /*is_3d=*/false, 5, builder, &pose, &landmark, v));
   Result<NoiseModel> noise = IsamNoiseModel(line, v + 2, 2, kind);
   if (!noise.ok()) return noise.status();
   return builder->AddLandmarkObservation(line, pose, landmark, Point2(v[0], v[1]),
@@ -61,12 +55,10 @@ Status ReadEdge3(const SourceLine& line, IsamNoise kind, DatasetBuilder* builder
   if (kind != IsamNoise::kSqrtInformation) {
     return line.Problem("EDGE3 noise can only be read as square-root information");
   }
-  SLAMD_RETURN_IF_ERROR(builder->SetDimension(line, true));
   std::uint64_t i, j;
   double v[27];
-  SLAMD_RETURN_IF_ERROR(line.Id(0, &i));
-  SLAMD_RETURN_IF_ERROR(line.Id(1, &j));
-  SLAMD_RETURN_IF_ERROR(line.Numbers(2, line.num_values() - 2, v));
+  SLAMD_RETURN_IF_ERROR(
+      ParseEdgeFields(line, /*is_3d=*/true, line.num_values() - 2, builder, &i, &j, v));
   const double roll = v[3], pitch = v[4], yaw = v[5];
   const Pose3 measured(Rot3::FromRollPitchYaw(roll, pitch, yaw), Point3(v[0], v[1], v[2]));
 

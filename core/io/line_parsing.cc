@@ -1,4 +1,4 @@
-// SourceLine and the noise helpers of reader_internal.h.
+// SourceLine, the noise helpers and the field helpers of reader_internal.h.
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
@@ -125,6 +125,39 @@ Result<NoiseModel> NoiseFromCovariance(const SourceLine& line, const Eigen::Matr
   Result<NoiseModel> noise = NoiseModel::FromCovariance(covariance);
   if (!noise.ok()) return line.Problem("invalid noise: " + noise.status().message());
   return noise;
+}
+
+Status ReadVertexFields(const SourceLine& line, std::string_view layout, bool is_3d, int count,
+                        DatasetBuilder* builder, std::uint64_t* id, double* numbers) {
+  SLAMD_RETURN_IF_ERROR(line.ExpectValues(1 + count, layout));
+  SLAMD_RETURN_IF_ERROR(builder->SetDimension(line, is_3d));
+  SLAMD_RETURN_IF_ERROR(line.Id(0, id));
+  return line.Numbers(1, count, numbers);
+}
+
+Status ReadEdgeFields(const SourceLine& line, std::string_view layout, bool is_3d, int count,
+                      DatasetBuilder* builder, std::uint64_t* i, std::uint64_t* j,
+                      double* numbers) {
+  SLAMD_RETURN_IF_ERROR(line.ExpectValues(2 + count, layout));
+  return ParseEdgeFields(line, is_3d, count, builder, i, j, numbers);
+}
+
+Status ParseEdgeFields(const SourceLine& line, bool is_3d, int count, DatasetBuilder* builder,
+                       std::uint64_t* i, std::uint64_t* j, double* numbers) {
+  SLAMD_CHECK(count == line.num_values() - 2)
+      << "reader bug: " << count << " numbers after two ids, but " << line.num_values()
+      << " values";
+  SLAMD_RETURN_IF_ERROR(builder->SetDimension(line, is_3d));
+  SLAMD_RETURN_IF_ERROR(line.Id(0, i));
+  SLAMD_RETURN_IF_ERROR(line.Id(1, j));
+  return line.Numbers(2, count, numbers);
+}
+
+Status ReadPose2Vertex(const SourceLine& line, std::string_view layout, DatasetBuilder* builder) {
+  std::uint64_t id;
+  double v[3];
+  SLAMD_RETURN_IF_ERROR(ReadVertexFields(line, layout, /*is_3d=*/false, 3, builder, &id, v));
+  return builder->AddPoseVertex(line, id, Pose2(v[0], v[1], v[2]));
 }
 
 }  // namespace slamd::core::internal

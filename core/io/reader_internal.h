@@ -5,6 +5,7 @@
 //  * Noise helpers: symmetric matrices from the upper triangles the formats store.
 //  * DatasetBuilder: collects vertices and measurements from any reader, then builds the
 //    Dataset (keys, factor graph, initial guess by composition along the edges).
+//  * Field helpers: the "<id> numbers" / "<i> <j> numbers" head every vertex and edge line shares.
 //  * The per-format line readers (g2o.cc, toro.cc, isam.cc).
 #pragma once
 
@@ -121,6 +122,25 @@ class DatasetBuilder {
   };
   std::vector<Fixed> fixed_;
 };
+
+// The values after the tag of a vertex line, "<id> x_1 .. x_count", and of an edge line,
+// "<i> <j> x_1 .. x_count". Every reader handles them in the same order, so the first problem of a
+// line is reported the same way in every format:
+//   1. the count (ExpectValues(1 + count or 2 + count, layout): "expected <layout> (...)"),
+//   2. the dimension of the line (builder->SetDimension(line, is_3d)),
+//   3. the ids, then the numbers, left to right.
+// `numbers` must hold `count` doubles (it may be null when count is 0).
+Status ReadVertexFields(const SourceLine& line, std::string_view layout, bool is_3d, int count,
+                        DatasetBuilder* builder, std::uint64_t* id, double* numbers);
+Status ReadEdgeFields(const SourceLine& line, std::string_view layout, bool is_3d, int count,
+                      DatasetBuilder* builder, std::uint64_t* i, std::uint64_t* j,
+                      double* numbers);
+// Steps 2 and 3 of ReadEdgeFields, for readers with their own count check (iSAM EDGE3, whose
+// count is one of two). Checks (a reader bug otherwise) that count == line.num_values() - 2.
+Status ParseEdgeFields(const SourceLine& line, bool is_3d, int count, DatasetBuilder* builder,
+                       std::uint64_t* i, std::uint64_t* j, double* numbers);
+// "<tag> id x y θ": a Pose2 vertex (g2o VERTEX_SE2, TORO VERTEX2); `layout` as above.
+Status ReadPose2Vertex(const SourceLine& line, std::string_view layout, DatasetBuilder* builder);
 
 // Per-format line readers: handle one line of their format (unknown tags are errors).
 Status ReadG2oLine(const SourceLine& line, DatasetBuilder* builder);
