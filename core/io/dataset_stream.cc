@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <unordered_map>
 
 #include "core/factors/bearing_range_factor.h"
@@ -11,20 +12,28 @@
 namespace slamd::core {
 namespace {
 
+// Where `factor` (an observation of its second key from the pose `pose`) puts the landmark, or
+// nothing when it is not such an observation.
+std::optional<Variable> LandmarkFromObservation(const Factor& factor, const Variable& pose) {
+  if (const auto* f = dynamic_cast<const RelativePointFactor<Pose2, Point2>*>(&factor)) {
+    return std::get<Pose2>(pose).TransformFrom(f->measured());
+  }
+  if (const auto* f = dynamic_cast<const RelativePointFactor<Pose3, Point3>*>(&factor)) {
+    return std::get<Pose3>(pose).TransformFrom(f->measured());
+  }
+  if (const auto* f = dynamic_cast<const BearingRangeFactor*>(&factor)) {
+    const Point2 local = f->range() * Point2(std::cos(f->bearing()), std::sin(f->bearing()));
+    return std::get<Pose2>(pose).TransformFrom(local);
+  }
+  return std::nullopt;
+}
+
 // The landmark `key`'s first guess from `factor`, its first observation (see the header).
 Variable InitialLandmark(const Dataset& dataset, const Factor& factor, Key key) {
   const KeyVector& keys = factor.keys();
   if (keys.size() == 2 && keys[1] == key) {
-    if (const auto* f = dynamic_cast<const RelativePointFactor<Pose2, Point2>*>(&factor)) {
-      return dataset.initial.At<Pose2>(keys[0]).TransformFrom(f->measured());
-    }
-    if (const auto* f = dynamic_cast<const RelativePointFactor<Pose3, Point3>*>(&factor)) {
-      return dataset.initial.At<Pose3>(keys[0]).TransformFrom(f->measured());
-    }
-    if (const auto* f = dynamic_cast<const BearingRangeFactor*>(&factor)) {
-      const Point2 local = f->range() * Point2(std::cos(f->bearing()), std::sin(f->bearing()));
-      return dataset.initial.At<Pose2>(keys[0]).TransformFrom(local);
-    }
+    const std::optional<Variable> v = LandmarkFromObservation(factor, dataset.initial.Get(keys[0]));
+    if (v) return *v;
   }
   return dataset.initial.Get(key);  // checked: aborts if the dataset has no value for it
 }
@@ -140,6 +149,30 @@ Variable PredictPose(const DatasetStep& step, const Variable& from) {
   SLAMD_CHECK(std::holds_alternative<Pose3>(from)) << "PredictPose: `from` is not a Pose3";
   const Pose3& z = f->measured();
   return std::get<Pose3>(from).Compose(forward ? z : z.Inverse());
+}
+
+}  // namespace slamd::core
+
+namespace slamd::core {
+
+void PrepareStep(const DatasetStep& step, const std::function<Variable(Key)>& estimate,
+                 FactorGraph* factors, Values* values) {
+  const Variable pose = step.odometry ? PredictPose(step, estimate(step.odometry_from)) : step.initial;
+  SLAMD_CHECK(values->Insert(step.pose, pose).ok()) << "PrepareStep: " << KeyToString(step.pose);
+  for (const auto& [key, fallback] : step.new_landmarks) {
+    Variable guess = fallback;
+    for (const FactorPtr& f : step.factors) {
+      if (f->keys().size() != 2 || f->keys()[1] != key) continue;
+      const Key observer = f->keys()[0];
+      const Variable from = observer == step.pose ? pose : estimate(observer);
+      if (std::optional<Variable> v = LandmarkFromObservation(*f, from)) {
+        guess = *v;
+        break;
+      }
+    }
+    SLAMD_CHECK(values->Insert(key, guess).ok()) << "PrepareStep: " << KeyToString(key);
+  }
+  for (const FactorPtr& f : step.factors) factors->Add(f);
 }
 
 }  // namespace slamd::core

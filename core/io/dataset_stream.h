@@ -21,10 +21,12 @@
 // dataset.poses or dataset.initial (checked: a violation aborts, as it is a programming error).
 #pragma once
 
+#include <functional>
 #include <utility>
 #include <vector>
 
 #include "core/factors/factor.h"
+#include "core/factors/factor_graph.h"
 #include "core/io/dataset.h"
 
 namespace slamd::core {
@@ -51,5 +53,14 @@ std::vector<DatasetStep> MakeIncrementalSteps(const Dataset& dataset);
 // from ∘ z when the factor is written (from, pose), from ∘ z⁻¹ when written (pose, from).
 // step.odometry must be set and `from` must have its pose type (checked).
 Variable PredictPose(const DatasetStep& step, const Variable& from);
+
+// The input an incremental solver gets for `step` (the protocol slamctl bench and replay use):
+// the step's factors, the new pose predicted through its odometry from estimate(odometry_from)
+// (the dataset's guess when the step has no odometry), and each new landmark placed by its first
+// observation in the step, from the predicted pose or estimate(observer) for an earlier pose
+// (the stream's guess when no factor of the step places it). `estimate` returns the current
+// estimate of an earlier variable. Appends to *factors and inserts into *values.
+void PrepareStep(const DatasetStep& step, const std::function<Variable(Key)>& estimate,
+                 FactorGraph* factors, Values* values);
 
 }  // namespace slamd::core

@@ -1,0 +1,133 @@
+// slamctl bench --solver isam2: streams a dataset into Isam2, one update per new pose.
+//
+// Protocol (the one the GTSAM reference figures use): the first pose is anchored by a prior
+// (sigma --anchor-sigma); each step adds the new pose, initialised from the current estimate of
+// its odometry predecessor composed with the odometry, and every factor whose newest pose it is
+// (landmarks initialised from their first observation at that predicted pose); a step is the
+// update plus reading the newest pose's estimate.
+#include <algorithm>
+#include <cstdio>
+
+#include "clients/slamctl/bench.h"
+#include "clients/slamctl/json_writer.h"
+#include "core/base/timing.h"
+#include "core/batch/batch_solver.h"
+#include "core/io/dataset_stream.h"
+#include "core/isam/isam2.h"
+
+namespace slamd::clients::bench {
+namespace {
+
+double Percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  const std::size_t k = static_cast<std::size_t>(std::min<double>(v.size() - 1, q * (v.size() - 1) + 0.5));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[k];
+}
+
+}  // namespace
+
+void RunIsam2(const BenchOptions& opt) {
+  double read_s = 0.0;
+  const core::Dataset data = Load(opt, &read_s);
+  if (data.poses.empty()) Fail(kExitFailure, opt.dataset + ": no poses");
+  const std::vector<core::DatasetStep> steps = core::MakeIncrementalSteps(data);
+  core::Result<std::unique_ptr<core::Isam2>> created = core::Isam2::Create(opt.isam2);
+  if (!created.ok()) Fail(kExitUsage, created.status().message());
+  core::Isam2& isam = **created;
+
+  std::vector<double> step_ms;
+  step_ms.reserve(steps.size());
+  long long relinearized = 0, reeliminated = 0;
+  std::string worst_step;  // Isam2Result::Brief() of the slowest step
+  double worst_ms = -1.0;
+  core::Stopwatch total;
+  for (const core::DatasetStep& step : steps) {
+    core::Stopwatch timer;
+    core::FactorGraph factors;
+    core::Values values;
+    core::PrepareStep(
+        step, [&](core::Key key) { return isam.CalculateEstimate(key); }, &factors, &values);
+    if (&step == &steps.front()) {
+      const core::Status anchored = core::AddGaugePrior(values, step.pose, opt.anchor_sigma, &factors);
+      if (!anchored.ok()) Fail(kExitFailure, anchored.ToString());
+    }
+    const core::Isam2Result r = isam.Update(factors, values);
+    if (!r.status.ok()) {
+      Fail(kExitFailure, "update for " + core::KeyToString(step.pose) + ": " + r.status.ToString());
+    }
+    (void)isam.CalculateEstimate(step.pose);  // the step includes reading the newest estimate
+    step_ms.push_back(timer.Seconds() * 1e3);
+    if (step_ms.back() > worst_ms) {
+      worst_ms = step_ms.back();
+      worst_step = core::KeyToString(step.pose) + ": " + r.Brief();
+    }
+    relinearized += r.relinearized_variables;
+    reeliminated += r.reeliminated_variables;
+  }
+  const double total_s = total.Seconds();
+  const double chi2_before_settle = isam.Chi2();
+  double final_chi2 = chi2_before_settle;
+  double settle_used_s = 0.0;
+  if (opt.settle_s > 0.0) {
+    const core::Isam2::RefineResult refined = isam.Refine(opt.settle_s);
+    if (!refined.status.ok()) Fail(kExitFailure, "settling: " + refined.status.ToString());
+    settle_used_s = refined.seconds;
+    final_chi2 = isam.Chi2();
+  }
+  double batch_chi2 = -1.0;
+  if (opt.compare_batch) {
+    core::FactorGraph graph = isam.Factors();
+    const core::BatchResult b = core::Optimize(graph, isam.CalculateEstimate());
+    if (!b.status.ok()) Fail(kExitFailure, "batch comparison: " + b.status.ToString());
+    batch_chi2 = b.summary.final_chi2;
+  }
+
+  // Step-time growth: p50 over two windows (steps 500-1000 and the last 500).
+  const auto window = [&](std::size_t a, std::size_t b) {
+    if (b > step_ms.size() || a >= b) return 0.0;
+    return Percentile(std::vector<double>(step_ms.begin() + a, step_ms.begin() + b), 0.5);
+  };
+  if (opt.json) {
+    JsonWriter ms;
+    ms.Add("p50", Percentile(step_ms, 0.5))
+        .Add("p90", Percentile(step_ms, 0.9))
+        .Add("p99", Percentile(step_ms, 0.99))
+        .Add("max", *std::max_element(step_ms.begin(), step_ms.end()));
+    JsonWriter out;
+    out.Add("dataset", opt.dataset)
+        .Add("poses", data.poses.size())
+        .Add("landmarks", data.landmarks.size())
+        .Add("factors", data.graph.size())
+        .Add("solver", "isam2")
+        .Add("steps", steps.size())
+        .Add("total_s", total_s)
+        .Add("step_ms", ms)
+        .Add("p50_early_ms", window(500, 1000))
+        .Add("p50_late_ms", window(step_ms.size() > 500 ? step_ms.size() - 500 : 0, step_ms.size()))
+        .Add("chi2_before_settle", chi2_before_settle)
+        .Add("final_chi2", final_chi2)
+        .Add("settle_s", settle_used_s)
+        .Add("relinearized_total", relinearized)
+        .Add("reeliminated_total", reeliminated)
+        .Add("read_s", read_s)
+        .Add("worst_step", worst_step)
+        .Add("peak_rss_mb", PeakRssMb());
+    if (opt.compare_batch) out.Add("batch_chi2", batch_chi2);
+    std::printf("%s\n", out.str().c_str());
+  } else {
+    std::printf("%s: %zu poses, %zu landmarks, %zu factors, %zu steps\n", opt.dataset.c_str(),
+                data.poses.size(), data.landmarks.size(), data.graph.size(), steps.size());
+    std::printf("isam2: %.3f s total; step ms p50 %.3f, p90 %.3f, p99 %.3f, max %.3f\n", total_s,
+                Percentile(step_ms, 0.5), Percentile(step_ms, 0.9), Percentile(step_ms, 0.99),
+                *std::max_element(step_ms.begin(), step_ms.end()));
+    std::printf("chi2 %.9g after the last step, %.9g final (settled %.3f s)%s\n", chi2_before_settle,
+                final_chi2, settle_used_s, opt.compare_batch ? "" : "");
+    if (opt.compare_batch) std::printf("batch chi2 of the final graph: %.9g\n", batch_chi2);
+    std::printf("slowest step %s\n", worst_step.c_str());
+    std::printf("relinearized %lld variables, re-eliminated %lld; peak RSS %.1f MB\n", relinearized,
+                reeliminated, PeakRssMb());
+  }
+}
+
+}  // namespace slamd::clients::bench

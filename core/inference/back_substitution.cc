@@ -1,0 +1,113 @@
+#include "core/inference/back_substitution.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace slamd::core {
+
+std::vector<int> StackedOffsets(std::span<const int> var_dims) {
+  std::vector<int> offsets(var_dims.size() + 1, 0);
+  for (size_t v = 0; v < var_dims.size(); ++v) offsets[v + 1] = offsets[v] + var_dims[v];
+  return offsets;
+}
+
+double SolveClique(const Clique& clique, std::span<const int> var_offsets, Eigen::VectorXd* delta,
+                   std::vector<double>* scratch, std::span<double> frontal_changes) {
+  const int nf = clique.FrontalDim();
+  const int ns = clique.SeparatorDim();
+  scratch->resize(nf + ns);
+  Eigen::Map<Eigen::VectorXd> t(scratch->data(), nf);
+  Eigen::Map<Eigen::VectorXd> xs(scratch->data() + nf, ns);
+  // 1. Gather the separator values (solved in ancestors).
+  for (int k = 0; k < clique.num_separator(); ++k) {
+    xs.segment(clique.separator_offset(k), clique.separator_dim(k)) =
+        delta->segment(var_offsets[clique.separator()[k]], clique.separator_dim(k));
+  }
+  // 2. t = d − S δ_S, then R δ_F = t. Cliques are small (a few variables) in the bulk of the
+  //    tree, where plain column loops beat Eigen's general kernels' set-up cost.
+  constexpr int kSmall = 32;
+  t = clique.d();
+  if (nf <= kSmall) {
+    const double* cond = clique.conditional().data();
+    double* tp = t.data();
+    for (int c = 0; c < ns; ++c) {
+      const double* s_col = cond + static_cast<size_t>(nf + c) * nf;
+      const double x = xs(c);
+      for (int i = 0; i < nf; ++i) tp[i] -= s_col[i] * x;
+    }
+    for (int j = nf - 1; j >= 0; --j) {  // column-oriented back-substitution
+      const double* r_col = cond + static_cast<size_t>(j) * nf;
+      tp[j] /= r_col[j];
+      const double x = tp[j];
+      for (int i = 0; i < j; ++i) tp[i] -= r_col[i] * x;
+    }
+  } else {
+    if (ns > 0) t.noalias() -= clique.S() * xs;
+    clique.R().triangularView<Eigen::Upper>().solveInPlace(t);
+  }
+  // 3. Scatter the frontals, measuring the change.
+  double max_change = 0.0;
+  for (int k = 0; k < clique.num_frontals(); ++k) {
+    const int dim = clique.frontal_dim(k);
+    auto x = delta->segment(var_offsets[clique.frontal(k)], dim);
+    const auto x_new = t.segment(clique.frontal_offset(k), dim);
+    const double change = (x_new - x).cwiseAbs().maxCoeff();
+    if (!frontal_changes.empty()) frontal_changes[k] = change;
+    max_change = std::max(max_change, change);
+    x = x_new;
+  }
+  return max_change;
+}
+
+void BackSubstitute(const BayesTree& tree, std::span<const int> var_offsets,
+                    Eigen::VectorXd* delta) {
+  SLAMD_CHECK(static_cast<int>(var_offsets.size()) > tree.NumVariables() ||
+              tree.NumVariables() == 0)
+      << "BackSubstitute: offsets for " << var_offsets.size() << " variables, tree has "
+      << tree.NumVariables();
+  if (tree.NumVariables() > 0) {
+    SLAMD_CHECK(delta->size() >= var_offsets[tree.NumVariables()])
+        << "BackSubstitute: delta too short";
+  }
+  std::vector<double> scratch;
+  for (int id : tree.TopDownOrder()) SolveClique(tree.clique(id), var_offsets, delta, &scratch);
+}
+
+int WildfireBackSubstitute(const BayesTree& tree, std::span<const int> forced, double threshold,
+                           std::span<const int> var_offsets, Eigen::VectorXd* delta,
+                           WildfireWorkspace* ws) {
+  if (static_cast<int>(ws->forced.size()) < tree.NumSlots()) ws->forced.resize(tree.NumSlots(), 0);
+  if (static_cast<int>(ws->changed.size()) < tree.NumVariables()) {
+    ws->changed.resize(tree.NumVariables(), 0);
+  }
+  for (int id : forced) ws->forced[id] = 1;
+  ws->stack.assign(tree.roots().begin(), tree.roots().end());
+  ws->changed_vars.clear();
+  int solved = 0;
+  while (!ws->stack.empty()) {
+    const int id = ws->stack.back();
+    ws->stack.pop_back();
+    const Clique& clique = tree.clique(id);
+    bool solve = ws->forced[id] != 0;
+    for (int k = 0; k < clique.num_separator() && !solve; ++k) {
+      solve = ws->changed[clique.separator()[k]] != 0;
+    }
+    if (!solve) continue;  // nothing above moved: the subtree keeps its solution
+    ws->frontal_changes.resize(clique.num_frontals());
+    SolveClique(clique, var_offsets, delta, &ws->scratch, ws->frontal_changes);
+    ++solved;
+    for (int k = 0; k < clique.num_frontals(); ++k) {
+      if (ws->frontal_changes[k] > threshold) {
+        ws->changed[clique.frontal(k)] = 1;
+        ws->changed_vars.push_back(clique.frontal(k));
+      }
+    }
+    ws->stack.insert(ws->stack.end(), clique.children().begin(), clique.children().end());
+  }
+  // Leave the workspace clean for the next call (O(touched), not O(n)).
+  for (int id : forced) ws->forced[id] = 0;
+  for (int v : ws->changed_vars) ws->changed[v] = 0;
+  return solved;
+}
+
+}  // namespace slamd::core

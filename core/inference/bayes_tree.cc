@@ -1,0 +1,151 @@
+#include "core/inference/bayes_tree.h"
+
+#include <algorithm>
+
+namespace slamd::core {
+
+BayesTree::BayesTree(const BayesTree& other)
+    : free_(other.free_), roots_(other.roots_), var_clique_(other.var_clique_) {
+  cliques_.reserve(other.cliques_.size());
+  for (const auto& c : other.cliques_) cliques_.push_back(std::make_unique<Clique>(*c));
+}
+
+BayesTree& BayesTree::operator=(const BayesTree& other) {
+  if (this != &other) *this = BayesTree(other);
+  return *this;
+}
+
+std::vector<int> BayesTree::TopDownOrder() const {
+  std::vector<int> order(roots_.begin(), roots_.end());
+  order.reserve(NumCliques());
+  for (size_t i = 0; i < order.size(); ++i) {
+    const Clique& c = *cliques_[order[i]];
+    order.insert(order.end(), c.children_.begin(), c.children_.end());
+  }
+  return order;
+}
+
+int BayesTree::NewClique() {
+  int id;
+  if (!free_.empty()) {
+    id = free_.back();
+    free_.pop_back();
+  } else {
+    id = NumSlots();
+    cliques_.push_back(std::make_unique<Clique>());
+  }
+  Clique& c = *cliques_[id];
+  c.live_ = true;
+  c.parent_ = kNone;
+  c.children_.clear();
+  AddRoot(id);
+  return id;
+}
+
+void BayesTree::FreeClique(int id) {
+  SLAMD_CHECK(IsLive(id)) << "FreeClique: clique " << id << " is not live";
+  Clique& c = *cliques_[id];
+  SLAMD_CHECK(c.children_.empty()) << "FreeClique: clique " << id << " has children";
+  Detach(id);
+  RemoveRoot(id);
+  for (int v : c.frontals()) {
+    if (CliqueOf(v) == id) var_clique_[v] = kNone;
+  }
+  c.live_ = false;
+  free_.push_back(id);
+}
+
+void BayesTree::Attach(int child, int parent) {
+  SLAMD_CHECK(IsLive(child) && IsLive(parent) && child != parent)
+      << "Attach: bad cliques " << child << " -> " << parent;
+  Clique& c = *cliques_[child];
+  SLAMD_CHECK(c.parent_ == kNone) << "Attach: clique " << child << " already has a parent";
+  RemoveRoot(child);
+  c.parent_ = parent;
+  cliques_[parent]->children_.push_back(child);
+}
+
+void BayesTree::Detach(int child) {
+  Clique& c = *cliques_[child];
+  if (c.parent_ == kNone) return;
+  std::vector<int>& siblings = cliques_[c.parent_]->children_;
+  siblings.erase(std::find(siblings.begin(), siblings.end(), child));
+  c.parent_ = kNone;
+  AddRoot(child);
+}
+
+void BayesTree::SetCliqueOf(int var, int id) {
+  SLAMD_CHECK(var >= 0) << "SetCliqueOf: negative variable id";
+  if (var >= NumVariables()) var_clique_.resize(var + 1, kNone);
+  var_clique_[var] = id;
+}
+
+void BayesTree::RemoveTop(std::span<const int> vars, std::vector<int>* removed_frontals,
+                          std::vector<int>* orphans) {
+  // 1. Mark the cliques of `vars` and their ancestors (stop at already marked ones: O(top)).
+  std::vector<int> removed;
+  for (int v : vars) {
+    for (int c = CliqueOf(v); c != kNone && !cliques_[c]->marked_; c = cliques_[c]->parent_) {
+      cliques_[c]->marked_ = true;
+      removed.push_back(c);
+    }
+  }
+  // 2. Children that survive become detached roots (orphans).
+  for (int id : removed) {
+    for (int child : cliques_[id]->children_) {
+      Clique& ch = *cliques_[child];
+      if (ch.marked_) continue;
+      ch.parent_ = kNone;
+      AddRoot(child);
+      orphans->push_back(child);
+    }
+  }
+  // 3. Free the removed cliques. Their parents are removed too, so no sibling lists to edit.
+  for (int id : removed) {
+    Clique& c = *cliques_[id];
+    c.marked_ = false;
+    c.children_.clear();
+    c.parent_ = kNone;
+    RemoveRoot(id);
+    for (int v : c.frontals()) {
+      removed_frontals->push_back(v);
+      if (CliqueOf(v) == id) var_clique_[v] = kNone;
+    }
+    c.live_ = false;
+    free_.push_back(id);
+  }
+}
+
+void BayesTree::Clear() {
+  for (int id = 0; id < NumSlots(); ++id) {
+    Clique& c = *cliques_[id];
+    if (!c.live_) continue;
+    c.live_ = false;
+    c.parent_ = kNone;
+    c.root_slot_ = kNone;
+    c.children_.clear();
+    free_.push_back(id);
+  }
+  roots_.clear();
+  var_clique_.clear();
+}
+
+void BayesTree::AddRoot(int id) {
+  Clique& c = *cliques_[id];
+  if (c.root_slot_ != kNone) return;
+  c.root_slot_ = static_cast<int>(roots_.size());
+  roots_.push_back(id);
+}
+
+void BayesTree::RemoveRoot(int id) {
+  Clique& c = *cliques_[id];
+  if (c.root_slot_ == kNone) return;
+  // Swap-remove: O(1), root order is not meaningful.
+  const int last = roots_.back();
+  roots_[c.root_slot_] = last;
+  cliques_[last]->root_slot_ = c.root_slot_;
+  roots_.pop_back();
+  c.root_slot_ = kNone;
+}
+
+}  // namespace slamd::core

@@ -1,0 +1,96 @@
+// BayesTree: the cliques produced by eliminating a linearised factor graph, and the map from each
+// variable to the clique where it is frontal (Kaess et al., iSAM2, IJRR 2012, §III).
+//
+// Ownership: the tree owns its cliques and addresses them by int ids in [0, NumSlots()). Freed
+// ids go to a free list and are reused by NewClique() together with their storage, so removing
+// and re-creating the top of the tree (iSAM2's steady state) allocates nothing once warm.
+// Ids of freed cliques are stale: do not keep them across RemoveTop()/FreeClique().
+//
+// Invariants (checked by CheckConsistency in consistency_check.h): every live clique with no
+// parent is in roots(); parent/children links agree; a child's separator is contained in its
+// parent's frontals and separator; every variable is frontal in exactly one clique, which
+// CliqueOf() returns. Between RemoveTop() and re-attaching the orphans the running intersection
+// is temporarily broken (orphans are roots with non-empty separators); CheckConsistency reports it.
+//
+// Thread safety: const methods may run concurrently; mutation must be exclusive.
+#pragma once
+
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "core/inference/clique.h"
+
+namespace slamd::core {
+
+class BayesTree {
+ public:
+  static constexpr int kNone = Clique::kNone;
+
+  BayesTree() = default;
+  // Deep copies (iSAM2 may keep a copy to roll back a failed update).
+  BayesTree(const BayesTree& other);
+  BayesTree& operator=(const BayesTree& other);
+  BayesTree(BayesTree&&) = default;
+  BayesTree& operator=(BayesTree&&) = default;
+
+  // --- Queries
+  // ------------------------------------------------------------------------------------ Size of
+  // the variable -> clique map (ids the tree has seen; some may map to kNone).
+  int NumVariables() const { return static_cast<int>(var_clique_.size()); }
+  // The clique where `var` is frontal, or kNone (unknown or not eliminated).
+  int CliqueOf(int var) const {
+    return var >= 0 && var < NumVariables() ? var_clique_[var] : kNone;
+  }
+  int NumCliques() const { return static_cast<int>(cliques_.size() - free_.size()); }
+  int NumSlots() const { return static_cast<int>(cliques_.size()); }
+  bool IsLive(int id) const { return id >= 0 && id < NumSlots() && cliques_[id]->live_; }
+  const Clique& clique(int id) const { return *cliques_[id]; }
+  // Mutable access to a clique's matrices and structure (not its links).
+  Clique& mutable_clique(int id) { return *cliques_[id]; }
+  // Cliques without a parent (one per connected component, plus detached orphans).
+  const std::vector<int>& roots() const { return roots_; }
+  // Live clique ids, parents before children (roots first, then breadth-first).
+  std::vector<int> TopDownOrder() const;
+
+  // --- Mutation (elimination and iSAM2)
+  // ----------------------------------------------------------- A live, childless root clique with
+  // empty structure (fill it with Clique::Reset()). Reuses a freed slot and its storage when there
+  // is one.
+  int NewClique();
+  // Frees a childless clique: unlinks it from its parent (or the roots), and maps its frontals
+  // to kNone. Precondition (SLAMD_CHECK): live, no children.
+  void FreeClique(int id);
+  // Makes the root `child` a child of `parent`. Preconditions (SLAMD_CHECK): both live,
+  // child != parent, child is a root.
+  void Attach(int child, int parent);
+  // Makes `child` a root (unlinks it from its parent). No-op for a root.
+  void Detach(int child);
+  // Records that `var` is frontal in clique `id` (kNone to clear). Grows the map as needed.
+  void SetCliqueOf(int var, int id);
+
+  // iSAM2's "remove top" (Alg. 4/5 of the paper): removes every clique that holds one of `vars`
+  // as a frontal, and all their ancestors. Appends the frontals of the removed cliques to
+  // *removed_frontals (they must be re-eliminated) and the roots of the subtrees left behind to
+  // *orphans (now detached roots whose cached factors summarise them; re-attach them under the
+  // new cliques, see EliminationResult::hessian_cliques). Variables not in the tree are ignored.
+  // Cost: O(removed cliques + their children).
+  void RemoveTop(std::span<const int> vars, std::vector<int>* removed_frontals,
+                 std::vector<int>* orphans);
+
+  // Removes all cliques (keeping their storage for reuse) and clears the variable map.
+  void Clear();
+
+ private:
+  friend class BayesTreeTestPeer;  // tests corrupt links to exercise CheckConsistency
+
+  void AddRoot(int id);
+  void RemoveRoot(int id);
+
+  std::vector<std::unique_ptr<Clique>> cliques_;
+  std::vector<int> free_;        // freed slots, reused LIFO
+  std::vector<int> roots_;       // live cliques with parent kNone
+  std::vector<int> var_clique_;  // variable id -> clique id or kNone
+};
+
+}  // namespace slamd::core

@@ -1,0 +1,23 @@
+#include "core/inference/clique.h"
+
+namespace slamd::core {
+
+void Clique::Reset(std::span<const int> frontals, std::span<const int> frontal_dims,
+                   std::span<const int> separator, std::span<const int> separator_dims) {
+  SLAMD_DCHECK(!frontals.empty() && frontals.size() == frontal_dims.size())
+      << "Clique::Reset: bad frontals";
+  num_frontals_ = static_cast<int>(frontals.size());
+  index_.resize(2 * frontals.size() + 1);
+  int offset = 0;
+  for (int k = 0; k < num_frontals_; ++k) {
+    SLAMD_DCHECK(frontal_dims[k] >= 1) << "Clique::Reset: bad dim";
+    index_[k] = frontals[k];
+    index_[num_frontals_ + k] = offset;
+    offset += frontal_dims[k];
+  }
+  index_[2 * num_frontals_] = offset;
+  cached_.Reset(separator, separator_dims);
+  conditional_.assign(static_cast<size_t>(offset) * (offset + cached_.Dim() + 1), 0.0);
+}
+
+}  // namespace slamd::core

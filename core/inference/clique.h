@@ -1,0 +1,106 @@
+// Clique: one node of the Bayes tree (Kaess et al., iSAM2, IJRR 2012, §III).
+//
+// A clique holds the Gaussian conditional density p(F | S) of its frontal variables F given its
+// separator S, in square-root form
+//     R · δ_F + S · δ_S = d,
+// with R upper-triangular (FrontalDim() x FrontalDim(), positive diagonal), S FrontalDim() x
+// SeparatorDim(), and d FrontalDim(). Notation after the paper (R, S, d).
+//   * Frontals are listed in the order they were eliminated; the scalar rows of R follow it.
+//   * The separator is listed in elimination order too (so separator()[0] is eliminated first
+//     among them); S's column blocks follow it.
+//   * The cached factor is the HessianFactor on the separator that eliminating this clique
+//     produced (the Schur complement passed to the parent). iSAM2 re-eliminates only the top of
+//     the tree and feeds the cached factors of the orphaned subtrees back in instead of their
+//     original factors; its variables are the separator (separator() is cached_factor().vars()).
+//
+// Storage: [R S d] is one contiguous column-major FrontalDim() x (FrontalDim() + SeparatorDim()
+// + 1) array (R's strictly lower part is zero). Cliques are owned by their BayesTree and
+// addressed by int ids; parent/children links are ids, managed by the tree only.
+// Thread safety: const methods may run concurrently.
+#pragma once
+
+#include <Eigen/Core>
+#include <span>
+#include <vector>
+
+#include "core/inference/hessian_factor.h"
+
+namespace slamd::core {
+
+class Clique {
+ public:
+  static constexpr int kNone = -1;
+
+  // --- Structure
+  // ----------------------------------------------------------------------------------
+  int num_frontals() const { return num_frontals_; }
+  std::span<const int> frontals() const {
+    return {index_.data(), static_cast<size_t>(num_frontals_)};
+  }
+  int frontal(int k) const { return index_[k]; }
+  // Row offset of frontal k in R; frontal_offset(num_frontals()) == FrontalDim().
+  int frontal_offset(int k) const { return index_[num_frontals_ + k]; }
+  int frontal_dim(int k) const { return frontal_offset(k + 1) - frontal_offset(k); }
+  int FrontalDim() const { return index_[2 * num_frontals_]; }
+
+  std::span<const int> separator() const { return cached_.vars(); }
+  int num_separator() const { return cached_.num_vars(); }
+  // Column offset of separator variable k inside S (== its offset in the cached factor).
+  int separator_offset(int k) const { return cached_.offset(k); }
+  int separator_dim(int k) const { return cached_.dim(k); }
+  int SeparatorDim() const { return cached_.Dim(); }
+
+  int parent() const { return parent_; }
+  const std::vector<int>& children() const { return children_; }
+
+  // --- Conditional R δ_F + S δ_S = d
+  // --------------------------------------------------------------- [R S d], FrontalDim() x
+  // (FrontalDim() + SeparatorDim() + 1).
+  Eigen::Map<const Eigen::MatrixXd> conditional() const {
+    return {conditional_.data(), FrontalDim(), FrontalDim() + SeparatorDim() + 1};
+  }
+  Eigen::Map<Eigen::MatrixXd> mutable_conditional() {
+    return {conditional_.data(), FrontalDim(), FrontalDim() + SeparatorDim() + 1};
+  }
+  // Contiguous column ranges of [R S d] (whole columns of a column-major array).
+  Eigen::Map<const Eigen::MatrixXd> R() const {
+    return {conditional_.data(), FrontalDim(), FrontalDim()};
+  }
+  Eigen::Map<const Eigen::MatrixXd> S() const {
+    return {conditional_.data() + static_cast<size_t>(FrontalDim()) * FrontalDim(), FrontalDim(),
+            SeparatorDim()};
+  }
+  Eigen::Map<const Eigen::VectorXd> d() const {
+    return {
+        conditional_.data() + static_cast<size_t>(FrontalDim()) * (FrontalDim() + SeparatorDim()),
+        FrontalDim()};
+  }
+
+  // The Schur complement on the separator left by eliminating this clique.
+  const HessianFactor& cached_factor() const { return cached_; }
+  HessianFactor& mutable_cached_factor() { return cached_; }
+
+  // Sets frontals and separator (ids with their dims) and zeroes [R S d] and the cached factor.
+  // Reuses storage. Preconditions (SLAMD_DCHECK): non-empty frontals, dims >= 1, no id twice.
+  // Does not touch the tree links.
+  void Reset(std::span<const int> frontals, std::span<const int> frontal_dims,
+             std::span<const int> separator, std::span<const int> separator_dims);
+
+ private:
+  friend class BayesTree;
+  friend class BayesTreeTestPeer;  // tests corrupt links to exercise CheckConsistency
+
+  int num_frontals_ = 0;
+  std::vector<int> index_ = {0};     // [frontal ids (nf) | frontal offsets (nf + 1)]
+  std::vector<double> conditional_;  // [R S d], column-major
+  HessianFactor cached_;             // on the separator
+
+  // Tree links, maintained by BayesTree.
+  int parent_ = kNone;
+  std::vector<int> children_;
+  int root_slot_ = kNone;  // position in BayesTree::roots_ while parent_ == kNone
+  bool live_ = false;      // false while the slot is on the tree's free list
+  bool marked_ = false;    // scratch flag for BayesTree::RemoveTop, false between calls
+};
+
+}  // namespace slamd::core

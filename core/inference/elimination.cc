@@ -1,0 +1,376 @@
+#include "core/inference/elimination.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <string>
+
+#include "core/inference/partial_cholesky.h"
+
+namespace slamd::core {
+namespace {
+
+std::string Str(int v) { return std::to_string(v); }
+
+}  // namespace
+
+Status EliminationParams::Validate() const {
+  if (!(relative_pivot_tolerance >= 0.0 && relative_pivot_tolerance < 1.0)) {
+    return InvalidArgument("EliminationParams::relative_pivot_tolerance = " +
+                           std::to_string(relative_pivot_tolerance) + "; violates range [0, 1)");
+  }
+  return Status::Ok();
+}
+
+Status Eliminate(const EliminationProblem& problem, BayesTree* tree, EliminationResult* result,
+                 const EliminationParams& params) {
+  Eliminator eliminator(params);
+  return eliminator.Eliminate(problem, tree, result);
+}
+
+Status Eliminator::Eliminate(const EliminationProblem& problem, BayesTree* tree,
+                             EliminationResult* result) {
+  result->cliques.clear();
+  result->hessian_cliques.assign(problem.hessians.size(), BayesTree::kNone);
+  result->failed_variable = -1;
+  // 1. Positions, factor assignment, pivot references.
+  Status status = Prepare(problem, *tree);
+  if (!status.ok()) {
+    ResetPositions(problem.ordering);
+    return status;
+  }
+  // 2. Symbolic phase: separators and supernodes.
+  const int k = static_cast<int>(problem.ordering.size());
+  internal::BuildSymbolicForest(k, structure_ptr_, structure_pos_, hes_ptr_,
+                                params_.merge_supernodes, &forest_, &symbolic_workspace_);
+  // 3. Numeric phase, children before parents (the forest's creation order).
+  tree_id_.assign(forest_.NumCliques(), BayesTree::kNone);
+  result->cliques.reserve(forest_.NumCliques());
+  for (int c = 0; c < forest_.NumCliques() && status.ok(); ++c) {
+    status = EliminateClique(problem, c, tree, result);
+  }
+  if (!status.ok()) {
+    Rollback(tree, result->cliques);
+    result->cliques.clear();
+    std::fill(result->hessian_cliques.begin(), result->hessian_cliques.end(), BayesTree::kNone);
+  }
+  ResetPositions(problem.ordering);
+  return status;
+}
+
+Status Eliminator::Prepare(const EliminationProblem& problem, const BayesTree& tree) {
+  SLAMD_RETURN_IF_ERROR(params_.Validate());
+  const int n = static_cast<int>(problem.var_dims.size());
+  if (static_cast<int>(pos_.size()) < n) {
+    pos_.resize(n, -1);
+    offset_.resize(n, 0);
+  }
+  // 1a. Number the variables by position.
+  const int k = static_cast<int>(problem.ordering.size());
+  for (int p = 0; p < k; ++p) {
+    const int v = problem.ordering[p];
+    if (v < 0 || v >= n) {
+      return InvalidArgument("Eliminate: ordering[" + Str(p) + "] = " + Str(v) + " outside [0, " +
+                             Str(n) + ")");
+    }
+    if (pos_[v] != -1) return InvalidArgument("Eliminate: variable " + Str(v) + " ordered twice");
+    if (problem.var_dims[v] < 1) {
+      return InvalidArgument("Eliminate: variable " + Str(v) + " has dim " +
+                             Str(problem.var_dims[v]));
+    }
+    if (tree.CliqueOf(v) != BayesTree::kNone) {
+      return InvalidArgument("Eliminate: variable " + Str(v) + " is already frontal in clique " +
+                             Str(tree.CliqueOf(v)) + " (remove it from the tree first)");
+    }
+    pos_[v] = p;
+  }
+  // 1b. Assign each factor to its first-eliminated variable (counting sort into CSR lists) and
+  //     collect the structure for step 2.
+  auto check_var = [&](int v, int dim, const char* kind, size_t index) -> Status {
+    if (v < 0 || v >= n || pos_[v] < 0) {
+      return InvalidArgument(std::string("Eliminate: ") + kind + " " + std::to_string(index) +
+                             " touches variable " + Str(v) + ", which is not in the ordering");
+    }
+    if (dim != problem.var_dims[v]) {
+      return InvalidArgument(std::string("Eliminate: ") + kind + " " + std::to_string(index) +
+                             " has dim " + Str(dim) + " for variable " + Str(v) + " of dim " +
+                             Str(problem.var_dims[v]));
+    }
+    return Status::Ok();
+  };
+  jac_ptr_.assign(k + 1, 0);
+  hes_ptr_.assign(k + 1, 0);
+  structure_ptr_.assign(k + 1, 0);
+  first_.resize(problem.factors.size() + problem.hessians.size());
+  for (size_t f = 0; f < problem.factors.size(); ++f) {
+    const JacobianFactor* factor = problem.factors[f];
+    if (factor == nullptr || factor->num_vars() == 0) {
+      return InvalidArgument("Eliminate: factor " + std::to_string(f) + " is null or empty");
+    }
+    int first = k;
+    for (int i = 0; i < factor->num_vars(); ++i) {
+      const int v = factor->var(i);
+      SLAMD_RETURN_IF_ERROR(check_var(v, factor->dim(i), "factor", f));
+      first = std::min(first, pos_[v]);
+    }
+    first_[f] = first;
+    ++jac_ptr_[first + 1];
+    structure_ptr_[first + 1] += factor->num_vars();
+  }
+  for (size_t h = 0; h < problem.hessians.size(); ++h) {
+    const HessianFactor* factor = problem.hessians[h];
+    if (factor == nullptr || factor->num_vars() == 0) {
+      return InvalidArgument("Eliminate: hessian " + std::to_string(h) + " is null or empty");
+    }
+    int first = k;
+    for (int i = 0; i < factor->num_vars(); ++i) {
+      const int v = factor->var(i);
+      SLAMD_RETURN_IF_ERROR(check_var(v, factor->dim(i), "hessian", h));
+      first = std::min(first, pos_[v]);
+    }
+    first_[problem.factors.size() + h] = first;
+    ++hes_ptr_[first + 1];
+    structure_ptr_[first + 1] += factor->num_vars();
+  }
+  for (int p = 0; p < k; ++p) {
+    jac_ptr_[p + 1] += jac_ptr_[p];
+    hes_ptr_[p + 1] += hes_ptr_[p];
+    structure_ptr_[p + 1] += structure_ptr_[p];
+  }
+  // Fill the lists in input order (deterministic summation order).
+  jac_list_.resize(problem.factors.size());
+  hes_list_.resize(problem.hessians.size());
+  structure_pos_.resize(structure_ptr_[k]);
+  cursor_.assign(jac_ptr_.begin(), jac_ptr_.end() - 1);
+  structure_cursor_.assign(structure_ptr_.begin(), structure_ptr_.end() - 1);
+  for (size_t f = 0; f < problem.factors.size(); ++f) {
+    const int first = first_[f];
+    jac_list_[cursor_[first]++] = static_cast<int>(f);
+    for (int v : problem.factors[f]->vars()) structure_pos_[structure_cursor_[first]++] = pos_[v];
+  }
+  cursor_.assign(hes_ptr_.begin(), hes_ptr_.end() - 1);
+  for (size_t h = 0; h < problem.hessians.size(); ++h) {
+    const int first = first_[problem.factors.size() + h];
+    hes_list_[cursor_[first]++] = static_cast<int>(h);
+    for (int v : problem.hessians[h]->vars()) structure_pos_[structure_cursor_[first]++] = pos_[v];
+  }
+  return Status::Ok();
+}
+
+Status Eliminator::EliminateClique(const EliminationProblem& problem, int sym, BayesTree* tree,
+                                   EliminationResult* result) {
+  const internal::SymbolicForest& forest = forest_;
+  // 3a. The clique's variables: frontals in elimination order, then the separator.
+  frontal_ids_.clear();
+  frontal_dims_.clear();
+  sep_ids_.clear();
+  sep_dims_.clear();
+  for (int p = forest.first_frontal[sym]; p != -1; p = forest.next_frontal[p]) {
+    const int v = problem.ordering[p];
+    frontal_ids_.push_back(v);
+    frontal_dims_.push_back(problem.var_dims[v]);
+  }
+  for (int i = forest.sep_begin[sym]; i < forest.sep_end[sym]; ++i) {
+    const int v = problem.ordering[forest.sep_data[i]];
+    sep_ids_.push_back(v);
+    sep_dims_.push_back(problem.var_dims[v]);
+  }
+  const int id = tree->NewClique();
+  tree_id_[sym] = id;
+  Clique& clique = tree->mutable_clique(id);
+  clique.Reset(frontal_ids_, frontal_dims_, sep_ids_, sep_dims_);
+
+  // 3b. Offsets of the clique's variables in the dense augmented matrix M (n + 1 square; the
+  //     last row/column is the right-hand side).
+  int n = 0;
+  for (size_t i = 0; i < frontal_ids_.size(); ++i) {
+    offset_[frontal_ids_[i]] = n;
+    n += frontal_dims_[i];
+  }
+  const int nf = n;
+  for (size_t i = 0; i < sep_ids_.size(); ++i) {
+    offset_[sep_ids_[i]] = n;
+    n += sep_dims_[i];
+  }
+  const int ld = n + 1;
+  matrix_.assign(static_cast<size_t>(ld) * ld, 0.0);
+  double* M = matrix_.data();
+  // Pivot references (partial_cholesky.h): the raw information assembled here plus the
+  // references the children's cached factors carry.
+  ref_.assign(ld, 0.0);
+
+  // 3c. Assemble: the factors assigned to the frontals, then the children's cached factors.
+  for (int p = forest.first_frontal[sym]; p != -1; p = forest.next_frontal[p]) {
+    for (int i = jac_ptr_[p]; i < jac_ptr_[p + 1]; ++i)
+      Scatter(*problem.factors[jac_list_[i]], n, M);
+    for (int i = hes_ptr_[p]; i < hes_ptr_[p + 1]; ++i) {
+      Scatter(*problem.hessians[hes_list_[i]], n, M);
+      result->hessian_cliques[hes_list_[i]] = id;
+    }
+  }
+  for (int c = forest.first_child[sym]; c != -1; c = forest.next_sibling[c]) {
+    Scatter(tree->clique(tree_id_[c]).cached_factor(), n, M);
+  }
+
+  // 3d. Partial Cholesky of the frontal block: M's first nf columns become [Rᵀ; Sᵀ; −dᵀ] and
+  //     the trailing block the Schur complement on the separator (lower triangles).
+  const double tol = params_.relative_pivot_tolerance;
+  int failed = internal::PartialCholeskyLower(M, ld, ld, nf, ref_.data(), tol);
+  bool non_finite_rhs = false;
+  if (failed < 0) {
+    for (int c = 0; c < nf && failed < 0; ++c) {
+      if (!std::isfinite(M[static_cast<size_t>(c) * ld + n])) {
+        failed = c;
+        non_finite_rhs = true;
+      }
+    }
+  }
+  if (failed >= 0) {
+    int k = 0;
+    while (clique.frontal_offset(k + 1) <= failed) ++k;
+    const int var = frontal_ids_[k];
+    result->failed_variable = var;
+    std::ostringstream message;
+    message << "Eliminate: ";
+    if (non_finite_rhs) {
+      message << "non-finite right-hand side at variable " << var;
+    } else if (ref_[failed] == 0.0) {
+      message << "variable " << var << " has no information (no factor constrains scalar "
+              << failed - clique.frontal_offset(k) << " of it)";
+    } else {
+      message << "indeterminate system at variable " << var << ": pivot of its scalar "
+              << failed - clique.frontal_offset(k) << " is not above " << tol
+              << " x the information that flowed into it (" << ref_[failed]
+              << "): missing prior or gauge constraint?";
+    }
+    tree->FreeClique(id);
+    return NumericalFailure(message.str());
+  }
+
+  // 3e. The conditional [R S d]: row r is column r of M from row r on (R = Lᵀ), with d = −(...).
+  auto conditional = clique.mutable_conditional();
+  for (int r = 0; r < nf; ++r) {
+    const double* col = M + static_cast<size_t>(r) * ld;
+    for (int c = r; c < n; ++c) conditional(r, c) = col[c];
+    conditional(r, n) = -col[n];
+  }
+  // 3f. The cached factor: the trailing (separator + rhs) block, made symmetric, and the
+  //     propagated pivot references of the separator scalars.
+  HessianFactor& cached = clique.mutable_cached_factor();
+  auto info = cached.mutable_info();
+  const int ns1 = n - nf + 1;
+  for (int c = 0; c < ns1; ++c) {
+    const double* col = M + static_cast<size_t>(nf + c) * ld + nf;
+    for (int r = c; r < ns1; ++r) info(r, c) = info(c, r) = col[r];
+  }
+  std::copy_n(&ref_[nf], n - nf, cached.mutable_reference().data());
+  // 3g. Link the children and map the frontals.
+  for (int c = forest.first_child[sym]; c != -1; c = forest.next_sibling[c]) {
+    tree->Attach(tree_id_[c], id);
+  }
+  for (int v : frontal_ids_) tree->SetCliqueOf(v, id);
+  result->cliques.push_back(id);
+  return Status::Ok();
+}
+
+// M += [A b]ᵀ[A b] scattered to the clique's offsets, lower triangle only (the diagonal blocks'
+// lower halves included). Plain loops: the blocks are at most 6 wide; Eliminator::Scatter
+// instantiates this for the usual row counts so the dot products are fully unrolled.
+template <int kRows>
+void ScatterJacobian(const double* data, int rows, const internal::ScatterBlock* blocks, int p,
+                     int ld, double* M, double* ref) {
+  const int m = kRows > 0 ? kRows : rows;
+  for (int a = 0; a <= p; ++a) {
+    for (int b = 0; b <= a; ++b) {
+      const internal::ScatterBlock* row = &blocks[a];
+      const internal::ScatterBlock* col = &blocks[b];
+      if (row->target < col->target) std::swap(row, col);
+      for (int cc = 0; cc < col->dim; ++cc) {
+        const double* y = data + static_cast<size_t>(col->source + cc) * m;
+        double* dst = M + static_cast<size_t>(col->target + cc) * ld + row->target;
+        for (int rr = (a == b ? cc : 0); rr < row->dim; ++rr) {
+          const double* x = data + static_cast<size_t>(row->source + rr) * m;
+          double s = 0.0;
+          for (int i = 0; i < m; ++i) s += x[i] * y[i];
+          dst[rr] += s;
+        }
+      }
+    }
+  }
+  // The raw diagonal is the pivot reference of a Jacobian factor (squared column norms).
+  for (int a = 0; a < p; ++a) {
+    for (int c = 0; c < blocks[a].dim; ++c) {
+      const double* x = data + static_cast<size_t>(blocks[a].source + c) * m;
+      double s = 0.0;
+      for (int i = 0; i < m; ++i) s += x[i] * x[i];
+      ref[blocks[a].target + c] += s;
+    }
+  }
+}
+
+void Eliminator::Scatter(const JacobianFactor& f, int n, double* M) {
+  double* ref = ref_.data();
+  const int p = f.num_vars();
+  internal::ScatterBlock blocks[JacobianFactor::kMaxVars + 1];
+  for (int k = 0; k < p; ++k) blocks[k] = {offset_[f.var(k)], f.dim(k), f.offset(k)};
+  blocks[p] = {n, 1, f.Dim()};
+  const int ld = n + 1;
+  switch (f.rows()) {
+    case 1:
+      return ScatterJacobian<1>(f.data(), 1, blocks, p, ld, M, ref);
+    case 2:
+      return ScatterJacobian<2>(f.data(), 2, blocks, p, ld, M, ref);
+    case 3:
+      return ScatterJacobian<3>(f.data(), 3, blocks, p, ld, M, ref);
+    case 6:
+      return ScatterJacobian<6>(f.data(), 6, blocks, p, ld, M, ref);
+    default:
+      return ScatterJacobian<0>(f.data(), f.rows(), blocks, p, ld, M, ref);
+  }
+}
+
+// M += info scattered to the clique's offsets, lower triangle only.
+void Eliminator::Scatter(const HessianFactor& h, int n, double* M) {
+  const int p = h.num_vars();
+  const int ld = n + 1;
+  const int hld = h.Dim() + 1;
+  scatter_blocks_.resize(p + 1);
+  internal::ScatterBlock* blocks = scatter_blocks_.data();
+  for (int k = 0; k < p; ++k) blocks[k] = {offset_[h.var(k)], h.dim(k), h.offset(k)};
+  blocks[p] = {n, 1, h.Dim()};
+  const double* data = h.data();
+  // info is fully symmetric, so any block can be read in whichever orientation lands in M's
+  // lower triangle; pairs a >= b cover every block once.
+  for (int a = 0; a <= p; ++a) {
+    for (int b = 0; b <= a; ++b) {
+      const internal::ScatterBlock* row = &blocks[a];
+      const internal::ScatterBlock* col = &blocks[b];
+      if (row->target < col->target) std::swap(row, col);
+      for (int cc = 0; cc < col->dim; ++cc) {
+        const double* src = data + static_cast<size_t>(col->source + cc) * hld + row->source;
+        double* dst = M + static_cast<size_t>(col->target + cc) * ld + row->target;
+        for (int rr = (a == b ? cc : 0); rr < row->dim; ++rr) dst[rr] += src[rr];
+      }
+    }
+  }
+  const double* reference = h.reference().data();
+  for (int a = 0; a < p; ++a) {
+    for (int c = 0; c < blocks[a].dim; ++c)
+      ref_[blocks[a].target + c] += reference[blocks[a].source + c];
+  }
+}
+
+void Eliminator::ResetPositions(std::span<const int> ordering) {
+  const int n = static_cast<int>(pos_.size());
+  for (int v : ordering) {
+    if (v >= 0 && v < n) pos_[v] = -1;
+  }
+}
+
+void Eliminator::Rollback(BayesTree* tree, std::span<const int> created) {
+  // Detach everything first: the created cliques' children are all created cliques.
+  for (int id : created) tree->Detach(id);
+  for (int id : created) tree->FreeClique(id);
+}
+
+}  // namespace slamd::core

@@ -1,0 +1,87 @@
+#include "core/inference/hessian_factor.h"
+
+#include <array>
+#include <string>
+
+#include "core/inference/jacobian_factor.h"
+
+namespace slamd::core {
+
+Result<HessianFactor> HessianFactor::Create(std::span<const int> vars, std::span<const int> dims,
+                                            const Eigen::MatrixXd& info) {
+  if (dims.size() != vars.size()) {
+    return InvalidArgument("HessianFactor: " + std::to_string(dims.size()) + " dims for " +
+                           std::to_string(vars.size()) + " variables");
+  }
+  int total = 0;
+  for (size_t k = 0; k < vars.size(); ++k) {
+    if (vars[k] < 0) return InvalidArgument("HessianFactor: negative variable id");
+    if (dims[k] < 1) {
+      return InvalidArgument("HessianFactor: variable " + std::to_string(vars[k]) + " has dim " +
+                             std::to_string(dims[k]));
+    }
+    for (size_t j = 0; j < k; ++j) {
+      if (vars[j] == vars[k]) {
+        return InvalidArgument("HessianFactor: variable " + std::to_string(vars[k]) +
+                               " listed twice");
+      }
+    }
+    total += dims[k];
+  }
+  if (info.rows() != total + 1 || info.cols() != total + 1) {
+    return InvalidArgument("HessianFactor: info is " + std::to_string(info.rows()) + " x " +
+                           std::to_string(info.cols()) + ", expected " + std::to_string(total + 1) +
+                           " square");
+  }
+  if (!info.allFinite()) return InvalidArgument("HessianFactor: non-finite info");
+  const double scale = info.cwiseAbs().maxCoeff();
+  if ((info - info.transpose()).cwiseAbs().maxCoeff() > 1e-9 * scale) {
+    return InvalidArgument("HessianFactor: info is not symmetric");
+  }
+  HessianFactor h;
+  h.Reset(vars, dims);
+  h.mutable_info() = info;
+  h.SetReferenceToDiagonal();
+  return h;
+}
+
+HessianFactor HessianFactor::FromJacobian(const JacobianFactor& jacobian) {
+  std::array<int, JacobianFactor::kMaxVars> dims{};
+  for (int k = 0; k < jacobian.num_vars(); ++k) dims[k] = jacobian.dim(k);
+  HessianFactor h;
+  h.Reset(jacobian.vars(), std::span<const int>(dims.data(), jacobian.num_vars()));
+  h.mutable_info().noalias() = jacobian.Ab().transpose() * jacobian.Ab();
+  h.SetReferenceToDiagonal();
+  return h;
+}
+
+void HessianFactor::Reset(std::span<const int> vars, std::span<const int> dims) {
+  SLAMD_DCHECK(vars.size() == dims.size()) << "HessianFactor::Reset: size mismatch";
+  num_vars_ = static_cast<int>(vars.size());
+  index_.resize(2 * vars.size() + 1);
+  int offset = 0;
+  for (int k = 0; k < num_vars_; ++k) {
+    SLAMD_DCHECK(vars[k] >= 0 && dims[k] >= 1) << "HessianFactor::Reset: bad variable";
+    index_[k] = vars[k];
+    index_[num_vars_ + k] = offset;
+    offset += dims[k];
+  }
+  index_[2 * num_vars_] = offset;
+  data_.assign(static_cast<size_t>(offset + 1) * (offset + 1) + offset, 0.0);
+}
+
+void HessianFactor::SetReferenceToDiagonal() {
+  mutable_reference() = info().diagonal().head(Dim());
+}
+
+double HessianFactor::Error(std::span<const int> var_offsets, const Eigen::VectorXd& delta) const {
+  const int n = Dim();
+  Eigen::VectorXd y(n + 1);
+  for (int k = 0; k < num_vars_; ++k) {
+    y.segment(offset(k), dim(k)) = delta.segment(var_offsets[var(k)], dim(k));
+  }
+  y(n) = 1.0;
+  return y.dot(info() * y);
+}
+
+}  // namespace slamd::core

@@ -1,0 +1,64 @@
+#include "core/inference/variable_index.h"
+
+#include <algorithm>
+#include <string>
+
+namespace slamd::core {
+
+void VariableIndex::Reserve(int num_vars) {
+  if (num_vars > NumVariables()) factors_.resize(num_vars);
+}
+
+Status VariableIndex::AddFactor(int factor, std::span<const int> vars) {
+  if (factor < 0) return InvalidArgument("VariableIndex: negative factor index");
+  int max_var = -1;
+  for (size_t i = 0; i < vars.size(); ++i) {
+    if (vars[i] < 0) return InvalidArgument("VariableIndex: negative variable id");
+    for (size_t j = 0; j < i; ++j) {
+      if (vars[j] == vars[i]) {
+        return InvalidArgument("VariableIndex: factor " + std::to_string(factor) +
+                               " lists variable " + std::to_string(vars[i]) + " twice");
+      }
+    }
+    max_var = std::max(max_var, vars[i]);
+  }
+  Reserve(max_var + 1);
+  for (int v : vars) factors_[v].push_back(factor);
+  num_entries_ += static_cast<long>(vars.size());
+  return Status::Ok();
+}
+
+Status VariableIndex::RemoveFactor(int factor, std::span<const int> vars) {
+  // Validate first so a failure leaves the index unchanged.
+  for (size_t i = 0; i < vars.size(); ++i) {
+    const int v = vars[i];
+    if (std::find(vars.begin(), vars.begin() + i, v) != vars.begin() + i) {
+      return InvalidArgument("VariableIndex: variable " + std::to_string(v) + " listed twice");
+    }
+    const std::span<const int> list = FactorsOf(v);
+    if (std::find(list.begin(), list.end(), factor) == list.end()) {
+      return NotFound("VariableIndex: factor " + std::to_string(factor) + " is not on variable " +
+                      std::to_string(v));
+    }
+  }
+  for (int v : vars) {
+    std::vector<int>& list = factors_[v];
+    auto it = std::find(list.begin(), list.end(), factor);
+    *it = list.back();
+    list.pop_back();
+  }
+  num_entries_ -= static_cast<long>(vars.size());
+  return Status::Ok();
+}
+
+void VariableIndex::CollectFactors(std::span<const int> vars, std::vector<int>* out) const {
+  out->clear();
+  for (int v : vars) {
+    const std::span<const int> list = FactorsOf(v);
+    out->insert(out->end(), list.begin(), list.end());
+  }
+  std::sort(out->begin(), out->end());
+  out->erase(std::unique(out->begin(), out->end()), out->end());
+}
+
+}  // namespace slamd::core

@@ -1,0 +1,137 @@
+// Isam2::Update as numbered steps after Kaess et al. (IJRR 2012), Alg. 2-7; the helpers are in
+// isam2_steps.cc.
+#include "core/isam/isam2.h"
+
+#include "core/base/timing.h"
+
+namespace slamd::core {
+
+Result<std::unique_ptr<Isam2>> Isam2::Create(const Isam2Params& params) {
+  SLAMD_RETURN_IF_ERROR(params.Validate());
+  return std::unique_ptr<Isam2>(new Isam2(params));
+}
+
+Isam2::Isam2(const Isam2Params& params)
+    : params_(params), offsets_{0}, eliminator_(params.elimination) {}
+
+Isam2Result Isam2::Update(const FactorGraph& new_factors, const Values& new_values,
+                          const Isam2UpdateOptions& options) {
+  return UpdateWith(new_factors, new_values, options, params_.relinearization);
+}
+
+Isam2::RefineResult Isam2::Refine(double budget_s) {
+  Stopwatch timer;
+  RefineResult out;
+  const Isam2Params::Relinearization fine{.rotation_threshold = params_.refine_threshold,
+                                          .translation_threshold = params_.refine_threshold,
+                                          .skip = 1};
+  while (timer.Seconds() < budget_s) {
+    const Isam2Result r =
+        UpdateWith({}, {}, {.force_relinearize = true, .force_full_solve = true}, fine);
+    --num_updates_;  // refinement rounds are not updates (the skip and batch counters ignore them)
+    ++out.rounds;
+    out.status = r.status;
+    out.relinearized_variables += r.relinearized_variables;
+    if (!r.status.ok()) break;
+    if (r.relinearized_variables == 0) {
+      out.converged = true;
+      break;
+    }
+  }
+  out.seconds = timer.Seconds();
+  return out;
+}
+
+Isam2Result Isam2::UpdateWith(const FactorGraph& new_factors, const Values& new_values,
+                              const Isam2UpdateOptions& options,
+                              const Isam2Params::Relinearization& relinearization) {
+  Stopwatch total, phase;
+  Isam2Result result;
+  // 0. Validate everything before changing anything.
+  result.status = CheckInput(new_factors, new_values, options);
+  if (!result.status.ok()) return result;
+  undo_.Clear(static_cast<int>(theta_.size()), static_cast<int>(factors_.size()));
+
+  // 1. Add the new variables (θ = the initial guess, δ = 0).
+  AddVariables(new_values);
+  result.new_variables = static_cast<int>(new_values.size());
+  // 2. Add the new factors, linearised at θ; their variables are affected, and are ordered last.
+  std::vector<int> affected, last;
+  result.status = AddFactors(new_factors, &result.new_factor_indices);
+  for (int f : result.new_factor_indices) {
+    for (int v : linearized_[f].vars()) last.push_back(v);
+  }
+  affected = last;
+  // Removed factors: their variables are affected (their cliques hold the factor).
+  RemoveFactors(options.remove_factors, &affected);
+  for (Key key : options.extra_reeliminate) affected.push_back(theta_.SlotOf(key));
+  result.seconds.add = phase.Lap();
+
+  // 3. Fluid relinearisation (Alg. 6): every `skip` updates, relinearise the variables whose δ
+  // exceeds the threshold, and every factor on them; the batch step relinearises everything.
+  ++num_updates_;
+  const bool batch = options.force_full ||
+                     (params_.batch_every > 0 && num_updates_ % params_.batch_every == 0);
+  result.batch_step = batch;
+  if (result.status.ok() &&
+      (batch || options.force_relinearize || num_updates_ % relinearization.skip == 0)) {
+    std::vector<int> relin;
+    SelectRelinearization(options, batch, relinearization, &relin);
+    result.relinearized_variables = static_cast<int>(relin.size());
+    result.status = Relinearize(relin, &affected, &result.relinearized_factors);
+  }
+  if (batch) {
+    affected.resize(theta_.size());
+    for (int v = 0; v < static_cast<int>(theta_.size()); ++v) affected[v] = v;
+    last.clear();  // a fresh, unconstrained ordering
+  }
+  result.seconds.relinearize = phase.Lap();
+
+  // 4-7. Remove the top of the tree touched by the affected variables (Alg. 4/5), re-eliminate it
+  // with the orphans' cached factors in a constrained order (newest last) and re-attach the
+  // orphans (Alg. 3).
+  std::vector<int> new_cliques;
+  if (result.status.ok()) result.status = ReEliminate(affected, last, &new_cliques, &result);
+  phase.Lap();  // ReEliminate timed its own steps
+  if (!result.status.ok()) {
+    Rollback();
+    --num_updates_;
+    result.new_factor_indices.clear();
+    result.seconds.total = total.Seconds();
+    return result;
+  }
+
+  // 8. Partial back-substitution (Alg. 7, "wildfire") from the new cliques down.
+  result.solved_cliques = BackSubstitute(new_cliques, options.force_full_solve || batch);
+  result.seconds.solve = phase.Lap();
+  result.seconds.total = total.Seconds();
+  return result;
+}
+
+Values Isam2::CalculateEstimate() const {
+  Values estimate = theta_;
+  for (int v = 0; v < static_cast<int>(estimate.size()); ++v) {
+    RetractInPlace(&estimate.MutableVariableAt(v), delta_.data() + offsets_[v]);
+  }
+  return estimate;
+}
+
+Variable Isam2::CalculateEstimate(Key key) const {
+  const int v = theta_.SlotOf(key);
+  SLAMD_CHECK(v >= 0) << "no variable named " << KeyToString(key);
+  Variable x = theta_.VariableAt(v);
+  RetractInPlace(&x, delta_.data() + offsets_[v]);
+  return x;
+}
+
+FactorGraph Isam2::Factors() const {
+  FactorGraph graph;
+  for (const FactorPtr& f : factors_) {
+    if (f) graph.Add(f);
+  }
+  return graph;
+}
+
+double Isam2::Chi2() const { return Factors().Chi2(CalculateEstimate()); }
+
+}  // namespace slamd::core

@@ -1,0 +1,149 @@
+// Isam2: incremental smoothing and mapping on the Bayes tree, after Kaess, Johannsson, Roberts,
+// Ila, Leonard & Dellaert, "iSAM2: Incremental Smoothing and Mapping Using the Bayes Tree"
+// (IJRR 2012), Algorithms 2-7.
+//
+// The solver keeps
+//   θ  the linearisation point of every variable (Values; a variable's id is its slot there),
+//   the nonlinear factors and their cached linearisations at θ (JacobianFactor per factor),
+//   the Bayes tree of the linearised system, and
+//   δ  its solution, so that the estimate is θ ⊕ δ.
+// Update() adds factors and variables, relinearises variables whose δ has grown past a threshold
+// (fluid relinearisation, every `skip` updates), removes from the tree the cliques those
+// touch together with their ancestors (the "top"), re-eliminates the top with its original
+// factors plus the cached factors of the orphaned subtrees, in a constrained COLAMD order that
+// puts the newest variables last, re-attaches the orphans and back-substitutes from the top down
+// until the change falls under the wildfire threshold. An odometry-only step so touches only the
+// cliques near the newest pose: its cost does not grow with the graph.
+//
+// Errors: invalid input (unknown or duplicate keys, wrong types, non-finite values, bad factor
+// indices) returns a status and changes nothing; a numerical failure (an indeterminate system,
+// e.g. a new robot with no prior, a landmark with a single bearing) returns a status naming a
+// variable and restores the solver to its state before the call.
+//
+// Thread safety: not thread-safe; one thread drives a solver (the server's estimator thread).
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "core/factors/factor_graph.h"
+#include "core/inference/back_substitution.h"
+#include "core/inference/bayes_tree.h"
+#include "core/inference/elimination.h"
+#include "core/inference/jacobian_factor.h"
+#include "core/inference/variable_index.h"
+#include "core/isam/isam2_params.h"
+#include "core/isam/isam2_result.h"
+
+namespace slamd::core {
+
+class Isam2 {
+ public:
+  // kInvalidArgument (naming the field) when params are invalid.
+  static Result<std::unique_ptr<Isam2>> Create(const Isam2Params& params = {});
+
+  // One incremental step (see the file comment). `new_values` holds an initial guess for every
+  // variable that `new_factors` introduce, and nothing else.
+  Isam2Result Update(const FactorGraph& new_factors, const Values& new_values,
+                     const Isam2UpdateOptions& options = {});
+
+  // Idle-time refinement ("settling"): repeatedly relinearises every variable whose update δ
+  // exceeds Isam2Params::refine_threshold (far below the fluid-relinearisation thresholds) and
+  // re-solves fully, until no variable moves that much (converged) or `budget_s` seconds have
+  // passed, so that the estimate approaches the batch optimum of the factors seen so far. Each
+  // round is a full Gauss-Newton step through the tree; a round that would raise chi2 is still
+  // taken (there is no line search yet). The server calls this whenever its queue is empty.
+  struct RefineResult {
+    Status status;
+    int rounds = 0;
+    int relinearized_variables = 0;
+    bool converged = false;
+    double seconds = 0.0;
+  };
+  RefineResult Refine(double budget_s);
+
+  // θ ⊕ δ for every variable (O(n)), or for one (O(1); the key must exist, checked).
+  Values CalculateEstimate() const;
+  Variable CalculateEstimate(Key key) const;
+  // Σ|R·e|² of all current factors at the estimate (O(factors)).
+  double Chi2() const;
+
+  const Values& linearization_point() const { return theta_; }
+  // The current factors (removed ones left out), in index order.
+  FactorGraph Factors() const;
+  const BayesTree& tree() const { return tree_; }
+  const Isam2Params& params() const { return params_; }
+  int num_updates() const { return num_updates_; }
+
+ private:
+  explicit Isam2(const Isam2Params& params);
+
+  // Update() with the relinearisation thresholds given (Refine uses tiny ones).
+  Isam2Result UpdateWith(const FactorGraph& new_factors, const Values& new_values,
+                         const Isam2UpdateOptions& options,
+                         const Isam2Params::Relinearization& relinearization);
+
+  // Step helpers (isam2_steps.cc); inputs by const&, outputs by pointer. Every helper that
+  // changes state records how to undo it in undo_.
+  Status CheckInput(const FactorGraph& new_factors, const Values& new_values,
+                    const Isam2UpdateOptions& options) const;
+  void AddVariables(const Values& new_values);
+  Status AddFactors(const FactorGraph& new_factors, std::vector<int>* indices);
+  void RemoveFactors(const std::vector<int>& indices, std::vector<int>* affected);
+  void SelectRelinearization(const Isam2UpdateOptions& options, bool all,
+                             const Isam2Params::Relinearization& thresholds,
+                             std::vector<int>* relin) const;
+  Status Relinearize(const std::vector<int>& relin, std::vector<int>* affected, int* num_factors);
+  Status ReEliminate(const std::vector<int>& affected, const std::vector<int>& last,
+                     std::vector<int>* new_cliques, Isam2Result* result);
+  // Eliminates `vars` (ids) with every factor inside them and the cached factors of `orphans_`,
+  // then re-attaches the orphans. `last` (ids) are constrained to the end of the ordering.
+  Status EliminateTop(const std::vector<int>& vars, const std::vector<int>& last,
+                      std::vector<int>* new_cliques, Isam2Result* result);
+  int BackSubstitute(const std::vector<int>& new_cliques, bool full);
+  Status LinearizeFactor(int index);
+  // Restores the state before the current update (after a numerical failure).
+  void Rollback();
+
+  // What one update changed, so that a numerical failure can restore the state before it.
+  struct Undo {
+    int num_vars = 0;     // variables and factors beyond these counts are new
+    int num_factors = 0;
+    std::vector<std::pair<int, FactorPtr>> removed_factors;
+    std::vector<std::pair<int, Variable>> theta;               // relinearised variables' old θ
+    std::vector<std::pair<int, Eigen::VectorXd>> delta;        // ... and their old δ
+    std::vector<std::pair<int, JacobianFactor>> linearized;    // relinearised factors' old cache
+    bool top_removed = false;  // the tree's top was detached (removed_frontals_, orphans_)
+    void Clear(int vars, int factors) {
+      num_vars = vars;
+      num_factors = factors;
+      removed_factors.clear();
+      theta.clear();
+      delta.clear();
+      linearized.clear();
+      top_removed = false;
+    }
+  };
+
+  Isam2Params params_;
+  Values theta_;                            // linearisation point; var id = slot
+  std::vector<int> dims_;                   // tangent dimension per var id
+  std::vector<int> offsets_;                // δ offsets per var id (size n + 1)
+  Eigen::VectorXd delta_;                   // solution of the linearised system (tail unused)
+  std::vector<FactorPtr> factors_;          // by factor index; null once removed
+  std::vector<JacobianFactor> linearized_;  // cached linearisation of each factor at θ
+  VariableIndex variable_index_;
+  BayesTree tree_;
+  Eliminator eliminator_;
+  int num_updates_ = 0;
+
+  // Scratch reused across updates (no allocation per step once warm).
+  std::vector<int> mark_;  // per var id: 0, or 1 + position in the current elimination set
+  std::vector<int> removed_frontals_, orphans_, elim_vars_, elim_factors_, order_;
+  std::vector<const JacobianFactor*> elim_jacobians_;
+  std::vector<const HessianFactor*> elim_hessians_;
+  WildfireWorkspace wildfire_;
+  Undo undo_;
+};
+
+}  // namespace slamd::core

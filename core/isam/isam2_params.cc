@@ -1,0 +1,18 @@
+#include "core/isam/isam2_params.h"
+
+#include "core/batch/batch_params.h"  // SLAMD_PARAM_CHECK
+
+namespace slamd::core {
+
+Status Isam2Params::Validate() const {
+  SLAMD_PARAM_CHECK(Isam2Params, relinearization.rotation_threshold, >, 0.0);
+  SLAMD_PARAM_CHECK(Isam2Params, relinearization.translation_threshold, >, 0.0);
+  SLAMD_PARAM_CHECK(Isam2Params, relinearization.skip, >=, 1);
+  SLAMD_PARAM_CHECK(Isam2Params, relinearization.max_variables, >=, 0);
+  SLAMD_PARAM_CHECK(Isam2Params, wildfire_threshold, >=, 0.0);
+  SLAMD_PARAM_CHECK(Isam2Params, refine_threshold, >, 0.0);
+  SLAMD_PARAM_CHECK(Isam2Params, batch_every, >=, 0);
+  return elimination.Validate();
+}
+
+}  // namespace slamd::core

@@ -1,0 +1,52 @@
+// Isam2Params: the per-instance options of the incremental solver (isam2.h), fixed at
+// construction. Defaults follow GTSAM's ISAM2 defaults (Gauss-Newton steps, relinearize
+// threshold 0.1, relinearize skip 10, wildfire 0.001) so results can be compared.
+#pragma once
+
+#include "core/base/status.h"
+#include "core/inference/elimination.h"
+
+namespace slamd::core {
+
+struct Isam2Params {
+  struct Relinearization {
+    // A variable is relinearised when a rotation entry of its update δ exceeds this (radians).
+    // > 0.
+    double rotation_threshold = 0.1;
+    // ... or a translation entry (metres; points have translation entries only). > 0.
+    double translation_threshold = 0.1;
+    // The check runs every `skip` updates (1 = every update). >= 1.
+    int skip = 10;
+    // At most this many variables are relinearised in one update, those whose δ exceeds the
+    // threshold by the largest factor first; the rest wait for a later check. This bounds the
+    // worst step: after a large loop closure nearly every δ exceeds the threshold at once, and
+    // relinearising them all re-eliminates the whole tree in one update. 0 = no limit. >= 0.
+    int max_variables = 0;
+  };
+  Relinearization relinearization = {};
+
+  // Partial back-substitution ("wildfire"): below the re-eliminated top, a clique is re-solved
+  // only when a separator variable's update changed by more than this (max abs entry). 0 solves
+  // every clique below a change. >= 0.
+  double wildfire_threshold = 0.001;
+
+  // Refine() relinearises variables whose update exceeds this (both rotation and translation
+  // entries). > 0.
+  double refine_threshold = 1e-6;
+
+  // Every `batch_every` updates, relinearise every variable and re-eliminate the whole graph
+  // with a fresh COLAMD ordering (the iSAM1-style batch step). 0 = never. >= 0.
+  int batch_every = 0;
+
+  // Dense clique elimination (pivot tolerance, supernodes). The pivot tolerance is lower than
+  // the eliminator's own default: on large maps the round-off bound carried up the tree grows
+  // with lever arms and subtree size (manhattan.g2o reaches 1.6e15 where the true pivot is
+  // ~1e2), so 1e-13 rejects valid updates. A robot with no anchor is held back by the server
+  // before it gets here; an exactly singular system (zero pivot) is still reported.
+  EliminationParams elimination = {.relative_pivot_tolerance = 1e-15};
+
+  // Checks every field; the message names the field, its value and the constraint.
+  Status Validate() const;
+};
+
+}  // namespace slamd::core

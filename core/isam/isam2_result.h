@@ -1,0 +1,58 @@
+// Per-call options of Isam2::Update and the result it returns (kept apart from the per-instance
+// Isam2Params, as GTSAM splits ISAM2Params / ISAM2UpdateParams / ISAM2Result).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/base/key.h"
+#include "core/base/status.h"
+
+namespace slamd::core {
+
+struct Isam2UpdateOptions {
+  // Factor indices (as returned in Isam2Result::new_factor_indices of earlier updates) to remove,
+  // e.g. a loop closure found to be wrong. Removing leaves the result as if the factor had never
+  // been added.
+  std::vector<int> remove_factors = {};
+  // Variables to re-eliminate even though no new factor touches them.
+  std::vector<Key> extra_reeliminate = {};
+  // Variables that must not be relinearised in this update.
+  std::vector<Key> no_relinearize = {};
+  // Relinearise every variable whose update exceeds the threshold now, whatever the skip count.
+  bool force_relinearize = false;
+  // Relinearise every variable and re-eliminate everything (the batch step).
+  bool force_full = false;
+  // Back-substitute into every clique (ignore the wildfire threshold).
+  bool force_full_solve = false;
+};
+
+struct Isam2Result {
+  // Not ok on invalid input (nothing changed) or a numerical failure (message names the
+  // variable; the solver is left as it was before the call).
+  Status status;
+  // Index of each new factor, in the order given (for later removal).
+  std::vector<int> new_factor_indices;
+  int new_variables = 0;
+  int relinearized_variables = 0;
+  int relinearized_factors = 0;
+  int reeliminated_variables = 0;
+  int reeliminated_cliques = 0;
+  int solved_cliques = 0;  // cliques back-substituted
+  bool batch_step = false;
+  // Seconds per step of the update (numbered as in isam2.cc).
+  struct Seconds {
+    double add = 0.0;          // 1-2: checks, new variables and factors, linearisation
+    double relinearize = 0.0;  // 3: fluid relinearisation
+    double remove_top = 0.0;   // 4-5: affected set and detaching the top
+    double order = 0.0;        // 6: constrained COLAMD
+    double eliminate = 0.0;    // 7: dense elimination and re-attaching orphans
+    double solve = 0.0;        // 8: partial back-substitution
+    double total = 0.0;
+  } seconds;
+
+  // One line for a debug log.
+  std::string Brief() const;
+};
+
+}  // namespace slamd::core

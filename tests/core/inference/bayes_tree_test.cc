@@ -1,0 +1,117 @@
+#include "core/inference/bayes_tree.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <set>
+
+#include "core/inference/consistency_check.h"
+#include "tests/core/inference/random_linear_system.h"
+
+namespace slamd::core {
+namespace {
+
+using testing::EliminateAll;
+using testing::MakeRandomSystem;
+using testing::NaturalOrder;
+using testing::RandomLinearSystem;
+
+std::set<int> AsSet(const std::vector<int>& v) { return {v.begin(), v.end()}; }
+
+TEST(BayesTreeTest, NewAttachDetachFree) {
+  BayesTree tree;
+  const int a = tree.NewClique();
+  const int b = tree.NewClique();
+  const int c = tree.NewClique();
+  EXPECT_EQ(tree.NumCliques(), 3);
+  EXPECT_EQ(AsSet(tree.roots()), (std::set<int>{a, b, c}));
+  tree.Attach(b, a);
+  tree.Attach(c, a);
+  EXPECT_EQ(tree.roots(), std::vector<int>{a});
+  EXPECT_EQ(tree.clique(b).parent(), a);
+  EXPECT_EQ(tree.clique(a).children(), (std::vector<int>{b, c}));
+  EXPECT_EQ(tree.TopDownOrder(), (std::vector<int>{a, b, c}));
+  tree.Detach(b);
+  EXPECT_EQ(AsSet(tree.roots()), (std::set<int>{a, b}));
+  EXPECT_EQ(tree.clique(a).children(), std::vector<int>{c});
+  tree.Detach(b);  // no-op for a root
+  EXPECT_EQ(tree.roots().size(), 2u);
+  // Freeing a leaf unlinks it; its slot is reused by the next clique.
+  tree.FreeClique(c);
+  EXPECT_FALSE(tree.IsLive(c));
+  EXPECT_TRUE(tree.clique(a).children().empty());
+  EXPECT_EQ(tree.NumCliques(), 2);
+  EXPECT_EQ(tree.NewClique(), c);
+  EXPECT_EQ(tree.NumSlots(), 3);
+}
+
+TEST(BayesTreeTest, VariableMap) {
+  BayesTree tree;
+  EXPECT_EQ(tree.CliqueOf(5), BayesTree::kNone);
+  EXPECT_EQ(tree.CliqueOf(-1), BayesTree::kNone);
+  const int id = tree.NewClique();
+  tree.SetCliqueOf(7, id);
+  EXPECT_EQ(tree.NumVariables(), 8);
+  EXPECT_EQ(tree.CliqueOf(7), id);
+  EXPECT_EQ(tree.CliqueOf(3), BayesTree::kNone);
+}
+
+TEST(BayesTreeTest, RemoveTopReturnsAncestorsAndOrphans) {
+  const RandomLinearSystem s = MakeRandomSystem(25, 10, false, 9);
+  BayesTree tree;
+  EliminationResult result;
+  ASSERT_NO_FATAL_FAILURE(EliminateAll(s, NaturalOrder(s.NumVars()), &tree, &result));
+  const BayesTree before = tree;
+
+  const int v = 5;
+  std::vector<int> removed, orphans;
+  tree.RemoveTop(std::vector<int>{v, v}, &removed, &orphans);  // a repeat is harmless
+  // Expected: the clique of v and all its ancestors.
+  std::set<int> expected_cliques;
+  for (int c = before.CliqueOf(v); c != BayesTree::kNone; c = before.clique(c).parent()) {
+    expected_cliques.insert(c);
+  }
+  std::set<int> expected_vars, expected_orphans;
+  for (int c : expected_cliques) {
+    for (int f : before.clique(c).frontals()) expected_vars.insert(f);
+    for (int ch : before.clique(c).children()) {
+      if (!expected_cliques.count(ch)) expected_orphans.insert(ch);
+    }
+  }
+  EXPECT_EQ(AsSet(removed), expected_vars);
+  EXPECT_EQ(removed.size(), expected_vars.size());
+  EXPECT_EQ(AsSet(orphans), expected_orphans);
+  EXPECT_EQ(tree.NumCliques(), before.NumCliques() - static_cast<int>(expected_cliques.size()));
+  for (int x : removed) EXPECT_EQ(tree.CliqueOf(x), BayesTree::kNone);
+  for (int o : orphans) {
+    EXPECT_EQ(tree.clique(o).parent(), BayesTree::kNone);
+    EXPECT_NE(std::find(tree.roots().begin(), tree.roots().end(), o), tree.roots().end());
+  }
+  // The copy was deep: the original is intact.
+  EXPECT_TRUE(CheckConsistency(before).ok());
+  EXPECT_EQ(before.NumCliques(), static_cast<int>(result.cliques.size()));
+  // Unknown variables are ignored.
+  removed.clear();
+  orphans.clear();
+  tree.RemoveTop(std::vector<int>{1000}, &removed, &orphans);
+  EXPECT_TRUE(removed.empty());
+}
+
+TEST(BayesTreeTest, ClearKeepsSlotsForReuse) {
+  const RandomLinearSystem s = MakeRandomSystem(10, 5, true, 1);
+  BayesTree tree;
+  EliminationResult result;
+  ASSERT_NO_FATAL_FAILURE(EliminateAll(s, NaturalOrder(s.NumVars()), &tree, &result));
+  const int slots = tree.NumSlots();
+  tree.Clear();
+  EXPECT_EQ(tree.NumCliques(), 0);
+  EXPECT_TRUE(tree.roots().empty());
+  EXPECT_EQ(tree.NumVariables(), 0);
+  EXPECT_TRUE(CheckConsistency(tree).ok());
+  ASSERT_NO_FATAL_FAILURE(EliminateAll(s, NaturalOrder(s.NumVars()), &tree, &result));
+  EXPECT_EQ(tree.NumSlots(), slots);
+  EXPECT_TRUE(CheckConsistency(tree).ok());
+}
+
+}  // namespace
+}  // namespace slamd::core

@@ -1,0 +1,493 @@
+#include "core/inference/elimination.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+#include <random>
+#include <set>
+#include <tuple>
+
+#include "core/inference/back_substitution.h"
+#include "core/inference/consistency_check.h"
+#include "tests/core/inference/random_linear_system.h"
+
+namespace slamd::core {
+namespace {
+
+using testing::EliminateAll;
+using testing::MakeRandomSystem;
+using testing::NaturalOrder;
+using testing::RandomLinearSystem;
+
+enum class OrderKind { kNatural, kColamd, kReversed, kRandom };
+
+std::vector<int> MakeOrder(const RandomLinearSystem& s, OrderKind kind, unsigned seed) {
+  std::vector<int> order = NaturalOrder(s.NumVars());
+  switch (kind) {
+    case OrderKind::kNatural:
+      break;
+    case OrderKind::kColamd: {
+      auto colamd = ColamdOrdering(s.NumVars(), s.Incidence());
+      EXPECT_TRUE(colamd.ok());
+      order = colamd.value();
+      break;
+    }
+    case OrderKind::kReversed:
+      std::reverse(order.begin(), order.end());
+      break;
+    case OrderKind::kRandom: {
+      std::mt19937 rng(seed + 1000);
+      std::shuffle(order.begin(), order.end(), rng);
+      break;
+    }
+  }
+  return order;
+}
+
+Eigen::VectorXd Solve(const BayesTree& tree, const RandomLinearSystem& s) {
+  const std::vector<int> offsets = s.Offsets();
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(s.Dim());
+  BackSubstitute(tree, offsets, &x);
+  return x;
+}
+
+// The tree's conditionals stacked into one dense upper-triangular R (and d) in the effective
+// elimination order (frontals of the cliques in creation order); perm[i] is the original scalar
+// index of row/column i.
+void DenseConditionals(const BayesTree& tree, const EliminationResult& result,
+                       const RandomLinearSystem& s, Eigen::MatrixXd* R, Eigen::VectorXd* d,
+                       std::vector<int>* perm) {
+  const std::vector<int> orig = s.Offsets();
+  std::map<int, int> eff;  // variable -> scalar offset in effective order
+  int n = 0;
+  perm->clear();
+  for (int id : result.cliques) {
+    for (int v : tree.clique(id).frontals()) {
+      eff[v] = n;
+      for (int c = 0; c < s.dims[v]; ++c) perm->push_back(orig[v] + c);
+      n += s.dims[v];
+    }
+  }
+  R->setZero(n, n);
+  d->setZero(n);
+  for (int id : result.cliques) {
+    const Clique& c = tree.clique(id);
+    const int row = eff[c.frontal(0)];
+    R->block(row, row, c.FrontalDim(), c.FrontalDim()) = c.R();
+    for (int k = 0; k < c.num_separator(); ++k) {
+      R->block(row, eff[c.separator()[k]], c.FrontalDim(), c.separator_dim(k)) =
+          c.S().middleCols(c.separator_offset(k), c.separator_dim(k));
+    }
+    d->segment(row, c.FrontalDim()) = c.d();
+  }
+}
+
+class FullEliminationTest
+    : public ::testing::TestWithParam<std::tuple<OrderKind, unsigned, bool, bool>> {};
+
+TEST_P(FullEliminationTest, MatchesDenseSolveAndHessian) {
+  const auto [kind, seed, merge, priors_on_all] = GetParam();
+  const RandomLinearSystem s = MakeRandomSystem(30, 25, priors_on_all, seed);
+  const std::vector<int> order = MakeOrder(s, kind, seed);
+  BayesTree tree;
+  EliminationResult result;
+  ASSERT_NO_FATAL_FAILURE(
+      EliminateAll(s, order, &tree, &result, EliminationParams{.merge_supernodes = merge}));
+  ASSERT_TRUE(CheckConsistency(tree).ok()) << CheckConsistency(tree).ToString();
+  EXPECT_EQ(static_cast<int>(result.cliques.size()), tree.NumCliques());
+  if (!merge) {
+    EXPECT_EQ(tree.NumCliques(), s.NumVars());
+  }
+
+  // Back-substitution equals the dense solve of AᵀA x = −Aᵀb.
+  const Eigen::VectorXd x_ref = s.DenseSolve();
+  const Eigen::VectorXd x = Solve(tree, s);
+  EXPECT_LT((x - x_ref).cwiseAbs().maxCoeff(), 1e-9 * std::max(1.0, x_ref.cwiseAbs().maxCoeff()));
+
+  // RᵀR = P AᵀA Pᵀ in the effective order, R upper-triangular, and R x = d.
+  Eigen::MatrixXd R;
+  Eigen::VectorXd d;
+  std::vector<int> perm;
+  DenseConditionals(tree, result, s, &R, &d, &perm);
+  ASSERT_EQ(static_cast<int>(perm.size()), s.Dim());
+  EXPECT_EQ(R.triangularView<Eigen::StrictlyLower>().toDenseMatrix().cwiseAbs().maxCoeff(), 0.0);
+  const Eigen::MatrixXd H = s.Hessian();
+  Eigen::MatrixXd H_perm(s.Dim(), s.Dim());
+  Eigen::VectorXd x_perm(s.Dim());
+  for (int i = 0; i < s.Dim(); ++i) {
+    x_perm(i) = x_ref(perm[i]);
+    for (int j = 0; j < s.Dim(); ++j) H_perm(i, j) = H(perm[i], perm[j]);
+  }
+  EXPECT_LT((R.transpose() * R - H_perm).cwiseAbs().maxCoeff(), 1e-9 * H.cwiseAbs().maxCoeff());
+  EXPECT_LT((R * x_perm - d).cwiseAbs().maxCoeff(), 1e-9 * std::max(1.0, d.cwiseAbs().maxCoeff()));
+
+  // The effective order is a valid reordering of the requested one: each clique's frontals keep
+  // their relative order.
+  std::vector<int> position(s.NumVars());
+  for (int p = 0; p < s.NumVars(); ++p) position[order[p]] = p;
+  for (int id : result.cliques) {
+    const auto f = tree.clique(id).frontals();
+    for (size_t k = 1; k < f.size(); ++k) EXPECT_LT(position[f[k - 1]], position[f[k]]);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Orders, FullEliminationTest,
+    ::testing::Combine(::testing::Values(OrderKind::kNatural, OrderKind::kColamd,
+                                         OrderKind::kReversed, OrderKind::kRandom),
+                       ::testing::Values(1u, 2u, 3u), ::testing::Bool(), ::testing::Bool()));
+
+TEST(EliminationTest, HessianFactorsGiveTheSameSolution) {
+  const RandomLinearSystem s = MakeRandomSystem(20, 15, false, 7);
+  // Half of the factors as Jacobians, the other half in information form.
+  std::vector<const JacobianFactor*> jacobians;
+  std::vector<HessianFactor> hessian_storage;
+  for (size_t f = 0; f < s.factors.size(); ++f) {
+    if (f % 2 == 0) {
+      jacobians.push_back(&s.factors[f]);
+    } else {
+      hessian_storage.push_back(HessianFactor::FromJacobian(s.factors[f]));
+    }
+  }
+  std::vector<const HessianFactor*> hessians;
+  for (const HessianFactor& h : hessian_storage) hessians.push_back(&h);
+  const auto order = ColamdOrdering(s.NumVars(), s.Incidence()).value();
+  BayesTree tree;
+  EliminationResult result;
+  const Status status =
+      Eliminate({.var_dims = s.dims, .factors = jacobians, .hessians = hessians, .ordering = order},
+                &tree, &result);
+  ASSERT_TRUE(status.ok()) << status.ToString();
+  ASSERT_TRUE(CheckConsistency(tree).ok());
+  ASSERT_EQ(result.hessian_cliques.size(), hessians.size());
+  for (size_t h = 0; h < hessians.size(); ++h) {
+    // The absorbing clique holds the factor's first-eliminated variable as a frontal.
+    const Clique& c = tree.clique(result.hessian_cliques[h]);
+    int first = -1;
+    for (int v : hessians[h]->vars()) {
+      if (first < 0 ||
+          std::find(order.begin(), order.end(), v) < std::find(order.begin(), order.end(), first)) {
+        first = v;
+      }
+    }
+    EXPECT_EQ(tree.CliqueOf(first), result.hessian_cliques[h]);
+    EXPECT_GE(c.num_frontals(), 1);
+  }
+  const Eigen::VectorXd x_ref = s.DenseSolve();
+  EXPECT_LT((Solve(tree, s) - x_ref).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+TEST(EliminationTest, RootCachedFactorIsTheMinimumError) {
+  const RandomLinearSystem s = MakeRandomSystem(12, 10, true, 3);
+  BayesTree tree;
+  EliminationResult result;
+  ASSERT_NO_FATAL_FAILURE(EliminateAll(s, NaturalOrder(s.NumVars()), &tree, &result));
+  const Eigen::VectorXd x = s.DenseSolve();
+  double error = 0.0;
+  for (const JacobianFactor& f : s.factors) error += f.Error(s.Offsets(), x);
+  // Each root's cached factor is a constant: the minimum of its component's error.
+  double sum = 0.0;
+  for (int root : tree.roots()) {
+    const HessianFactor& cached = tree.clique(root).cached_factor();
+    ASSERT_EQ(cached.num_vars(), 0);
+    sum += cached.info()(0, 0);
+  }
+  EXPECT_NEAR(sum, error, 1e-9 * std::max(1.0, error));
+}
+
+TEST(EliminationTest, DisconnectedComponentsGiveSeveralRoots) {
+  RandomLinearSystem s;
+  s.dims = {3, 3, 2, 2};
+  std::mt19937 rng(5);
+  testing::AddFactor(&s, {0}, 3, &rng);
+  testing::AddFactor(&s, {0, 1}, 3, &rng);
+  testing::AddFactor(&s, {2}, 2, &rng);
+  testing::AddFactor(&s, {3, 2}, 2, &rng);
+  BayesTree tree;
+  EliminationResult result;
+  ASSERT_NO_FATAL_FAILURE(EliminateAll(s, {0, 2, 1, 3}, &tree, &result));
+  EXPECT_EQ(tree.roots().size(), 2u);
+  ASSERT_TRUE(CheckConsistency(tree).ok());
+  EXPECT_LT((Solve(tree, s) - s.DenseSolve()).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+// A chain x0 - x1 - ... without any prior: the gauge is free, so the system is indeterminate.
+TEST(EliminationTest, IndeterminateSystemNamesTheVariable) {
+  RandomLinearSystem s;
+  const int n = 6;
+  s.dims.assign(n, 3);
+  std::mt19937 rng(11);
+  for (int i = 0; i + 1 < n; ++i) {
+    // "Between" factors A_i = −I, A_{i+1} = I: they see only differences.
+    auto f = JacobianFactor::Create(std::vector<int>{i, i + 1},
+                                    std::vector<Eigen::MatrixXd>{-Eigen::MatrixXd::Identity(3, 3),
+                                                                 Eigen::MatrixXd::Identity(3, 3)},
+                                    testing::RandomMatrix(3, 1, &rng));
+    ASSERT_TRUE(f.ok());
+    s.factors.push_back(f.value());
+  }
+  for (bool merge : {true, false}) {
+    BayesTree tree;
+    EliminationResult result;
+    const std::vector<const JacobianFactor*> factors = s.Pointers();
+    const std::vector<int> order = NaturalOrder(n);
+    const Status status = Eliminate({.var_dims = s.dims, .factors = factors, .ordering = order},
+                                    &tree, &result, {.merge_supernodes = merge});
+    EXPECT_EQ(status.code(), StatusCode::kNumericalFailure);
+    // The deficiency shows at the last eliminated variable.
+    EXPECT_EQ(result.failed_variable, n - 1);
+    EXPECT_NE(status.message().find("variable " + std::to_string(n - 1)), std::string::npos)
+        << status.message();
+    // The tree is left as it was: empty.
+    EXPECT_EQ(tree.NumCliques(), 0);
+    EXPECT_TRUE(result.cliques.empty());
+    EXPECT_TRUE(CheckConsistency(tree).ok());
+  }
+}
+
+// Round-off accumulates along a chain; with weights varying by 1e5 a pivot test relative to a
+// variable's own factors only would miss the deficiency (pivots up to ~1e-11 of them). The
+// propagated references catch every case.
+TEST(EliminationTest, IndeterminateChainsWithVaryingWeightsAreDetected) {
+  std::mt19937 rng(1);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (int trial = 0; trial < 100; ++trial) {
+    const int n = 2 + trial % 50;
+    RandomLinearSystem s;
+    s.dims.assign(n, 3);
+    for (int i = 0; i + 1 < n; ++i) {
+      const double th = normal(rng);
+      Eigen::MatrixXd R(3, 3);
+      R << std::cos(th), -std::sin(th), normal(rng), std::sin(th), std::cos(th), normal(rng), 0, 0,
+          1;
+      const Eigen::MatrixXd W =
+          Eigen::MatrixXd::Identity(3, 3) * (1.0 + 100.0 * std::abs(normal(rng)));
+      s.factors.push_back(JacobianFactor::Create(std::vector<int>{i, i + 1},
+                                                 std::vector<Eigen::MatrixXd>{-W * R, W},
+                                                 testing::RandomMatrix(3, 1, &rng))
+                              .value());
+    }
+    std::vector<int> order = NaturalOrder(n);
+    if (trial % 2) std::reverse(order.begin(), order.end());
+    const std::vector<const JacobianFactor*> factors = s.Pointers();
+    BayesTree tree;
+    EliminationResult result;
+    const Status status =
+        Eliminate({.var_dims = s.dims, .factors = factors, .ordering = order}, &tree, &result);
+    EXPECT_EQ(status.code(), StatusCode::kNumericalFailure) << "trial " << trial;
+  }
+}
+
+// The pivot test is relative: a gauge fixed by a prior 1e9 times weaker than the odometry is
+// still determined and must not be rejected (only round-off-level pivots are).
+TEST(EliminationTest, WeakButDeterminedSystemIsAccepted) {
+  RandomLinearSystem s;
+  const int n = 30;
+  s.dims.assign(n, 3);
+  std::mt19937 rng(12);
+  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(3, 3);
+  // Information 1e-5 against 1e4 for the odometry.
+  auto prior = JacobianFactor::Create(std::vector<int>{0}, std::vector<Eigen::MatrixXd>{3.2e-3 * I},
+                                      Eigen::VectorXd::Constant(3, 1e-3));
+  ASSERT_TRUE(prior.ok());
+  s.factors.push_back(prior.value());
+  for (int i = 0; i + 1 < n; ++i) {
+    // Odometry with sigma 0.01: whitened blocks of 100 · rotation-ish matrices.
+    const Eigen::MatrixXd R =
+        Eigen::MatrixXd::Identity(3, 3) + 0.1 * testing::RandomMatrix(3, 3, &rng);
+    auto f = JacobianFactor::Create(std::vector<int>{i, i + 1},
+                                    std::vector<Eigen::MatrixXd>{-100.0 * R, 100.0 * I},
+                                    testing::RandomMatrix(3, 1, &rng));
+    ASSERT_TRUE(f.ok());
+    s.factors.push_back(f.value());
+  }
+  for (const auto& order : {NaturalOrder(n), MakeOrder(s, OrderKind::kReversed, 0)}) {
+    BayesTree tree;
+    EliminationResult result;
+    ASSERT_NO_FATAL_FAILURE(EliminateAll(s, order, &tree, &result));
+    // The solution is ill-conditioned (condition ~1e10), so check backward stability: the
+    // normal-equation residual is at round-off level relative to |AᵀA| |x|.
+    Eigen::MatrixXd A;
+    Eigen::VectorXd b;
+    s.Dense(&A, &b);
+    const Eigen::VectorXd x = Solve(tree, s);
+    const Eigen::MatrixXd H = A.transpose() * A;
+    const double residual = (H * x + A.transpose() * b).norm();
+    EXPECT_LT(residual, 1e-12 * H.norm() * x.norm());
+  }
+}
+
+TEST(EliminationTest, UnconstrainedVariableAndNonFiniteInputFail) {
+  RandomLinearSystem s = MakeRandomSystem(5, 3, true, 2);
+  s.dims.push_back(2);  // variable 5: no factor at all
+  std::vector<int> order = NaturalOrder(6);
+  BayesTree tree;
+  EliminationResult result;
+  std::vector<const JacobianFactor*> factors = s.Pointers();
+  Status status =
+      Eliminate({.var_dims = s.dims, .factors = factors, .ordering = order}, &tree, &result);
+  EXPECT_EQ(status.code(), StatusCode::kNumericalFailure);
+  EXPECT_EQ(result.failed_variable, 5);
+  EXPECT_NE(status.message().find("variable 5"), std::string::npos) << status.message();
+
+  // A NaN in a right-hand side is reported, not propagated.
+  RandomLinearSystem t = MakeRandomSystem(5, 3, true, 2);
+  t.factors[2].mutable_b()(0) = std::numeric_limits<double>::quiet_NaN();
+  factors = t.Pointers();
+  order = NaturalOrder(5);
+  status = Eliminate({.var_dims = t.dims, .factors = factors, .ordering = order}, &tree, &result);
+  EXPECT_EQ(status.code(), StatusCode::kNumericalFailure) << status.ToString();
+  EXPECT_GE(result.failed_variable, 0);
+  EXPECT_EQ(tree.NumCliques(), 0);
+}
+
+TEST(EliminationTest, InvalidProblemsAreRejectedWithoutChangingTheTree) {
+  const RandomLinearSystem s = MakeRandomSystem(6, 4, true, 4);
+  const std::vector<const JacobianFactor*> factors = s.Pointers();
+  BayesTree tree;
+  EliminationResult result;
+  Eliminator eliminator;
+  auto run = [&](std::span<const int> dims, std::span<const int> order) {
+    return eliminator.Eliminate({.var_dims = dims, .factors = factors, .ordering = order}, &tree,
+                                &result);
+  };
+  // Duplicate, out of range, a factor variable missing from the ordering, a wrong dim.
+  EXPECT_EQ(run(s.dims, std::vector<int>{0, 1, 2, 3, 4, 4}).code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(run(s.dims, std::vector<int>{0, 1, 2, 3, 4, 9}).code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(run(s.dims, std::vector<int>{0, 1, 2, 3, 4}).code(), StatusCode::kInvalidArgument);
+  std::vector<int> wrong_dims = s.dims;
+  wrong_dims[3] += 1;
+  EXPECT_EQ(run(wrong_dims, NaturalOrder(6)).code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(tree.NumCliques(), 0);
+  // The eliminator's workspace was reset after every failure: a valid run still works.
+  ASSERT_TRUE(run(s.dims, NaturalOrder(6)).ok());
+  EXPECT_LT((Solve(tree, s) - s.DenseSolve()).cwiseAbs().maxCoeff(), 1e-9);
+  // Variables already in the tree cannot be eliminated again.
+  const int cliques = tree.NumCliques();
+  EXPECT_EQ(run(s.dims, NaturalOrder(6)).code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(tree.NumCliques(), cliques);
+  EXPECT_EQ(Eliminator({.relative_pivot_tolerance = -1.0})
+                .Eliminate({.var_dims = s.dims, .factors = factors, .ordering = NaturalOrder(6)},
+                           &tree, &result)
+                .code(),
+            StatusCode::kInvalidArgument);
+}
+
+// iSAM2's use: remove the top of a fully eliminated tree (the cliques of the last k variables
+// and their ancestors), re-eliminate it from its original factors plus the cached factors of the
+// orphaned subtrees, attach the orphans. The new cliques must equal the full elimination's.
+class PartialEliminationTest : public ::testing::TestWithParam<std::tuple<unsigned, int, bool>> {};
+
+TEST_P(PartialEliminationTest, ReproducesTheFullElimination) {
+  const auto [seed, k, colamd] = GetParam();
+  const RandomLinearSystem s = MakeRandomSystem(40, 30, false, seed);
+  const std::vector<int> order =
+      MakeOrder(s, colamd ? OrderKind::kColamd : OrderKind::kNatural, seed);
+  BayesTree full;
+  EliminationResult full_result;
+  ASSERT_NO_FATAL_FAILURE(EliminateAll(s, order, &full, &full_result));
+
+  BayesTree tree = full;  // deep copy
+  const std::vector<int> top(order.end() - k, order.end());
+  std::vector<int> removed, orphans;
+  tree.RemoveTop(top, &removed, &orphans);
+  EXPECT_GE(static_cast<int>(removed.size()), k);
+  EXPECT_FALSE(CheckConsistency(tree).ok() && !orphans.empty());  // orphans are loose roots
+
+  // Re-eliminate the removed variables in their original relative order.
+  std::vector<int> position(s.NumVars());
+  for (int p = 0; p < s.NumVars(); ++p) position[order[p]] = p;
+  std::vector<int> sub_order = removed;
+  std::sort(sub_order.begin(), sub_order.end(),
+            [&](int a, int b) { return position[a] < position[b]; });
+  const std::set<int> removed_set(removed.begin(), removed.end());
+  std::vector<const JacobianFactor*> factors;
+  for (const JacobianFactor& f : s.factors) {
+    bool inside = true;
+    for (int v : f.vars()) inside = inside && removed_set.count(v) > 0;
+    if (inside) factors.push_back(&f);
+  }
+  std::vector<const HessianFactor*> cached;
+  for (int o : orphans) cached.push_back(&tree.clique(o).cached_factor());
+  EliminationResult result;
+  const Status status =
+      Eliminate({.var_dims = s.dims, .factors = factors, .hessians = cached, .ordering = sub_order},
+                &tree, &result);
+  ASSERT_TRUE(status.ok()) << status.ToString();
+  for (size_t i = 0; i < orphans.size(); ++i) tree.Attach(orphans[i], result.hessian_cliques[i]);
+  ASSERT_TRUE(CheckConsistency(tree).ok()) << CheckConsistency(tree).ToString();
+  EXPECT_EQ(tree.NumCliques(), full.NumCliques());
+
+  // Same cliques (frontals, separators, conditionals, cached factors) as the full elimination.
+  for (int id : result.cliques) {
+    const Clique& c = tree.clique(id);
+    const Clique& ref = full.clique(full.CliqueOf(c.frontal(0)));
+    ASSERT_TRUE(std::ranges::equal(c.frontals(), ref.frontals()));
+    ASSERT_TRUE(std::ranges::equal(c.separator(), ref.separator()));
+    EXPECT_LT((c.conditional() - ref.conditional()).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_LT((c.cached_factor().info() - ref.cached_factor().info()).cwiseAbs().maxCoeff(),
+              1e-9 * std::max(1.0, ref.cached_factor().info().cwiseAbs().maxCoeff()));
+    const int parent = c.parent() == BayesTree::kNone ? -1 : tree.clique(c.parent()).frontal(0);
+    const int ref_parent =
+        ref.parent() == BayesTree::kNone ? -1 : full.clique(ref.parent()).frontal(0);
+    EXPECT_EQ(parent, ref_parent);
+  }
+  EXPECT_LT((Solve(tree, s) - s.DenseSolve()).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+INSTANTIATE_TEST_SUITE_P(TopSizes, PartialEliminationTest,
+                         ::testing::Combine(::testing::Values(1u, 2u, 3u, 4u),
+                                            ::testing::Values(1, 3, 10, 40), ::testing::Bool()));
+
+// iSAM2's incremental step: new variables and factors join the re-eliminated top.
+TEST(EliminationTest, IncrementalStepsMatchBatch) {
+  const RandomLinearSystem all = MakeRandomSystem(60, 40, false, 21);
+  // Factors become available once all their variables exist (streaming variables in id order).
+  std::vector<int> ready(all.factors.size());
+  for (size_t f = 0; f < all.factors.size(); ++f) {
+    ready[f] = *std::max_element(all.factors[f].vars().begin(), all.factors[f].vars().end());
+  }
+  BayesTree tree;
+  Eliminator eliminator;
+  std::vector<int> dims;
+  for (int step = 0; step < all.NumVars(); ++step) {
+    dims.push_back(all.dims[step]);
+    // Variables touched by the new factors (all involve `step`).
+    std::vector<int> touched = {step};
+    for (size_t f = 0; f < all.factors.size(); ++f) {
+      if (ready[f] != step) continue;
+      for (int v : all.factors[f].vars()) touched.push_back(v);
+    }
+    std::vector<int> removed, orphans;
+    tree.RemoveTop(touched, &removed, &orphans);
+    removed.push_back(step);
+    const std::set<int> top(removed.begin(), removed.end());
+    std::vector<const JacobianFactor*> factors;
+    for (size_t f = 0; f < all.factors.size(); ++f) {
+      if (ready[f] > step) continue;
+      bool inside = true;
+      for (int v : all.factors[f].vars()) inside = inside && top.count(v) > 0;
+      if (inside) factors.push_back(&all.factors[f]);
+    }
+    std::vector<const HessianFactor*> cached;
+    for (int o : orphans) cached.push_back(&tree.clique(o).cached_factor());
+    // Constrained order: the touched variables last (as CCOLAMD would place them).
+    std::vector<int> order(top.begin(), top.end());
+    std::stable_partition(order.begin(), order.end(), [&](int v) {
+      return std::find(touched.begin(), touched.end(), v) == touched.end();
+    });
+    EliminationResult result;
+    const Status status = eliminator.Eliminate(
+        {.var_dims = dims, .factors = factors, .hessians = cached, .ordering = order}, &tree,
+        &result);
+    ASSERT_TRUE(status.ok()) << "step " << step << ": " << status.ToString();
+    for (size_t i = 0; i < orphans.size(); ++i) tree.Attach(orphans[i], result.hessian_cliques[i]);
+    ASSERT_TRUE(CheckConsistency(tree).ok())
+        << "step " << step << ": " << CheckConsistency(tree).ToString();
+  }
+  EXPECT_LT((Solve(tree, all) - all.DenseSolve()).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+}  // namespace
+}  // namespace slamd::core

@@ -1,0 +1,176 @@
+#include "core/isam/isam2.h"
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <set>
+
+#include "core/batch/batch_solver.h"
+#include "core/batch/normal_equations.h"
+#include "core/inference/consistency_check.h"
+#include "tests/testing/example_graphs.h"
+
+namespace slamd::core {
+namespace {
+
+using testing::ExampleProblem;
+
+// The example problem as one update per pose: pose i with every factor whose newest pose is i
+// (and landmarks at their first observation), predicted from the truth plus the initial's error.
+struct Step {
+  FactorGraph factors;
+  Values values;
+};
+
+std::vector<Step> Stream(const ExampleProblem& p) {
+  std::map<int, Step> steps;
+  for (const FactorPtr& f : p.graph) {
+    int newest = 0;
+    for (Key k : f->keys()) {
+      if (KeySymbol(k) == 'x') newest = std::max(newest, static_cast<int>(KeyIndex(k)));
+    }
+    steps[newest].factors.Add(f);
+  }
+  std::set<Key> introduced;
+  std::vector<Step> out;
+  for (auto& [i, s] : steps) {
+    for (const FactorPtr& f : s.factors) {
+      for (Key k : f->keys()) {
+        if (introduced.insert(k).second) {
+          EXPECT_TRUE(s.values.Insert(k, p.initial.Get(k)).ok());
+        }
+      }
+    }
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+std::unique_ptr<Isam2> MakeIsam2(const Isam2Params& params = {}) {
+  Result<std::unique_ptr<Isam2>> isam = Isam2::Create(params);
+  EXPECT_TRUE(isam.ok()) << isam.status().ToString();
+  return std::move(isam).value();
+}
+
+double MaxDifference(const Values& a, const Values& b) {
+  double worst = 0.0;
+  for (Key key : a.keys()) worst = std::max(worst, LocalCoordinates(a.Get(key), b.Get(key)).norm());
+  return worst;
+}
+
+// θ ⊕ δ with δ the exact solution of the whole graph linearised at θ: what Isam2 must equal
+// when it back-substitutes fully.
+Values BatchStepAt(const FactorGraph& graph, const Values& theta) {
+  auto eq = internal::NormalEquations::Create(graph, theta);
+  EXPECT_TRUE(eq.ok()) << eq.status().ToString();
+  (*eq)->Linearize(theta);
+  Eigen::VectorXd delta;
+  EXPECT_TRUE((*eq)->Solve(&delta).ok());
+  Values out = theta;
+  (*eq)->RetractAll(theta, delta, &out);
+  return out;
+}
+
+class Isam2ParityTest : public ::testing::TestWithParam<bool> {};
+
+TEST_P(Isam2ParityTest, EveryStepEqualsTheBatchSolutionAtTheSameLinearizationPoint) {
+  const bool planar = GetParam();
+  const ExampleProblem p = planar ? testing::MakePlanarProblem(40, 8, 3) : testing::MakeSpatialProblem(30, 3);
+  auto isam = MakeIsam2({.relinearization = {.skip = 1}});
+  for (const Step& step : Stream(p)) {
+    const Isam2Result r = isam->Update(step.factors, step.values, {.force_full_solve = true});
+    ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+    ASSERT_TRUE(CheckConsistency(isam->tree()).ok()) << CheckConsistency(isam->tree()).ToString();
+    const Values expected = BatchStepAt(isam->Factors(), isam->linearization_point());
+    EXPECT_LT(MaxDifference(isam->CalculateEstimate(), expected), 1e-6) << r.Brief();
+  }
+}
+
+TEST_P(Isam2ParityTest, SettlesToTheBatchOptimum) {
+  const bool planar = GetParam();
+  const ExampleProblem p = planar ? testing::MakePlanarProblem(40, 8, 5) : testing::MakeSpatialProblem(30, 5);
+  auto isam = MakeIsam2();
+  for (const Step& step : Stream(p)) ASSERT_TRUE(isam->Update(step.factors, step.values).status.ok());
+  for (int k = 0; k < 10; ++k) {
+    ASSERT_TRUE(isam->Update({}, {}, {.force_full = true}).status.ok());
+  }
+  const BatchResult batch = Optimize(p.graph, p.initial, {.relative_tolerance = 1e-12});
+  ASSERT_TRUE(batch.status.ok());
+  EXPECT_NEAR(isam->Chi2(), batch.summary.final_chi2, 1e-4 * batch.summary.final_chi2);
+  EXPECT_LT(MaxDifference(isam->CalculateEstimate(), batch.values), 1e-4);
+}
+
+INSTANTIATE_TEST_SUITE_P(PlanarAndSpatial, Isam2ParityTest, ::testing::Bool());
+
+TEST(Isam2Test, RemovingAFactorEqualsNeverAddingIt) {
+  const ExampleProblem p = testing::MakePlanarProblem(30, 0, 7);
+  const std::vector<Step> steps = Stream(p);
+  auto with = MakeIsam2(), without = MakeIsam2();
+  const Key a = MakeKey('x', 2), b = MakeKey('x', 25);
+  const FactorPtr wrong = std::make_shared<BetweenFactor<Pose2>>(a, b, Pose2(5, 5, 1), NoiseModel::Unit(3));
+  int wrong_index = -1;
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    FactorGraph factors = steps[i].factors;
+    if (i == 25) factors.Add(wrong);
+    const Isam2Result r = with->Update(factors, steps[i].values);
+    ASSERT_TRUE(r.status.ok());
+    if (i == 25) wrong_index = r.new_factor_indices.back();
+    ASSERT_TRUE(without->Update(steps[i].factors, steps[i].values).status.ok());
+  }
+  ASSERT_TRUE(with->Update({}, {}, {.remove_factors = {wrong_index}}).status.ok());
+  EXPECT_TRUE(CheckConsistency(with->tree()).ok());
+  for (int k = 0; k < 5; ++k) {
+    ASSERT_TRUE(with->Update({}, {}, {.force_full = true}).status.ok());
+    ASSERT_TRUE(without->Update({}, {}, {.force_full = true}).status.ok());
+  }
+  EXPECT_LT(MaxDifference(with->CalculateEstimate(), without->CalculateEstimate()), 1e-6);
+  EXPECT_EQ(with->Factors().size(), without->Factors().size());
+}
+
+TEST(Isam2Test, IndeterminateUpdateNamesTheVariableAndChangesNothing) {
+  const ExampleProblem p = testing::MakePlanarProblem(10, 0, 2);
+  auto isam = MakeIsam2();
+  for (const Step& step : Stream(p)) ASSERT_TRUE(isam->Update(step.factors, step.values).status.ok());
+  const Values before = isam->CalculateEstimate();
+  const std::size_t factors_before = isam->Factors().size();
+  // A second robot's pose linked only to another new pose: nothing anchors them.
+  FactorGraph g;
+  const Key r0 = MakeKey('x', 0, 'b'), r1 = MakeKey('x', 1, 'b');
+  g.Emplace<BetweenFactor<Pose2>>(r0, r1, Pose2(1, 0, 0), NoiseModel::Unit(3));
+  Values v;
+  ASSERT_TRUE(v.Insert(r0, Pose2()).ok());
+  ASSERT_TRUE(v.Insert(r1, Pose2(1, 0, 0)).ok());
+  const Isam2Result r = isam->Update(g, v);
+  ASSERT_EQ(r.status.code(), StatusCode::kNumericalFailure) << r.status.ToString();
+  EXPECT_NE(r.status.message().find("b:x"), std::string::npos) << r.status.message();
+  EXPECT_TRUE(CheckConsistency(isam->tree()).ok()) << CheckConsistency(isam->tree()).ToString();
+  EXPECT_EQ(isam->Factors().size(), factors_before);
+  EXPECT_FALSE(isam->linearization_point().Contains(r0));
+  EXPECT_LT(MaxDifference(isam->CalculateEstimate(), before), 1e-12);
+  // And it keeps working.
+  const ExampleProblem q = testing::MakePlanarProblem(10, 0, 2);
+  EXPECT_TRUE(isam->Update({}, {}, {.force_relinearize = true}).status.ok());
+}
+
+TEST(Isam2Test, InvalidInputIsRejectedBeforeAnyChange) {
+  auto isam = MakeIsam2();
+  FactorGraph g;
+  g.Emplace<BetweenFactor<Pose2>>(MakeKey('x', 0), MakeKey('x', 1), Pose2(), NoiseModel::Unit(3));
+  Values v;
+  ASSERT_TRUE(v.Insert(MakeKey('x', 0), Pose2()).ok());
+  Isam2Result r = isam->Update(g, v);
+  EXPECT_EQ(r.status.code(), StatusCode::kNotFound);
+  EXPECT_NE(r.status.message().find("x1"), std::string::npos);
+  EXPECT_EQ(isam->linearization_point().size(), 0u);
+  r = isam->Update({}, {}, {.remove_factors = {3}});
+  EXPECT_EQ(r.status.code(), StatusCode::kInvalidArgument);
+  Values lonely;
+  ASSERT_TRUE(lonely.Insert(MakeKey('x', 7), Pose2()).ok());
+  r = isam->Update({}, lonely);
+  EXPECT_EQ(r.status.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(r.status.message().find("x7"), std::string::npos);
+  EXPECT_FALSE(Isam2::Create({.relinearization = {.skip = 0}}).ok());
+}
+
+}  // namespace
+}  // namespace slamd::core
