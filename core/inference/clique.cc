@@ -1,5 +1,7 @@
 #include "core/inference/clique.h"
 
+#include "core/base/storage.h"
+
 namespace slamd::core {
 
 void Clique::Reset(std::span<const int> frontals, std::span<const int> frontal_dims,
@@ -17,7 +19,7 @@ void Clique::Reset(std::span<const int> frontals, std::span<const int> frontal_d
   }
   index_[2 * num_frontals_] = offset;
   cached_.Reset(separator, separator_dims);
-  conditional_.assign(static_cast<size_t>(offset) * (offset + cached_.Dim() + 1), 0.0);
+  AssignReusingStorage(&conditional_, static_cast<size_t>(offset) * (offset + cached_.Dim() + 1), 0.0);
 }
 
 }  // namespace slamd::core

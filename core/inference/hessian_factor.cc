@@ -1,5 +1,7 @@
 #include "core/inference/hessian_factor.h"
 
+#include "core/base/storage.h"
+
 #include <array>
 #include <string>
 
@@ -67,7 +69,7 @@ void HessianFactor::Reset(std::span<const int> vars, std::span<const int> dims) 
     offset += dims[k];
   }
   index_[2 * num_vars_] = offset;
-  data_.assign(static_cast<size_t>(offset + 1) * (offset + 1) + offset, 0.0);
+  AssignReusingStorage(&data_, static_cast<size_t>(offset + 1) * (offset + 1) + offset, 0.0);
 }
 
 void HessianFactor::SetReferenceToDiagonal() {

@@ -112,7 +112,7 @@ class Isam2 {
     std::vector<std::pair<int, FactorPtr>> removed_factors;
     std::vector<std::pair<int, Variable>> theta;               // relinearised variables' old θ
     std::vector<std::pair<int, Eigen::VectorXd>> delta;        // ... and their old δ
-    std::vector<std::pair<int, JacobianFactor>> linearized;    // relinearised factors' old cache
+    std::vector<int> relinearized_factors;  // re-linearised at the restored θ on rollback
     bool top_removed = false;  // the tree's top was detached (removed_frontals_, orphans_)
     void Clear(int vars, int factors) {
       num_vars = vars;
@@ -120,7 +120,7 @@ class Isam2 {
       removed_factors.clear();
       theta.clear();
       delta.clear();
-      linearized.clear();
+      relinearized_factors.clear();
       top_removed = false;
     }
   };

@@ -38,12 +38,14 @@ struct Isam2Params {
   // with a fresh COLAMD ordering (the iSAM1-style batch step). 0 = never. >= 0.
   int batch_every = 0;
 
-  // Dense clique elimination (pivot tolerance, supernodes). The pivot tolerance is lower than
-  // the eliminator's own default: on large maps the round-off bound carried up the tree grows
-  // with lever arms and subtree size (manhattan.g2o reaches 1.6e15 where the true pivot is
-  // ~1e2), so 1e-13 rejects valid updates. A robot with no anchor is held back by the server
-  // before it gets here; an exactly singular system (zero pivot) is still reported.
-  EliminationParams elimination = {.relative_pivot_tolerance = 1e-15};
+  // Dense clique elimination (pivot tolerance, supernodes). Isam2 accepts every positive pivot
+  // (tolerance 0, like CHOLMOD in the batch solver) and reports only zero, negative or NaN ones.
+  // A relative tolerance cannot tell round-off from a weakly constrained direction on real maps:
+  // the round-off bound carried up the tree grows with lever arms and subtree size (1.6e15 on
+  // manhattan.g2o where the true pivot is ~1e2), and parking-garage.g2o has rotation directions
+  // with information 1.5e-9 next to ~4; any tolerance above ~1e-19 rejected valid updates on the
+  // development data. Unanchored robots are kept out by the server, not detected here.
+  EliminationParams elimination = {.relative_pivot_tolerance = 0.0};
 
   // Checks every field; the message names the field, its value and the constraint.
   Status Validate() const;

@@ -173,7 +173,7 @@ Status Isam2::Relinearize(const std::vector<int>& relin, std::vector<int>* affec
   variable_index_.CollectFactors(relin, &factors);
   *num_factors = static_cast<int>(factors.size());
   for (int f : factors) {
-    undo_.linearized.emplace_back(f, linearized_[f]);
+    undo_.relinearized_factors.push_back(f);
     SLAMD_RETURN_IF_ERROR(LinearizeFactor(f));
     const std::span<const int> vars = linearized_[f].vars();
     affected->insert(affected->end(), vars.begin(), vars.end());
@@ -293,9 +293,12 @@ int Isam2::BackSubstitute(const std::vector<int>& new_cliques, bool full) {
 }
 
 void Isam2::Rollback() {
-  // Factors and linearisations back as they were.
-  for (auto& [f, old] : undo_.linearized) linearized_[f] = std::move(old);
+  // θ back as it was, then the relinearised factors linearised there again (deterministic, so
+  // identical to what they were; cheaper than keeping copies on every update).
   for (auto& [v, old] : undo_.theta) theta_.MutableVariableAt(v) = std::move(old);
+  for (int f : undo_.relinearized_factors) {
+    if (f < undo_.num_factors) SLAMD_CHECK(LinearizeFactor(f).ok()) << "re-linearising factor " << f;
+  }
   for (auto& [v, old] : undo_.delta) delta_.segment(offsets_[v], dims_[v]) = old;
   for (int f = static_cast<int>(factors_.size()) - 1; f >= undo_.num_factors; --f) {
     const Status removed = variable_index_.RemoveFactor(f, linearized_[f].vars());
