@@ -9,26 +9,10 @@
 #include "core/io/dataset_stream.h"
 #include "core/isam/isam2.h"
 #include "tests/testing/datasets.h"
+#include "tests/testing/solver_checks.h"
 
 namespace slamd::core {
 namespace {
-
-double MaxDifference(const Values& a, const Values& b) {
-  double worst = 0.0;
-  for (Key key : a.keys()) worst = std::max(worst, LocalCoordinates(a.Get(key), b.Get(key)).norm());
-  return worst;
-}
-
-Values BatchStepAt(const FactorGraph& graph, const Values& theta) {
-  auto eq = internal::NormalEquations::Create(graph, theta);
-  EXPECT_TRUE(eq.ok()) << eq.status().ToString();
-  (*eq)->Linearize(theta);
-  Eigen::VectorXd delta;
-  EXPECT_TRUE((*eq)->Solve(&delta).ok());
-  Values out = theta;
-  (*eq)->RetractAll(theta, delta, &out);
-  return out;
-}
 
 // Streams the first `limit` steps of a dataset; `check` runs after every update.
 template <typename Check>
@@ -64,8 +48,8 @@ TEST_P(Isam2DatasetParityTest, EveryStepMatchesBatchAtTheSameLinearizationPoint)
   StreamDataset(*data, GetParam().steps, *isam, {.force_full_solve = true}, [&](std::size_t i) {
     const Status consistent = CheckConsistency(isam->tree());
     ASSERT_TRUE(consistent.ok()) << "step " << i << ": " << consistent.ToString();
-    const Values expected = BatchStepAt(isam->Factors(), isam->linearization_point());
-    ASSERT_LT(MaxDifference(isam->CalculateEstimate(), expected), 1e-6) << "step " << i;
+    const Values expected = testing::BatchStepAt(isam->Factors(), isam->linearization_point());
+    ASSERT_LT(testing::MaxDifference(isam->CalculateEstimate(), expected), 1e-6) << "step " << i;
   });
 }
 

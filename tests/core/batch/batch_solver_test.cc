@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "tests/testing/example_graphs.h"
+#include "tests/testing/solver_checks.h"
 
 namespace slamd::core {
 namespace {
@@ -25,12 +26,6 @@ double GradientNorm(const FactorGraph& graph, const Values& values) {
   return g.norm();
 }
 
-double MaxDifference(const Values& a, const Values& b) {
-  double worst = 0.0;
-  for (Key key : a.keys()) worst = std::max(worst, LocalCoordinates(a.Get(key), b.Get(key)).norm());
-  return worst;
-}
-
 const BatchParams kTight{.relative_tolerance = 1e-14, .absolute_tolerance = 1e-14};
 
 TEST(BatchSolverTest, GaussNewtonAndLevenbergMarquardtReachTheSameOptimum) {
@@ -46,8 +41,8 @@ TEST(BatchSolverTest, GaussNewtonAndLevenbergMarquardtReachTheSameOptimum) {
       marquardt.damping = BatchParams::Damping::kDiagonal;
       const BatchResult c = Optimize(p.graph, p.initial, marquardt);
       ASSERT_TRUE(a.status.ok() && b.status.ok() && c.status.ok()) << b.status.ToString();
-      EXPECT_LT(MaxDifference(a.values, b.values), 1e-7);
-      EXPECT_LT(MaxDifference(a.values, c.values), 1e-7);
+      EXPECT_LT(testing::MaxDifference(a.values, b.values), 1e-7);
+      EXPECT_LT(testing::MaxDifference(a.values, c.values), 1e-7);
       EXPECT_NEAR(a.summary.final_chi2, b.summary.final_chi2, 1e-9 * a.summary.final_chi2);
       EXPECT_LT(b.summary.final_chi2, b.summary.initial_chi2);
       // At the optimum the gradient vanishes (relative to where it started; the last digits are
@@ -89,8 +84,8 @@ TEST(BatchSolverTest, RobustKernelDownweightsAnOutlier) {
   const BatchResult rp = Optimize(plain, p.initial);
   const BatchResult rr = Optimize(robust, p.initial);
   ASSERT_TRUE(rp.status.ok() && rr.status.ok());
-  EXPECT_LT(MaxDifference(rr.values, p.truth), 0.5);
-  EXPECT_GT(MaxDifference(rp.values, p.truth), 2.0 * MaxDifference(rr.values, p.truth));
+  EXPECT_LT(testing::MaxDifference(rr.values, p.truth), 0.5);
+  EXPECT_GT(testing::MaxDifference(rp.values, p.truth), 2.0 * testing::MaxDifference(rr.values, p.truth));
   EXPECT_LT(rr.summary.final_cost, rr.summary.final_chi2);  // the outlier's cost is capped
 }
 

@@ -4,17 +4,12 @@
 
 #include "core/batch/batch_solver.h"
 #include "tests/testing/example_graphs.h"
+#include "tests/testing/solver_checks.h"
 
 namespace slamd::core {
 namespace {
 
 using testing::ExampleProblem;
-
-double MaxDifference(const Values& a, const Values& b) {
-  double worst = 0.0;
-  for (Key key : a.keys()) worst = std::max(worst, LocalCoordinates(a.Get(key), b.Get(key)).norm());
-  return worst;
-}
 
 // The same graph with every measurement replaced by its exact value under `truth`.
 FactorGraph Noiseless(const FactorGraph& graph, const Values& truth) {
@@ -50,7 +45,7 @@ TEST_P(InitializationTest, RecoversTheTruthFromNoiselessMeasurements) {
   ASSERT_TRUE(start.Update(MakeKey('x', 0), p.truth.Get(MakeKey('x', 0))).ok());  // the gauge
   const Result<Values> r = MakeInitialGuess(GetParam(), exact, start, PoseKeys(start), 7);
   ASSERT_TRUE(r.ok()) << r.status().ToString();
-  EXPECT_LT(MaxDifference(*r, p.truth), 1e-6);
+  EXPECT_LT(testing::MaxDifference(*r, p.truth), 1e-6);
 }
 
 TEST_P(InitializationTest, LeadsToTheSameOptimumAsTheTruth) {
@@ -77,7 +72,7 @@ TEST(InitializationTest, LagoUnwrapsAnglesAroundALoop) {
   ASSERT_TRUE(start.Update(MakeKey('x', 0), p.truth.Get(MakeKey('x', 0))).ok());
   const Result<Values> r = InitializeLago(exact, start, MakeKey('x', 0));
   ASSERT_TRUE(r.ok());
-  EXPECT_LT(MaxDifference(*r, p.truth), 1e-6);
+  EXPECT_LT(testing::MaxDifference(*r, p.truth), 1e-6);
 }
 
 TEST(InitializationTest, DisconnectedPoseIsNamed) {

@@ -9,6 +9,7 @@
 #include "core/batch/normal_equations.h"
 #include "core/inference/consistency_check.h"
 #include "tests/testing/example_graphs.h"
+#include "tests/testing/solver_checks.h"
 
 namespace slamd::core {
 namespace {
@@ -52,25 +53,6 @@ std::unique_ptr<Isam2> MakeIsam2(const Isam2Params& params = {}) {
   return std::move(isam).value();
 }
 
-double MaxDifference(const Values& a, const Values& b) {
-  double worst = 0.0;
-  for (Key key : a.keys()) worst = std::max(worst, LocalCoordinates(a.Get(key), b.Get(key)).norm());
-  return worst;
-}
-
-// θ ⊕ δ with δ the exact solution of the whole graph linearised at θ: what Isam2 must equal
-// when it back-substitutes fully.
-Values BatchStepAt(const FactorGraph& graph, const Values& theta) {
-  auto eq = internal::NormalEquations::Create(graph, theta);
-  EXPECT_TRUE(eq.ok()) << eq.status().ToString();
-  (*eq)->Linearize(theta);
-  Eigen::VectorXd delta;
-  EXPECT_TRUE((*eq)->Solve(&delta).ok());
-  Values out = theta;
-  (*eq)->RetractAll(theta, delta, &out);
-  return out;
-}
-
 class Isam2ParityTest : public ::testing::TestWithParam<bool> {};
 
 TEST_P(Isam2ParityTest, EveryStepEqualsTheBatchSolutionAtTheSameLinearizationPoint) {
@@ -81,8 +63,8 @@ TEST_P(Isam2ParityTest, EveryStepEqualsTheBatchSolutionAtTheSameLinearizationPoi
     const Isam2Result r = isam->Update(step.factors, step.values, {.force_full_solve = true});
     ASSERT_TRUE(r.status.ok()) << r.status.ToString();
     ASSERT_TRUE(CheckConsistency(isam->tree()).ok()) << CheckConsistency(isam->tree()).ToString();
-    const Values expected = BatchStepAt(isam->Factors(), isam->linearization_point());
-    EXPECT_LT(MaxDifference(isam->CalculateEstimate(), expected), 1e-6) << r.Brief();
+    const Values expected = testing::BatchStepAt(isam->Factors(), isam->linearization_point());
+    EXPECT_LT(testing::MaxDifference(isam->CalculateEstimate(), expected), 1e-6) << r.Brief();
   }
 }
 
@@ -97,7 +79,7 @@ TEST_P(Isam2ParityTest, SettlesToTheBatchOptimum) {
   const BatchResult batch = Optimize(p.graph, p.initial, {.relative_tolerance = 1e-12});
   ASSERT_TRUE(batch.status.ok());
   EXPECT_NEAR(isam->Chi2(), batch.summary.final_chi2, 1e-4 * batch.summary.final_chi2);
-  EXPECT_LT(MaxDifference(isam->CalculateEstimate(), batch.values), 1e-4);
+  EXPECT_LT(testing::MaxDifference(isam->CalculateEstimate(), batch.values), 1e-4);
 }
 
 INSTANTIATE_TEST_SUITE_P(PlanarAndSpatial, Isam2ParityTest, ::testing::Bool());
@@ -123,7 +105,7 @@ TEST(Isam2Test, RemovingAFactorEqualsNeverAddingIt) {
     ASSERT_TRUE(with->Update({}, {}, {.force_full = true}).status.ok());
     ASSERT_TRUE(without->Update({}, {}, {.force_full = true}).status.ok());
   }
-  EXPECT_LT(MaxDifference(with->CalculateEstimate(), without->CalculateEstimate()), 1e-6);
+  EXPECT_LT(testing::MaxDifference(with->CalculateEstimate(), without->CalculateEstimate()), 1e-6);
   EXPECT_EQ(with->Factors().size(), without->Factors().size());
 }
 
@@ -146,7 +128,7 @@ TEST(Isam2Test, IndeterminateUpdateNamesTheVariableAndChangesNothing) {
   EXPECT_TRUE(CheckConsistency(isam->tree()).ok()) << CheckConsistency(isam->tree()).ToString();
   EXPECT_EQ(isam->Factors().size(), factors_before);
   EXPECT_FALSE(isam->linearization_point().Contains(r0));
-  EXPECT_LT(MaxDifference(isam->CalculateEstimate(), before), 1e-12);
+  EXPECT_LT(testing::MaxDifference(isam->CalculateEstimate(), before), 1e-12);
   // And it keeps working.
   const ExampleProblem q = testing::MakePlanarProblem(10, 0, 2);
   EXPECT_TRUE(isam->Update({}, {}, {.force_relinearize = true}).status.ok());
