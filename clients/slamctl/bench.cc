@@ -106,6 +106,8 @@ void RegisterBench(CLI::App& app) {
   cmd->add_option("--batch-every", opt->isam2.batch_every,
                   "isam2: relinearise and re-eliminate everything every N updates (0: never)")
       ->capture_default_str();
+  cmd->add_option("--step-times", opt->step_times,
+                  "isam2: write one line per step (index,pose,ms,relinearized,reeliminated) to this CSV file");
   cmd->add_flag("--compare-batch", opt->compare_batch,
                 "isam2: also solve the final graph in batch and report batch_chi2");
   cmd->add_option("--settle", opt->settle_s,

@@ -26,6 +26,7 @@ struct BenchOptions {
   core::Isam2Params isam2;
   bool compare_batch = false;
   double settle_s = 0.0;
+  std::string step_times;  // CSV of per-step times (isam2)
 };
 
 // Peak resident memory of this process so far.
