@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cstdio>
+#include <fstream>
 #include <string>
 
 #include "tests/testing/datasets.h"
@@ -38,6 +39,29 @@ TEST(BenchTest, JsonHasTheDocumentedFields) {
     EXPECT_NE(r.out.find(field), std::string::npos) << field << " missing from " << r.out;
   }
   EXPECT_EQ(r.out.front(), '{');
+}
+
+TEST(BenchTest, Isam2JsonHasStepPercentilesAndSettles) {
+  const std::string csv = testing::WriteTempFile("steps.csv", "");
+  const CommandRun r = Slamctl("bench " + testing::TestDataPath("small_slam2d.g2o") +
+                               " --solver isam2 --json --compare-batch --settle 1 --step-times " + csv);
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  for (const char* field : {"\"solver\": \"isam2\"", "\"step_ms\": {\"p50\"", "\"p90\"", "\"p99\"",
+                            "\"max\"", "\"final_chi2\"", "\"chi2_before_settle\"", "\"batch_chi2\"",
+                            "\"relinearized_total\"", "\"peak_rss_mb\""}) {
+    EXPECT_NE(r.out.find(field), std::string::npos) << field << " missing from " << r.out;
+  }
+  std::ifstream in(csv);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header, "step,pose,ms,relinearized,reeliminated");
+  int lines = 0;
+  for (std::string line; std::getline(in, line);) ++lines;
+  EXPECT_GT(lines, 1);
+  const CommandRun bad = Slamctl("bench " + testing::TestDataPath("small_slam2d.g2o") +
+                                 " --solver isam2 --relinearize-skip 0");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.out.find("relinearization.skip"), std::string::npos) << bad.out;
 }
 
 TEST(BenchTest, HumanSummaryAndOutputFile) {

@@ -109,6 +109,25 @@ TEST(Isam2Test, RemovingAFactorEqualsNeverAddingIt) {
   EXPECT_EQ(with->Factors().size(), without->Factors().size());
 }
 
+TEST(Isam2Test, RobustKernelsSettleOnTheRobustBatchOptimum) {
+  ExampleProblem p = testing::MakePlanarProblem(30, 0, 11);
+  std::vector<Step> steps = Stream(p);
+  const Key a = MakeKey('x', 4), b = MakeKey('x', 22);
+  const Pose2 wrong = p.truth.At<Pose2>(a).Between(p.truth.At<Pose2>(b)).Compose(Pose2(2.0, -1.5, 0.8));
+  steps[22].factors.Emplace<BetweenFactor<Pose2>>(
+      a, b, wrong, *NoiseModel::Diagonal(Vector3(0.05, 0.05, 0.02)),
+      *RobustKernel::Create(RobustKernel::Kind::kCauchy, 1.0));
+  auto isam = MakeIsam2();
+  for (const Step& step : steps) ASSERT_TRUE(isam->Update(step.factors, step.values).status.ok());
+  ASSERT_TRUE(isam->Refine(5.0).converged);
+  const FactorGraph graph = isam->Factors();
+  const BatchResult batch = Optimize(graph, p.initial, {.relative_tolerance = 1e-12});
+  ASSERT_TRUE(batch.status.ok());
+  EXPECT_NEAR(graph.Cost(isam->CalculateEstimate()), batch.summary.final_cost, 1e-6 * batch.summary.final_cost);
+  EXPECT_LT(testing::MaxDifference(isam->CalculateEstimate(), batch.values), 1e-5);
+  EXPECT_LT(testing::MaxDifference(isam->CalculateEstimate(), p.truth), 0.5);  // the outlier lost
+}
+
 TEST(Isam2Test, IndeterminateUpdateNamesTheVariableAndChangesNothing) {
   const ExampleProblem p = testing::MakePlanarProblem(10, 0, 2);
   auto isam = MakeIsam2();
