@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "clients/slamctl/bench.h"
@@ -85,7 +86,7 @@ void RegisterBench(CLI::App& app) {
   cmd->add_option("--initial-lambda", opt->batch.initial_lambda)->capture_default_str();
   cmd->add_flag("-v,--verbose", opt->batch.verbosity, "Print one line per LM iteration to stderr");
   // isam2 (Isam2Params; defaults as GTSAM's ISAM2).
-  auto relin_threshold = std::make_shared<double>(-1.0);
+  auto relin_threshold = std::make_shared<std::optional<double>>();
   cmd->add_option("--relinearize-threshold", *relin_threshold,
                   "isam2: relinearise a variable when an entry of its update exceeds this "
                   "(rotation radians and translation metres; default 0.1)");
@@ -115,9 +116,9 @@ void RegisterBench(CLI::App& app) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd->callback([opt, relin_threshold] {
-    if (*relin_threshold >= 0.0) {
-      opt->isam2.relinearization.rotation_threshold = *relin_threshold;
-      opt->isam2.relinearization.translation_threshold = *relin_threshold;
+    if (relin_threshold->has_value()) {  // one value for both; Validate() checks it
+      opt->isam2.relinearization.rotation_threshold = **relin_threshold;
+      opt->isam2.relinearization.translation_threshold = **relin_threshold;
     }
     for (const core::Status& valid : {opt->batch.Validate(), opt->isam2.Validate()}) {
       if (!valid.ok()) Fail(kExitUsage, valid.message());
