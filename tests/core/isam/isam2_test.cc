@@ -153,6 +153,20 @@ TEST(Isam2Test, IndeterminateUpdateNamesTheVariableAndChangesNothing) {
   EXPECT_TRUE(isam->Update({}, {}, {.force_relinearize = true}).status.ok());
 }
 
+TEST(Isam2Test, EmptyUpdatesAreHarmless) {
+  // (No relinearisation due: an empty update on a relinearisation step is a Gauss-Newton step.)
+  auto isam = MakeIsam2({.relinearization = {.skip = 1000}});
+  EXPECT_TRUE(isam->Update({}, {}).status.ok());  // nothing at all yet
+  const ExampleProblem p = testing::MakePlanarProblem(8, 0, 3);
+  for (const Step& step : Stream(p)) ASSERT_TRUE(isam->Update(step.factors, step.values).status.ok());
+  const Values before = isam->CalculateEstimate();
+  const Isam2Result r = isam->Update({}, {});
+  EXPECT_TRUE(r.status.ok()) << r.status.ToString();
+  EXPECT_EQ(r.reeliminated_variables, 0);
+  EXPECT_LT(testing::MaxDifference(isam->CalculateEstimate(), before), 1e-12);
+  EXPECT_TRUE(CheckConsistency(isam->tree()).ok());
+}
+
 TEST(Isam2Test, InvalidInputIsRejectedBeforeAnyChange) {
   auto isam = MakeIsam2();
   FactorGraph g;
