@@ -1,9 +1,9 @@
-// BatchParams: options of the batch nonlinear least-squares solver (batch_solver.h), and the
-// validated-options macro the other params structs use too.
+// BatchParams: options of the batch nonlinear least-squares solver (batch_solver.h).
 #pragma once
 
 #include <string>
 
+#include "core/base/param_check.h"
 #include "core/base/status.h"
 
 namespace slamd::core {
@@ -44,16 +44,5 @@ struct BatchParams {
   // Checks every field; the message names the field, its value and the constraint.
   Status Validate() const;
 };
-
-// Used by Validate() implementations: returns InvalidArgument naming the struct and field when
-// the constraint does not hold, e.g. "BatchParams::max_iterations = 0; violates >= 1".
-#define SLAMD_PARAM_CHECK(Struct, field, op, bound)                                     \
-  do {                                                                                  \
-    if (!(field op bound)) {                                                            \
-      return ::slamd::core::InvalidArgument(std::string(#Struct "::" #field " = ") +    \
-                                            std::to_string(field) + "; violates " #op " " \
-                                            #bound);                                    \
-    }                                                                                   \
-  } while (false)
 
 }  // namespace slamd::core

@@ -1,6 +1,6 @@
 #include "core/isam/isam2_params.h"
 
-#include "core/batch/batch_params.h"  // SLAMD_PARAM_CHECK
+#include "core/base/param_check.h"
 
 namespace slamd::core {
 
