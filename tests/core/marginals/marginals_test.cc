@@ -1,0 +1,379 @@
+#include "core/marginals/marginals.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
+#include <map>
+#include <random>
+#include <set>
+
+#include "core/inference/back_substitution.h"
+#include "core/isam/isam2.h"
+#include "tests/testing/example_graphs.h"
+#include "tests/testing/numerical_derivative.h"
+
+namespace slamd::core {
+namespace {
+
+using testing::ExampleProblem;
+
+// The example problem as one update per pose (as in isam2_test.cc): pose i with every factor
+// whose newest pose is i, and each variable's initial value at its first appearance.
+struct Step {
+  FactorGraph factors;
+  Values values;
+};
+
+std::vector<Step> Stream(const ExampleProblem& p) {
+  std::map<int, Step> steps;
+  for (const FactorPtr& f : p.graph) {
+    int newest = 0;
+    for (Key k : f->keys()) {
+      if (KeySymbol(k) == 'x') newest = std::max(newest, static_cast<int>(KeyIndex(k)));
+    }
+    steps[newest].factors.Add(f);
+  }
+  std::set<Key> introduced;
+  std::vector<Step> out;
+  for (auto& [i, s] : steps) {
+    for (const FactorPtr& f : s.factors) {
+      for (Key k : f->keys()) {
+        if (introduced.insert(k).second) {
+          EXPECT_TRUE(s.values.Insert(k, p.initial.Get(k)).ok());
+        }
+      }
+    }
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+std::unique_ptr<Isam2> MakeIsam2() {
+  Result<std::unique_ptr<Isam2>> isam = Isam2::Create();
+  EXPECT_TRUE(isam.ok()) << isam.status().ToString();
+  return std::move(isam).value();
+}
+
+// The independent reference: Σ = (Σ_f AᵀA)⁻¹, every factor linearised at θ, dense; variable v
+// (slot) at rows offsets[v].
+struct DenseReference {
+  std::vector<int> offsets;
+  std::vector<int> dims;
+  Eigen::MatrixXd sigma;
+
+  Eigen::MatrixXd Joint(std::span<const int> vars) const {
+    int n = 0;
+    for (int v : vars) n += dims[v];
+    Eigen::MatrixXd out(n, n);
+    int oi = 0;
+    for (int a : vars) {
+      int oj = 0;
+      for (int b : vars) {
+        out.block(oi, oj, dims[a], dims[b]) = sigma.block(offsets[a], offsets[b], dims[a], dims[b]);
+        oj += dims[b];
+      }
+      oi += dims[a];
+    }
+    return out;
+  }
+};
+
+DenseReference Dense(const Isam2& isam) {
+  const Values& theta = isam.linearization_point();
+  DenseReference ref;
+  for (std::size_t s = 0; s < theta.size(); ++s) ref.dims.push_back(theta.DimAt(static_cast<int>(s)));
+  ref.offsets = StackedOffsets(ref.dims);
+  const int n = ref.offsets.back();
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n, n);
+  LinearizedFactor lf;
+  for (const FactorPtr& f : isam.Factors()) {
+    f->Linearize(theta, &lf);
+    for (int i = 0; i < lf.num_keys; ++i) {
+      const int si = theta.SlotOf(f->keys()[i]);
+      for (int j = 0; j < lf.num_keys; ++j) {
+        const int sj = theta.SlotOf(f->keys()[j]);
+        H.block(ref.offsets[si], ref.offsets[sj], ref.dims[si], ref.dims[sj]) +=
+            lf.A[i].transpose() * lf.A[j];
+      }
+    }
+  }
+  const Eigen::LLT<Eigen::MatrixXd> llt(H);
+  EXPECT_EQ(llt.info(), Eigen::Success);
+  ref.sigma = llt.solve(Eigen::MatrixXd::Identity(n, n));
+  return ref;
+}
+
+// max |a − b| ≤ tol · max |b| (relative to the reference's largest entry).
+::testing::AssertionResult RelativelyNear(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b, double tol) {
+  if (a.rows() != b.rows() || a.cols() != b.cols()) {
+    return ::testing::AssertionFailure() << "shape " << a.rows() << "x" << a.cols() << " vs " << b.rows()
+                                         << "x" << b.cols();
+  }
+  const double err = (a - b).cwiseAbs().maxCoeff(), scale = b.cwiseAbs().maxCoeff();
+  if (err <= tol * scale) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << "max difference " << err << " > " << tol << " * " << scale << "\n"
+                                       << a << "\nvs\n" << b;
+}
+
+bool IsAncestorOrSelf(const BayesTree& tree, int a, int c) {
+  for (int x = c; x != BayesTree::kNone; x = tree.clique(x).parent()) {
+    if (x == a) return true;
+  }
+  return false;
+}
+
+std::unique_ptr<Isam2> Solve(const ExampleProblem& p) {
+  auto isam = MakeIsam2();
+  for (const Step& s : Stream(p)) EXPECT_TRUE(isam->Update(s.factors, s.values).status.ok());
+  return isam;
+}
+
+class MarginalsParityTest : public ::testing::TestWithParam<int> {
+ protected:
+  ExampleProblem Problem() const {
+    // 0: planar with landmarks, 1: spatial, 2: another planar seed.
+    switch (GetParam()) {
+      case 0: return testing::MakePlanarProblem(40, 8, 11);
+      case 1: return testing::MakeSpatialProblem(30, 12);
+      default: return testing::MakePlanarProblem(25, 12, 13);
+    }
+  }
+};
+
+TEST_P(MarginalsParityTest, EveryVariableMarginalEqualsTheDenseInverse) {
+  auto isam = Solve(Problem());
+  const DenseReference ref = Dense(*isam);
+  BayesTreeMarginals marginals(&isam->tree());
+  marginals.ComputeAll();
+  EXPECT_EQ(marginals.stats().cliques_computed, isam->tree().NumCliques());
+  Eigen::MatrixXd cov;
+  for (int v = 0; v < static_cast<int>(ref.dims.size()); ++v) {
+    ASSERT_TRUE(marginals.Marginal(v, &cov).ok());
+    const int one[] = {v};
+    EXPECT_TRUE(RelativelyNear(cov, ref.Joint(one), 1e-9)) << "variable " << v;
+  }
+  // Fresh object, no ComputeAll: each query computes its own path.
+  BayesTreeMarginals lazy(&isam->tree());
+  for (int v = static_cast<int>(ref.dims.size()) - 1; v >= 0; --v) {
+    ASSERT_TRUE(lazy.Marginal(v, &cov).ok());
+    const int one[] = {v};
+    EXPECT_TRUE(RelativelyNear(cov, ref.Joint(one), 1e-9)) << "variable " << v;
+  }
+}
+
+TEST_P(MarginalsParityTest, JointMarginalsEqualTheDenseInverse) {
+  auto isam = Solve(Problem());
+  const BayesTree& tree = isam->tree();
+  const DenseReference ref = Dense(*isam);
+  const int n = static_cast<int>(ref.dims.size());
+  BayesTreeMarginals marginals(&tree);
+  Eigen::MatrixXd cov;
+  std::vector<std::vector<int>> sets;
+  // Pairs in different branches (neither clique an ancestor of the other).
+  int branch_pairs = 0;
+  for (int a = 0; a < n && branch_pairs < 6; ++a) {
+    for (int b = a + 1; b < n && branch_pairs < 6; b += 3) {
+      const int ca = tree.CliqueOf(a), cb = tree.CliqueOf(b);
+      if (!IsAncestorOrSelf(tree, ca, cb) && !IsAncestorOrSelf(tree, cb, ca)) {
+        sets.push_back({b, a});
+        ++branch_pairs;
+      }
+    }
+  }
+  ASSERT_GT(branch_pairs, 0) << "the tree has no two branches: the test would not test them";
+  // A clique's frontals plus separator (the cached fast path), from a deep clique.
+  for (int c : tree.TopDownOrder()) {
+    const Clique& cl = tree.clique(c);
+    if (cl.num_separator() >= 2) {
+      std::vector<int> s(cl.separator().begin(), cl.separator().end());
+      s.insert(s.begin() + 1, cl.frontal(0));
+      sets.push_back(s);
+    }
+  }
+  // Random sets of 2 to 6 variables.
+  std::mt19937 rng(7);
+  for (int t = 0; t < 20; ++t) {
+    std::vector<int> all(n);
+    for (int v = 0; v < n; ++v) all[v] = v;
+    std::shuffle(all.begin(), all.end(), rng);
+    all.resize(2 + t % 5);
+    sets.push_back(all);
+  }
+  sets.push_back({0, n - 1});
+  for (const auto& s : sets) {
+    ASSERT_TRUE(marginals.JointMarginal(s, &cov).ok());
+    EXPECT_TRUE(RelativelyNear(cov, ref.Joint(s), 1e-9)) << "set of " << s.size() << " starting at " << s[0];
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(PlanarSpatial, MarginalsParityTest, ::testing::Values(0, 1, 2));
+
+TEST(MarginalsTest, CachedResultsEqualAFreshComputationAfterEveryUpdate) {
+  for (int kind = 0; kind < 2; ++kind) {
+    const ExampleProblem p = kind == 0 ? testing::MakePlanarProblem(40, 8, 21) : testing::MakeSpatialProblem(30, 22);
+    auto isam = MakeIsam2();
+    BayesTreeMarginals cached(&isam->tree());
+    int reused_steps = 0;
+    const std::vector<Step> steps = Stream(p);
+    for (std::size_t i = 0; i < steps.size(); ++i) {
+      ASSERT_TRUE(isam->Update(steps[i].factors, steps[i].values).status.ok());
+      if (i % 3 == 0) {  // some steps skipped: the cache must notice changes it did not see
+        cached.ComputeAll();
+        if (cached.stats().cliques_computed < isam->tree().NumCliques()) ++reused_steps;
+      }
+      BayesTreeMarginals fresh(&isam->tree());
+      fresh.ComputeAll();
+      const int n = static_cast<int>(isam->linearization_point().size());
+      Eigen::MatrixXd a, b;
+      for (int v = 0; v < n; ++v) {
+        ASSERT_TRUE(cached.Marginal(v, &a).ok());
+        ASSERT_TRUE(fresh.Marginal(v, &b).ok());
+        // Reused joints may differ from fresh ones by round-off (MarginalsParams::reuse_tolerance).
+        ASSERT_TRUE(RelativelyNear(a, b, 1e-10)) << "step " << i << " variable " << v;
+      }
+      if (i + 1 == steps.size() || i % 7 == 0) {
+        const DenseReference ref = Dense(*isam);
+        for (int v = 0; v < n; ++v) {
+          ASSERT_TRUE(cached.Marginal(v, &a).ok());
+          const int one[] = {v};
+          ASSERT_TRUE(RelativelyNear(a, ref.Joint(one), 1e-9)) << "step " << i << " variable " << v;
+        }
+      }
+    }
+    EXPECT_GT(reused_steps, 0);
+  }
+}
+
+TEST(MarginalsTest, NewestPoseAfterAnOdometryStepTouchesOnlyThePathToTheRoot) {
+  const ExampleProblem p = testing::MakePlanarProblem(60, 0, 31);
+  auto isam = MakeIsam2();
+  BayesTreeMarginals marginals(&isam->tree());
+  Eigen::MatrixXd cov;
+  int max_checked = 0;
+  for (const Step& s : Stream(p)) {
+    ASSERT_TRUE(isam->Update(s.factors, s.values).status.ok());
+    const int newest = static_cast<int>(isam->linearization_point().size()) - 1;
+    ASSERT_TRUE(marginals.Marginal(newest, &cov).ok());
+    int depth = 0;
+    for (int x = isam->tree().CliqueOf(newest); x != BayesTree::kNone; x = isam->tree().clique(x).parent()) ++depth;
+    EXPECT_EQ(marginals.stats().cliques_checked, depth);
+    max_checked = std::max(max_checked, marginals.stats().cliques_checked);
+  }
+  EXPECT_LE(max_checked, 2);  // the newest pose is frontal in the root (constrained ordering)
+  const DenseReference ref = Dense(*isam);
+  const int newest = static_cast<int>(ref.dims.size()) - 1;
+  const int one[] = {newest};
+  EXPECT_TRUE(RelativelyNear(cov, ref.Joint(one), 1e-9));
+}
+
+TEST(MarginalsTest, InvalidateForcesRecomputationOfTheSubtree) {
+  auto isam = Solve(testing::MakePlanarProblem(30, 4, 41));
+  const BayesTree& tree = isam->tree();
+  BayesTreeMarginals marginals(&tree);
+  marginals.ComputeAll();
+  marginals.ComputeAll();
+  EXPECT_EQ(marginals.stats().cliques_computed, 0);
+  EXPECT_EQ(marginals.stats().cliques_checked, tree.NumCliques());
+  // The recomputed root is bit-identical, so its children keep their joints.
+  const int root[] = {tree.roots()[0]};
+  marginals.Invalidate(root);
+  marginals.ComputeAll();
+  EXPECT_EQ(marginals.stats().cliques_computed, 1);
+  EXPECT_EQ(marginals.stats().cliques_reused, static_cast<int>(tree.clique(root[0]).children().size()));
+  marginals.InvalidateAll();
+  marginals.ComputeAll();
+  EXPECT_EQ(marginals.stats().cliques_computed, tree.NumCliques());
+}
+
+TEST(MarginalsTest, BadQueriesReturnErrors) {
+  auto isam = Solve(testing::MakePlanarProblem(10, 2, 51));
+  BayesTreeMarginals marginals(&isam->tree());
+  Eigen::MatrixXd cov;
+  EXPECT_EQ(marginals.Marginal(1000, &cov).code(), StatusCode::kNotFound);
+  EXPECT_EQ(marginals.Marginal(-1, &cov).code(), StatusCode::kNotFound);
+  const int unknown[] = {0, 1000};
+  EXPECT_EQ(marginals.JointMarginal(unknown, &cov).code(), StatusCode::kNotFound);
+  const int twice[] = {3, 1, 3};
+  EXPECT_EQ(marginals.JointMarginal(twice, &cov).code(), StatusCode::kInvalidArgument);
+  Isam2Marginals by_key(isam.get());
+  EXPECT_EQ(by_key.Marginal(MakeKey('q', 0), Isam2Marginals::Frame::kEstimate, &cov).code(),
+            StatusCode::kNotFound);
+}
+
+// J = ∂ Local(E, θ ⊕ (δ + ε)) / ∂ε at 0, by central differences of the charts themselves.
+Eigen::MatrixXd NumericalEstimateJacobian(const Variable& theta, const Eigen::VectorXd& delta) {
+  Variable estimate = theta;
+  RetractInPlace(&estimate, delta.data());
+  return testing::NumericalJacobian(
+      [&](const Eigen::VectorXd& eps) {
+        Variable moved = theta;
+        const Eigen::VectorXd d = delta + eps;
+        RetractInPlace(&moved, d.data());
+        return LocalCoordinates(estimate, moved);
+      },
+      Eigen::VectorXd::Zero(delta.size()));
+}
+
+TEST(MarginalsTest, EstimateTangentJacobianMatchesNumericalDifferentiationOfTheChart) {
+  std::mt19937 rng(61);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  for (int t = 0; t < 20; ++t) {
+    const double scale = t < 10 ? 0.05 : 0.8;  // small (typical δ) and large updates
+    std::vector<Variable> thetas = {
+        Pose2(n01(rng), n01(rng), 3.0 * n01(rng)),
+        Pose3(Rot3::FromRollPitchYaw(n01(rng), n01(rng), n01(rng)), Point3(n01(rng), n01(rng), n01(rng))),
+        Point2(n01(rng), n01(rng)), Point3(n01(rng), n01(rng), n01(rng))};
+    for (const Variable& theta : thetas) {
+      const int d = TangentDim(TypeOf(theta));
+      Eigen::VectorXd delta(d);
+      for (int k = 0; k < d; ++k) delta[k] = scale * n01(rng);
+      Variable estimate = theta;
+      RetractInPlace(&estimate, delta.data());
+      const Eigen::MatrixXd J = EstimateTangentJacobian(theta, estimate);
+      const Eigen::MatrixXd expected = NumericalEstimateJacobian(theta, delta);
+      EXPECT_LT((J - expected).cwiseAbs().maxCoeff(), 1e-7) << VariableTypeName(TypeOf(theta)) << "\n"
+                                                             << J << "\nvs\n" << expected;
+    }
+  }
+}
+
+TEST(MarginalsTest, Isam2MarginalsConvertToTheEstimateTangent) {
+  for (int kind = 0; kind < 2; ++kind) {
+    const ExampleProblem p = kind == 0 ? testing::MakePlanarProblem(20, 4, 71) : testing::MakeSpatialProblem(16, 72);
+    auto isam = MakeIsam2();
+    // Relinearise rarely so that δ ≠ 0 at the end.
+    for (const Step& s : Stream(p)) ASSERT_TRUE(isam->Update(s.factors, s.values).status.ok());
+    const Values& theta = isam->linearization_point();
+    const Values estimate = isam->CalculateEstimate();
+    const DenseReference ref = Dense(*isam);
+    Isam2Marginals marginals(isam.get());
+    marginals.ComputeAll();
+    Eigen::MatrixXd cov;
+    for (int v = 0; v < static_cast<int>(theta.size()); ++v) {
+      const Key key = theta.KeyAt(v);
+      const int one[] = {v};
+      ASSERT_TRUE(marginals.Marginal(key, Isam2Marginals::Frame::kLinearizationPoint, &cov).ok());
+      EXPECT_TRUE(RelativelyNear(cov, ref.Joint(one), 1e-9));
+      ASSERT_TRUE(marginals.Marginal(key, Isam2Marginals::Frame::kEstimate, &cov).ok());
+      const Eigen::MatrixXd J = NumericalEstimateJacobian(theta.VariableAt(v), LocalCoordinates(theta.VariableAt(v), estimate.VariableAt(v)));
+      EXPECT_TRUE(RelativelyNear(cov, J * ref.Joint(one) * J.transpose(), 1e-6));
+    }
+    // A joint at the estimate: blockdiag(J) Σ blockdiag(J)ᵀ.
+    const int n = static_cast<int>(theta.size());
+    const int vars[] = {n - 1, 0, n / 2};
+    const Key keys[] = {theta.KeyAt(n - 1), theta.KeyAt(0), theta.KeyAt(n / 2)};
+    ASSERT_TRUE(marginals.JointMarginal(keys, Isam2Marginals::Frame::kEstimate, &cov).ok());
+    int total = 0;
+    for (int v : vars) total += ref.dims[v];
+    Eigen::MatrixXd D = Eigen::MatrixXd::Zero(total, total);
+    int o = 0;
+    for (int v : vars) {
+      D.block(o, o, ref.dims[v], ref.dims[v]) = EstimateTangentJacobian(theta.VariableAt(v), estimate.VariableAt(v));
+      o += ref.dims[v];
+    }
+    EXPECT_TRUE(RelativelyNear(cov, D * ref.Joint(vars) * D.transpose(), 1e-9));
+  }
+}
+
+}  // namespace
+}  // namespace slamd::core
