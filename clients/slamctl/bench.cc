@@ -109,6 +109,15 @@ void RegisterBench(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--step-times", opt->step_times,
                   "isam2: write one line per step (index,pose,ms,relinearized,reeliminated) to this CSV file");
+  cmd->add_option("--marginals", opt->marginals,
+                  "isam2: after every step compute the newest pose's marginal covariance (latest) "
+                  "or every variable's (all), timed apart from the step")
+      ->check(CLI::IsMember({"none", "latest", "all"}))
+      ->capture_default_str();
+  cmd->add_option("--marginals-every", opt->marginals_every,
+                  "isam2 --marginals all: only every K steps")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   cmd->add_flag("--compare-batch", opt->compare_batch,
                 "isam2: also solve the final graph in batch and report batch_chi2");
   cmd->add_option("--settle", opt->settle_s,

@@ -27,6 +27,8 @@ struct BenchOptions {
   bool compare_batch = false;
   double settle_s = 0.0;
   std::string step_times;  // CSV of per-step times (isam2)
+  std::string marginals = "none";  // isam2: none, latest or all
+  int marginals_every = 1;
 };
 
 // Peak resident memory of this process so far.

@@ -14,6 +14,7 @@
 #include "core/batch/batch_solver.h"
 #include "core/io/dataset_stream.h"
 #include "core/isam/isam2.h"
+#include "core/marginals/marginals.h"
 
 namespace slamd::clients::bench {
 namespace {
@@ -36,8 +37,11 @@ void RunIsam2(const BenchOptions& opt) {
   if (!created.ok()) Fail(kExitUsage, created.status().message());
   core::Isam2& isam = **created;
 
-  std::vector<double> step_ms;
+  std::vector<double> step_ms, marginal_ms;
   step_ms.reserve(steps.size());
+  core::Isam2Marginals marginals(&isam);
+  using Frame = core::Isam2Marginals::Frame;
+  Eigen::MatrixXd cov;
   long long relinearized = 0, reeliminated = 0;
   std::string worst_step;  // Isam2Result::Brief() of the slowest step
   std::FILE* csv = nullptr;
@@ -72,6 +76,16 @@ void RunIsam2(const BenchOptions& opt) {
       std::fprintf(csv, "%zu,%s,%.6f,%d,%d\n", step_ms.size() - 1, core::KeyToString(step.pose).c_str(),
                    step_ms.back(), r.relinearized_variables, r.reeliminated_variables);
     }
+    if (opt.marginals != "none" && step_ms.size() % opt.marginals_every == 0) {
+      core::Stopwatch marginal_timer;
+      if (opt.marginals == "latest") {
+        const core::Status s = marginals.Marginal(step.pose, Frame::kEstimate, &cov);
+        if (!s.ok()) Fail(kExitFailure, "marginal of " + core::KeyToString(step.pose) + ": " + s.ToString());
+      } else {
+        marginals.ComputeAll();
+      }
+      marginal_ms.push_back(marginal_timer.Seconds() * 1e3);
+    }
     relinearized += r.relinearized_variables;
     reeliminated += r.reeliminated_variables;
   }
@@ -85,6 +99,19 @@ void RunIsam2(const BenchOptions& opt) {
     if (!refined.status.ok()) Fail(kExitFailure, "settling: " + refined.status.ToString());
     settle_used_s = refined.seconds;
     final_chi2 = isam.Chi2();
+  }
+  // Every variable's marginal once at the end, from scratch (a fresh cache), in the estimate's
+  // tangent space.
+  double marginals_final_all_ms = 0.0;
+  if (opt.marginals != "none") {
+    core::Stopwatch timer;
+    core::Isam2Marginals fresh(&isam);
+    fresh.ComputeAll();
+    for (core::Key key : isam.linearization_point().keys()) {
+      const core::Status s = fresh.CachedMarginal(key, Frame::kEstimate, &cov);
+      if (!s.ok()) Fail(kExitFailure, "marginal of " + core::KeyToString(key) + ": " + s.ToString());
+    }
+    marginals_final_all_ms = timer.Seconds() * 1e3;
   }
   double batch_chi2 = -1.0;
   if (opt.compare_batch) {
@@ -125,6 +152,14 @@ void RunIsam2(const BenchOptions& opt) {
         .Add("worst_step", worst_step)
         .Add("peak_rss_mb", PeakRssMb());
     if (opt.compare_batch) out.Add("batch_chi2", batch_chi2);
+    if (opt.marginals != "none") {
+      JsonWriter mm;
+      mm.Add("p50", Percentile(marginal_ms, 0.5))
+          .Add("p90", Percentile(marginal_ms, 0.9))
+          .Add("p99", Percentile(marginal_ms, 0.99))
+          .Add("max", marginal_ms.empty() ? 0.0 : *std::max_element(marginal_ms.begin(), marginal_ms.end()));
+      out.Add("marginals", opt.marginals).Add("marginal_ms", mm).Add("marginals_final_all_ms", marginals_final_all_ms);
+    }
     std::printf("%s\n", out.str().c_str());
   } else {
     std::printf("%s: %zu poses, %zu landmarks, %zu factors, %zu steps\n", opt.dataset.c_str(),
@@ -135,6 +170,11 @@ void RunIsam2(const BenchOptions& opt) {
     std::printf("chi2 %.9g after the last step, %.9g final (settled %.3f s)%s\n", chi2_before_settle,
                 final_chi2, settle_used_s, opt.compare_batch ? "" : "");
     if (opt.compare_batch) std::printf("batch chi2 of the final graph: %.9g\n", batch_chi2);
+    if (opt.marginals != "none") {
+      std::printf("marginals (%s) ms per step p50 %.4f, p99 %.4f; all marginals at the end %.2f ms\n",
+                  opt.marginals.c_str(), Percentile(marginal_ms, 0.5), Percentile(marginal_ms, 0.99),
+                  marginals_final_all_ms);
+    }
     std::printf("slowest step %s\n", worst_step.c_str());
     std::printf("relinearized %lld variables, re-eliminated %lld; peak RSS %.1f MB\n", relinearized,
                 reeliminated, PeakRssMb());

@@ -446,16 +446,32 @@ void BayesTreeMarginals::JointBySolving(std::span<const int> vars, Eigen::Matrix
 
 Isam2Marginals::Isam2Marginals(const Isam2* isam) : isam_(isam), marginals_(&isam->tree()) {}
 
+namespace {
+
+// Σ ← J Σ Jᵀ: the covariance of `slot` moved from θ's tangent space to the estimate's.
+void ToEstimateFrame(const Isam2& isam, int slot, Eigen::MatrixXd* cov) {
+  const Values& theta = isam.linearization_point();
+  const TangentMatrix J =
+      EstimateTangentJacobian(theta.VariableAt(slot), isam.CalculateEstimate(theta.KeyAt(slot)));
+  const TangentMatrix JS = J * (*cov);
+  cov->noalias() = JS * J.transpose();
+}
+
+}  // namespace
+
 Status Isam2Marginals::Marginal(Key key, Frame frame, Eigen::MatrixXd* cov) {
-  const Values& theta = isam_->linearization_point();
-  const int slot = theta.SlotOf(key);
+  const int slot = isam_->linearization_point().SlotOf(key);
   if (slot < 0) return NotFound("no variable " + KeyToString(key));
   SLAMD_RETURN_IF_ERROR(marginals_.Marginal(slot, cov));
-  if (frame == Frame::kEstimate) {
-    const TangentMatrix J = EstimateTangentJacobian(theta.VariableAt(slot), isam_->CalculateEstimate(key));
-    const TangentMatrix JS = J * (*cov);
-    cov->noalias() = JS * J.transpose();
-  }
+  if (frame == Frame::kEstimate) ToEstimateFrame(*isam_, slot, cov);
+  return Status::Ok();
+}
+
+Status Isam2Marginals::CachedMarginal(Key key, Frame frame, Eigen::MatrixXd* cov) const {
+  const int slot = isam_->linearization_point().SlotOf(key);
+  if (slot < 0) return NotFound("no variable " + KeyToString(key));
+  SLAMD_RETURN_IF_ERROR(marginals_.CachedMarginal(slot, cov));
+  if (frame == Frame::kEstimate) ToEstimateFrame(*isam_, slot, cov);
   return Status::Ok();
 }
 

@@ -187,6 +187,10 @@ class Isam2Marginals {
   // NotFound for an unknown key.
   Status Marginal(Key key, Frame frame, Eigen::MatrixXd* cov);
   Status JointMarginal(std::span<const Key> keys, Frame frame, Eigen::MatrixXd* cov);
+  // Reads the cache without checking it: valid right after ComputeAll() and before the solver
+  // changes (reading every variable this way costs O(n), not O(n · depth)). NotFound for an
+  // unknown key.
+  Status CachedMarginal(Key key, Frame frame, Eigen::MatrixXd* cov) const;
 
   BayesTreeMarginals& tree_marginals() { return marginals_; }
 

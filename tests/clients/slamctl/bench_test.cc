@@ -64,6 +64,17 @@ TEST(BenchTest, Isam2JsonHasStepPercentilesAndSettles) {
   EXPECT_NE(bad.out.find("relinearization.skip"), std::string::npos) << bad.out;
 }
 
+TEST(BenchTest, Isam2MarginalsAreTimed) {
+  for (const char* mode : {"latest", "all"}) {
+    const CommandRun r = Slamctl("bench " + testing::TestDataPath("small_slam2d.g2o") +
+                                 " --solver isam2 --json --marginals " + mode);
+    ASSERT_EQ(r.exit_code, 0) << r.out;
+    EXPECT_NE(r.out.find(std::string("\"marginals\": \"") + mode + "\""), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("\"marginal_ms\": {\"p50\""), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("\"marginals_final_all_ms\""), std::string::npos) << r.out;
+  }
+}
+
 TEST(BenchTest, HumanSummaryAndOutputFile) {
   const std::string out = testing::WriteTempFile("solved.g2o", "");
   const CommandRun r = Slamctl("bench " + testing::TestDataPath("small_slam2d.g2o") + " -o " + out);
