@@ -5,6 +5,44 @@
 
 namespace slamd::core {
 
+namespace {
+
+// t ← R⁻¹ (t − S xs) for [R S d] stored column-major with nf rows (cond). kNf > 0 fixes nf at
+// compile time so the short column loops unroll; 0 means runtime nf.
+template <int kNf>
+void SolveSmall(const double* __restrict cond, int nf_runtime, int ns, const double* __restrict xs,
+                double* __restrict tp) {
+  const int nf = kNf > 0 ? kNf : nf_runtime;
+  // Four columns of S per pass over t; every t[i] still gets its updates in column order.
+  int c = 0;
+  for (; c + 4 <= ns; c += 4) {
+    const double* s0 = cond + static_cast<size_t>(nf + c) * nf;
+    const double *s1 = s0 + nf, *s2 = s1 + nf, *s3 = s2 + nf;
+    const double x0 = xs[c], x1 = xs[c + 1], x2 = xs[c + 2], x3 = xs[c + 3];
+    for (int i = 0; i < nf; ++i) {
+      double v = tp[i];
+      v -= s0[i] * x0;
+      v -= s1[i] * x1;
+      v -= s2[i] * x2;
+      v -= s3[i] * x3;
+      tp[i] = v;
+    }
+  }
+  for (; c < ns; ++c) {
+    const double* s_col = cond + static_cast<size_t>(nf + c) * nf;
+    const double x = xs[c];
+    for (int i = 0; i < nf; ++i) tp[i] -= s_col[i] * x;
+  }
+  for (int j = nf - 1; j >= 0; --j) {  // column-oriented back-substitution
+    const double* r_col = cond + static_cast<size_t>(j) * nf;
+    tp[j] /= r_col[j];
+    const double x = tp[j];
+    for (int i = 0; i < j; ++i) tp[i] -= r_col[i] * x;
+  }
+}
+
+}  // namespace
+
 std::vector<int> StackedOffsets(std::span<const int> var_dims) {
   std::vector<int> offsets(var_dims.size() + 1, 0);
   for (size_t v = 0; v < var_dims.size(); ++v) offsets[v + 1] = offsets[v] + var_dims[v];
@@ -29,17 +67,18 @@ double SolveClique(const Clique& clique, std::span<const int> var_offsets, Eigen
   t = clique.d();
   if (nf <= kSmall) {
     const double* cond = clique.conditional().data();
-    double* tp = t.data();
-    for (int c = 0; c < ns; ++c) {
-      const double* s_col = cond + static_cast<size_t>(nf + c) * nf;
-      const double x = xs(c);
-      for (int i = 0; i < nf; ++i) tp[i] -= s_col[i] * x;
-    }
-    for (int j = nf - 1; j >= 0; --j) {  // column-oriented back-substitution
-      const double* r_col = cond + static_cast<size_t>(j) * nf;
-      tp[j] /= r_col[j];
-      const double x = tp[j];
-      for (int i = 0; i < j; ++i) tp[i] -= r_col[i] * x;
+    switch (nf) {  // compile-time sizes for the common single-pose cliques
+      case 3:
+        SolveSmall<3>(cond, nf, ns, xs.data(), t.data());
+        break;
+      case 6:
+        SolveSmall<6>(cond, nf, ns, xs.data(), t.data());
+        break;
+      case 12:
+        SolveSmall<12>(cond, nf, ns, xs.data(), t.data());
+        break;
+      default:
+        SolveSmall<0>(cond, nf, ns, xs.data(), t.data());
     }
   } else {
     if (ns > 0) t.noalias() -= clique.S() * xs;

@@ -6,6 +6,18 @@ namespace slamd::core {
 
 void Clique::Reset(std::span<const int> frontals, std::span<const int> frontal_dims,
                    std::span<const int> separator, std::span<const int> separator_dims) {
+  ResetImpl(frontals, frontal_dims, separator, separator_dims, /*zero_cached=*/true);
+}
+
+void Clique::ResetForElimination(std::span<const int> frontals, std::span<const int> frontal_dims,
+                                 std::span<const int> separator,
+                                 std::span<const int> separator_dims) {
+  ResetImpl(frontals, frontal_dims, separator, separator_dims, /*zero_cached=*/false);
+}
+
+void Clique::ResetImpl(std::span<const int> frontals, std::span<const int> frontal_dims,
+                       std::span<const int> separator, std::span<const int> separator_dims,
+                       bool zero_cached) {
   SLAMD_DCHECK(!frontals.empty() && frontals.size() == frontal_dims.size())
       << "Clique::Reset: bad frontals";
   num_frontals_ = static_cast<int>(frontals.size());
@@ -18,7 +30,11 @@ void Clique::Reset(std::span<const int> frontals, std::span<const int> frontal_d
     offset += frontal_dims[k];
   }
   index_[2 * num_frontals_] = offset;
-  cached_.Reset(separator, separator_dims);
+  if (zero_cached) {
+    cached_.Reset(separator, separator_dims);
+  } else {
+    cached_.Reshape(separator, separator_dims);
+  }
   AssignReusingStorage(&conditional_, static_cast<size_t>(offset) * (offset + cached_.Dim() + 1), 0.0);
 }
 

@@ -85,10 +85,18 @@ class Clique {
   // Does not touch the tree links.
   void Reset(std::span<const int> frontals, std::span<const int> frontal_dims,
              std::span<const int> separator, std::span<const int> separator_dims);
+  // As Reset, but the cached factor's entries are left unspecified (elimination overwrites all
+  // of them); [R S d] is still zeroed.
+  void ResetForElimination(std::span<const int> frontals, std::span<const int> frontal_dims,
+                           std::span<const int> separator, std::span<const int> separator_dims);
 
  private:
   friend class BayesTree;
   friend class BayesTreeTestPeer;  // tests corrupt links to exercise CheckConsistency
+
+  void ResetImpl(std::span<const int> frontals, std::span<const int> frontal_dims,
+                 std::span<const int> separator, std::span<const int> separator_dims,
+                 bool zero_cached);
 
   int num_frontals_ = 0;
   std::vector<int> index_ = {0};     // [frontal ids (nf) | frontal offsets (nf + 1)]

@@ -2,6 +2,7 @@
 
 #include "core/base/storage.h"
 
+#include <algorithm>
 #include <array>
 #include <string>
 
@@ -58,18 +59,29 @@ HessianFactor HessianFactor::FromJacobian(const JacobianFactor& jacobian) {
 }
 
 void HessianFactor::Reset(std::span<const int> vars, std::span<const int> dims) {
-  SLAMD_DCHECK(vars.size() == dims.size()) << "HessianFactor::Reset: size mismatch";
+  Reshape(vars, dims);
+  std::fill(data_.begin(), data_.end(), 0.0);
+}
+
+void HessianFactor::Reshape(std::span<const int> vars, std::span<const int> dims) {
+  SLAMD_DCHECK(vars.size() == dims.size()) << "HessianFactor::Reshape: size mismatch";
   num_vars_ = static_cast<int>(vars.size());
   index_.resize(2 * vars.size() + 1);
   int offset = 0;
   for (int k = 0; k < num_vars_; ++k) {
-    SLAMD_DCHECK(vars[k] >= 0 && dims[k] >= 1) << "HessianFactor::Reset: bad variable";
+    SLAMD_DCHECK(vars[k] >= 0 && dims[k] >= 1) << "HessianFactor::Reshape: bad variable";
     index_[k] = vars[k];
     index_[num_vars_ + k] = offset;
     offset += dims[k];
   }
   index_[2 * num_vars_] = offset;
-  AssignReusingStorage(&data_, static_cast<size_t>(offset + 1) * (offset + 1) + offset, 0.0);
+  // Same capacity policy as AssignReusingStorage (core/base/storage.h), without the fill.
+  const size_t n = static_cast<size_t>(offset + 1) * (offset + 1) + offset;
+  if (data_.capacity() > 4 * n && data_.capacity() * sizeof(double) > 8192) {
+    std::vector<double>(n).swap(data_);
+  } else {
+    data_.resize(n);
+  }
 }
 
 void HessianFactor::SetReferenceToDiagonal() {

@@ -45,6 +45,9 @@ class HessianFactor {
   // Sets the variables and zeroes info and reference. Preconditions as Create (SLAMD_DCHECK only:
   // used on the elimination hot path with ids it already validated). Reuses capacity.
   void Reset(std::span<const int> vars, std::span<const int> dims);
+  // As Reset but leaves info and reference unspecified: for callers that overwrite every entry
+  // (elimination writes the whole cached factor), saving a pass over the storage.
+  void Reshape(std::span<const int> vars, std::span<const int> dims);
 
   int num_vars() const { return num_vars_; }
   std::span<const int> vars() const { return {index_.data(), static_cast<size_t>(num_vars_)}; }

@@ -12,29 +12,95 @@ namespace {
 constexpr int kUnblockedMaxSize = 64;
 constexpr int kPanel = 32;
 
+// Applies columns x[0..w) (already final L columns, with multipliers a[q] = x[q][c]) to column c
+// of the lower triangle, rows [c, n). Each entry receives the updates in increasing column order,
+// exactly as w successive rank-1 updates would, so the result is bitwise the same; one pass over
+// the target column instead of w saves loads/stores.
+inline void UpdateColumn(double* col_c, int c, int n, const double* const* x, const double* a,
+                         int w) {
+  bool all_nonzero = true;
+  for (int q = 0; q < w; ++q) all_nonzero = all_nonzero && a[q] != 0.0;
+  if (w == 4 && all_nonzero) {
+    const double *x0 = x[0], *x1 = x[1], *x2 = x[2], *x3 = x[3];
+    const double a0 = a[0], a1 = a[1], a2 = a[2], a3 = a[3];
+    for (int i = c; i < n; ++i) {
+      double v = col_c[i];
+      v -= a0 * x0[i];
+      v -= a1 * x1[i];
+      v -= a2 * x2[i];
+      v -= a3 * x3[i];
+      col_c[i] = v;
+    }
+    return;
+  }
+  if (w == 3 && all_nonzero) {
+    const double *x0 = x[0], *x1 = x[1], *x2 = x[2];
+    const double a0 = a[0], a1 = a[1], a2 = a[2];
+    for (int i = c; i < n; ++i) {
+      double v = col_c[i];
+      v -= a0 * x0[i];
+      v -= a1 * x1[i];
+      v -= a2 * x2[i];
+      col_c[i] = v;
+    }
+    return;
+  }
+  if (w == 2 && all_nonzero) {
+    const double *x0 = x[0], *x1 = x[1];
+    const double a0 = a[0], a1 = a[1];
+    for (int i = c; i < n; ++i) {
+      double v = col_c[i];
+      v -= a0 * x0[i];
+      v -= a1 * x1[i];
+      col_c[i] = v;
+    }
+    return;
+  }
+  for (int q = 0; q < w; ++q) {
+    if (a[q] == 0.0) continue;  // structural zeros are common (sparse separator couplings)
+    const double* xq = x[q];
+    const double aq = a[q];
+    for (int i = c; i < n; ++i) col_c[i] -= aq * xq[i];
+  }
+}
+
 // Eliminates columns [c0, c1) of M, updating only columns [c0, update_end) of the trailing
-// lower triangle (rows down to n). Returns the failing column or -1.
+// lower triangle (rows down to n). Returns the failing column or -1. Columns are factored in
+// groups of kGroup; the columns right of a group get the group's updates in one pass.
 inline int EliminateColumns(double* M, int n, int ld, int c0, int c1, int update_end, double* ref,
                             double tol) {
-  for (int j = c0; j < c1; ++j) {
-    double* col_j = M + static_cast<long>(j) * ld;
-    const double pivot = col_j[j];
-    if (!(pivot > tol * ref[j])) return j;  // also catches NaN
-    const double l = std::sqrt(pivot);
-    col_j[j] = l;
-    const double inv = 1.0 / l;
-    // Scale column j (L_tj), and propagate the error bound: ref[t] += ref[j] (L_tj / L_jj)².
-    const double weight = ref[j] * inv * inv;
-    for (int i = j + 1; i < n; ++i) {
-      col_j[i] *= inv;
-      ref[i] += weight * col_j[i] * col_j[i];
+  constexpr int kGroup = 4;
+  for (int j0 = c0; j0 < c1; j0 += kGroup) {
+    const int j1 = std::min(c1, j0 + kGroup);
+    const double* x[kGroup];
+    for (int j = j0; j < j1; ++j) {
+      double* col_j = M + static_cast<long>(j) * ld;
+      const double pivot = col_j[j];
+      if (!(pivot > tol * ref[j])) return j;  // also catches NaN
+      const double l = std::sqrt(pivot);
+      col_j[j] = l;
+      const double inv = 1.0 / l;
+      // Scale column j (L_tj), and propagate the error bound: ref[t] += ref[j] (L_tj / L_jj)².
+      const double weight = ref[j] * inv * inv;
+      for (int i = j + 1; i < n; ++i) {
+        col_j[i] *= inv;
+        ref[i] += weight * col_j[i] * col_j[i];
+      }
+      x[j - j0] = col_j;
+      // Rank-1 update of the rest of the group only.
+      for (int c = j + 1; c < j1; ++c) {
+        const double a = col_j[c];
+        if (a == 0.0) continue;
+        double* col_c = M + static_cast<long>(c) * ld;
+        for (int i = c; i < n; ++i) col_c[i] -= a * col_j[i];
+      }
     }
-    // Rank-1 update of the lower triangle of columns (j, update_end).
-    for (int c = j + 1; c < update_end; ++c) {
-      const double a = col_j[c];
-      if (a == 0.0) continue;  // structural zeros are common (sparse separator couplings)
-      double* col_c = M + static_cast<long>(c) * ld;
-      for (int i = c; i < n; ++i) col_c[i] -= a * col_j[i];
+    // The group's update of the lower triangle of columns [j1, update_end).
+    const int w = j1 - j0;
+    for (int c = j1; c < update_end; ++c) {
+      double a[kGroup];
+      for (int q = 0; q < w; ++q) a[q] = x[q][c];
+      UpdateColumn(M + static_cast<long>(c) * ld, c, n, x, a, w);
     }
   }
   return -1;

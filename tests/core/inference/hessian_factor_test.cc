@@ -75,5 +75,25 @@ TEST(HessianFactorTest, ResetReusesStorage) {
   EXPECT_EQ(h.reference().cwiseAbs().maxCoeff(), 0.0);
 }
 
+TEST(HessianFactorTest, ReshapeSetsTheShapeLikeResetAndReusesStorage) {
+  HessianFactor h;
+  h.Reshape(std::vector<int>{4, 2, 9}, std::vector<int>{3, 6, 1});
+  EXPECT_EQ(h.num_vars(), 3);
+  EXPECT_EQ(h.var(1), 2);
+  EXPECT_EQ(h.offset(2), 9);
+  EXPECT_EQ(h.Dim(), 10);
+  EXPECT_EQ(h.info().rows(), 11);
+  EXPECT_EQ(h.reference().size(), 10);
+  const double* storage = h.data();
+  h.Reshape(std::vector<int>{1}, std::vector<int>{6});
+  EXPECT_EQ(h.data(), storage);  // smaller: capacity kept
+  EXPECT_EQ(h.Dim(), 6);
+  EXPECT_EQ(h.info().rows(), 7);
+  // Reset after Reshape still zeroes everything.
+  h.mutable_info().setOnes();
+  h.Reset(std::vector<int>{1}, std::vector<int>{6});
+  EXPECT_EQ(h.info().cwiseAbs().maxCoeff(), 0.0);
+}
+
 }  // namespace
 }  // namespace slamd::core
