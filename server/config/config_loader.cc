@@ -1,0 +1,187 @@
+#include "server/config/config_loader.h"
+
+#include <google/protobuf/descriptor.h>
+#include <google/protobuf/io/tokenizer.h>
+#include <google/protobuf/text_format.h>
+
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "slamd_proto/config.pb.h"
+
+namespace slamd::server {
+namespace {
+
+namespace pb = google::protobuf;
+
+// Keeps the first parse error with its position (protobuf reports 0-based lines and columns).
+class FirstError : public pb::io::ErrorCollector {
+ public:
+  void AddError(int line, pb::io::ColumnNumber column, const std::string& message) override {
+    if (message_.empty()) {
+      message_ = std::to_string(line + 1) + ":" + std::to_string(column + 1) + ": " + message;
+    }
+  }
+  const std::string& message() const { return message_; }
+
+ private:
+  std::string message_;
+};
+
+// "line:col: " of the field at dotted `path` ("queue.depth") in the parsed text, or "" when the
+// text did not set it (then its value came from the defaults).
+std::string LocationOf(const std::string& path, const pb::TextFormat::ParseInfoTree* tree) {
+  const pb::Descriptor* message = proto::ServerConfig::descriptor();
+  std::stringstream parts(path);
+  std::string part;
+  std::vector<std::string> names;
+  while (std::getline(parts, part, '.')) names.push_back(part);
+  for (size_t i = 0; i < names.size() && tree != nullptr && message != nullptr; ++i) {
+    const pb::FieldDescriptor* field = message->FindFieldByName(names[i]);
+    if (field == nullptr) return "";
+    if (i + 1 == names.size()) {
+      const pb::TextFormat::ParseLocation loc = tree->GetLocation(field, -1);
+      if (loc.line < 0) return "";
+      return std::to_string(loc.line + 1) + ":" + std::to_string(loc.column + 1) + ": ";
+    }
+    tree = tree->GetTreeForNested(field, -1);
+    message = field->message_type();
+  }
+  return "";
+}
+
+// Copies every set field of `config` over the defaults in *p.
+void Apply(const proto::ServerConfig& config, ServerParams* p) {
+  if (config.has_lcm_url()) p->lcm_url = config.lcm_url();
+  if (config.has_channel_prefix()) p->channel_prefix = config.channel_prefix();
+  if (config.has_data_dir()) p->data_dir = config.data_dir();
+  if (config.has_log_level()) p->log_level = config.log_level();
+  if (config.has_log_file()) p->log_file = config.log_file();
+  const proto::QueueConfig& q = config.queue();
+  if (q.has_depth()) p->queue.depth = q.depth();
+  if (q.has_block_timeout_s()) p->queue.block_timeout_s = q.block_timeout_s();
+  const proto::PublishConfig& pub = config.publish();
+  if (pub.has_status_rate_hz()) p->publish.status_rate_hz = pub.status_rate_hz();
+  if (pub.has_map_rate_hz()) p->publish.map_rate_hz = pub.map_rate_hz();
+  const proto::RefineConfig& r = config.refine();
+  if (r.has_enabled()) p->refine.enabled = r.enabled();
+  if (r.has_budget_s()) p->refine.budget_s = r.budget_s();
+  const proto::Isam2Config& i = config.isam2();
+  const proto::Isam2Config::Relinearization& rl = i.relinearization();
+  if (rl.has_rotation_threshold())
+    p->isam2.relinearization.rotation_threshold = rl.rotation_threshold();
+  if (rl.has_translation_threshold())
+    p->isam2.relinearization.translation_threshold = rl.translation_threshold();
+  if (rl.has_skip()) p->isam2.relinearization.skip = rl.skip();
+  if (rl.has_max_variables()) p->isam2.relinearization.max_variables = rl.max_variables();
+  if (i.has_wildfire_threshold()) p->isam2.wildfire_threshold = i.wildfire_threshold();
+  if (i.has_refine_threshold()) p->isam2.refine_threshold = i.refine_threshold();
+  if (i.has_batch_every()) p->isam2.batch_every = i.batch_every();
+  const proto::EstimatorConfig& e = config.estimator();
+  if (e.has_new_robot_anchor()) {
+    p->estimator.new_robot_anchor = static_cast<AnchorPolicy>(e.new_robot_anchor());
+  }
+  if (e.has_anchor_sigma()) p->estimator.anchor_sigma = e.anchor_sigma();
+  if (e.has_max_held_messages()) p->estimator.max_held_messages = e.max_held_messages();
+  if (e.has_max_hold_updates()) p->estimator.max_hold_updates = e.max_hold_updates();
+}
+
+std::string Quote(const std::string& s) { return "\"" + s + "\""; }
+
+std::string Num(double v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
+}  // namespace
+
+core::Result<ServerParams> ParseConfigText(const std::string& text, const std::string& source) {
+  proto::ServerConfig config;
+  FirstError errors;
+  pb::TextFormat::ParseInfoTree tree;
+  pb::TextFormat::Parser parser;
+  parser.RecordErrorsTo(&errors);
+  parser.WriteLocationsTo(&tree);
+  if (!parser.ParseFromString(text, &config)) {
+    return core::InvalidArgument(source + ":" + errors.message());
+  }
+  ServerParams params;
+  Apply(config, &params);
+  const core::Status valid = params.Validate();
+  if (!valid.ok()) {
+    const std::string& m = valid.message();
+    const std::string location = LocationOf(m.substr(0, m.find_first_of(" ")), &tree);
+    return core::InvalidArgument(source + ":" + location + m);
+  }
+  return params;
+}
+
+core::Result<ServerParams> LoadConfigFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return core::NotFound("cannot open config file " + path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) return core::IoError("cannot read config file " + path);
+  return ParseConfigText(text.str(), path);
+}
+
+std::string DefaultConfigText() {
+  const ServerParams d;
+  const core::Isam2Params::Relinearization& rl = d.isam2.relinearization;
+  std::ostringstream out;
+  out << "# slamd configuration (protobuf text format, schema msgs/proto/config.proto).\n"
+      << "# Every value below is the default; delete a line to keep the default.\n"
+      << "# Flags override: --lcm-url, --data-dir, --channel-prefix, --log-level.\n\n"
+      << "lcm_url: " << Quote(d.lcm_url) << "  # LCM URL; \"memq://\" = in-process\n"
+      << "channel_prefix: " << Quote(d.channel_prefix) << "  # 1..40 chars of [A-Za-z0-9_]\n"
+      << "data_dir: " << Quote(d.data_dir) << "  # journal and snapshots (issue 7; unused)\n"
+      << "log_level: " << Quote(d.log_level) << "  # trace debug info warn error critical off\n"
+      << "log_file: " << Quote(d.log_file) << "  # \"\" = console only\n\n"
+      << "queue {\n"
+      << "  depth: " << d.queue.depth << "  # ingest queue bound [messages], 1..1e7\n"
+      << "  block_timeout_s: " << Num(d.queue.block_timeout_s)
+      << "  # a full queue blocks intake this long, then rejects [s], 0..10\n"
+      << "}\n\n"
+      << "publish {\n"
+      << "  status_rate_hz: " << Num(d.publish.status_rate_hz) << "  # status_t [Hz], 0 = never\n"
+      << "  map_rate_hz: " << Num(d.publish.map_rate_hz)
+      << "  # map_t [Hz], 0 = never (not implemented yet)\n"
+      << "}\n\n"
+      << "refine {\n"
+      << "  enabled: " << (d.refine.enabled ? "true" : "false")
+      << "  # Isam2::Refine while no message is queued\n"
+      << "  budget_s: " << Num(d.refine.budget_s) << "  # per call [s], (0, 10]\n"
+      << "}\n\n"
+      << "isam2 {\n"
+      << "  relinearization {\n"
+      << "    rotation_threshold: " << Num(rl.rotation_threshold) << "  # [rad], > 0\n"
+      << "    translation_threshold: " << Num(rl.translation_threshold) << "  # [m], > 0\n"
+      << "    skip: " << rl.skip << "  # updates between relinearisation checks, >= 1\n"
+      << "    max_variables: " << rl.max_variables << "  # per update, 0 = no limit\n"
+      << "  }\n"
+      << "  wildfire_threshold: " << Num(d.isam2.wildfire_threshold)
+      << "  # partial back-substitution\n"
+      << "  refine_threshold: " << Num(d.isam2.refine_threshold)
+      << "  # Refine converged below this |delta|\n"
+      << "  batch_every: " << d.isam2.batch_every
+      << "  # periodic full relinearisation, 0 = never\n"
+      << "}\n\n"
+      << "estimator {\n"
+      << "  new_robot_anchor: "
+      << (d.estimator.new_robot_anchor == AnchorPolicy::kAnchorAtOrigin ? "ANCHOR_AT_ORIGIN"
+                                                                        : "HOLD_UNTIL_CONNECTED")
+      << "  # or ANCHOR_AT_ORIGIN / HOLD_UNTIL_CONNECTED\n"
+      << "  anchor_sigma: " << Num(d.estimator.anchor_sigma)
+      << "  # origin anchor prior std. dev. [m, rad]\n"
+      << "  max_held_messages: " << d.estimator.max_held_messages
+      << "  # waiting for a pose (out of order, unanchored)\n"
+      << "  max_hold_updates: " << d.estimator.max_hold_updates
+      << "  # updates a held message may wait, >= 1\n"
+      << "}\n";
+  return out.str();
+}
+
+}  // namespace slamd::server

@@ -1,0 +1,64 @@
+// ServerParams: everything slamd is configured with, as aggregate structs (style.md §2).
+// Each field maps 1:1 to a field of msgs/proto/config.proto (same names and nesting); the
+// config loader fills these in and calls Validate() once at startup.
+#pragma once
+
+#include <string>
+
+#include "core/base/status.h"
+#include "core/isam/isam2_params.h"
+#include "server/estimator/estimator_params.h"
+
+namespace slamd::server {
+
+struct ServerParams {
+  // LCM URL the daemon listens and publishes on ("memq://" for one process). Non-empty.
+  std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
+  // Prefix of every channel name (server/transport/channels.h); 1..40 chars of [A-Za-z0-9_].
+  std::string channel_prefix = "SLAMD_";
+  // Journal and snapshot directory; unused until the journal exists (issue 7). May be empty.
+  std::string data_dir = "";
+  // spdlog level: trace, debug, info, warn, error, critical or off.
+  std::string log_level = "info";
+  // Optional rotating log file ("" = console only).
+  std::string log_file = "";
+
+  struct Queue {
+    // Bound of the ingest queue [messages]; 1..10'000'000.
+    int depth = 10000;
+    // How long intake blocks on a full queue before it rejects (REASON_QUEUE_FULL) [s]; 0..10.
+    double block_timeout_s = 0.05;
+  };
+  Queue queue = {};
+
+  struct Publish {
+    // status_t rate [Hz]; 0 = never; 0..1000.
+    double status_rate_hz = 1.0;
+    // map_t rate [Hz]; 0 = never; 0..100 (map_t is not published yet).
+    double map_rate_hz = 0.0;
+  };
+  Publish publish = {};
+
+  struct Refine {
+    // Run Isam2::Refine while the queue is empty, so the map converges between messages.
+    bool enabled = true;
+    // Time budget of one Refine call [s]; (0, 10].
+    double budget_s = 0.005;
+  };
+  Refine refine = {};
+
+  // The solver (core/isam/isam2_params.h); validated by Isam2Params::Validate.
+  core::Isam2Params isam2 = {};
+
+  // Stateful checks and new-robot anchoring (server/estimator/estimator_params.h).
+  EstimatorParams estimator = {};
+
+  // InvalidArgument naming the first violating field as its config path, e.g.
+  // "queue.depth = 0; violates >= 1" or "isam2.relinearization.skip = 0; violates >= 1".
+  core::Status Validate() const;
+};
+
+// Maps a spdlog level name to its number (0 trace .. 6 off); -1 when unknown.
+int LogLevelNumber(const std::string& name);
+
+}  // namespace slamd::server

@@ -1,0 +1,115 @@
+// Daemon: slamd's runtime — the transport (intake) thread, the bounded ingest queue and the
+// estimator thread, wired to a Bus (server/transport). main.cc is a thin shell around it.
+//
+//   intake thread:    bus.HandleOnce -> decode -> Convert (validate) -> queue.Push
+//                     (a bad message, or a full queue after queue.block_timeout_s, gets a reject_t
+//                     at once; nothing is dropped silently)
+//   estimator thread: queue.PopAll -> Estimator::Process (ONE Isam2 update for everything
+//                     queued) -> reject_t for stateful rejections, estimate_t for each robot whose
+//                     newest pose moved, status_t at publish.status_rate_hz; when the queue is
+//                     empty and refine.enabled, Isam2::Refine(refine.budget_s) until settled.
+//
+// Inbound channels: ODOMETRY, LANDMARK, LOOP_CLOSURE, PRIOR; REMOVE_FACTOR is answered with a
+// reject_t (REASON_UNKNOWN_FACTOR: not implemented yet). QUERY and MAP are not served yet.
+// estimate_t carries no covariance yet (num_covariance = 0).
+//
+// Either Start() the two threads, or drive the same steps by hand (no threads) with
+// PumpIntake / StepEstimator, as deterministic tests do; do not mix the two.
+// Stop(): stop intake, finish the update in progress and whatever is queued, publish a last
+// status_t, join. Idempotent; the destructor calls it.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "server/config/server_params.h"
+#include "server/estimator/estimator.h"
+#include "server/estimator/ingest_queue.h"
+#include "server/transport/bus.h"
+#include "server/transport/channels.h"
+
+namespace spdlog {
+class logger;
+}  // namespace spdlog
+
+namespace slamd::server {
+
+class Daemon {
+ public:
+  // `bus` is not owned and must outlive the Daemon. Subscribes to the inbound channels (so
+  // messages published after Create are seen). InvalidArgument when params do not validate.
+  static core::Result<std::unique_ptr<Daemon>> Create(const ServerParams& params, Bus* bus);
+  ~Daemon();
+  Daemon(const Daemon&) = delete;
+  Daemon& operator=(const Daemon&) = delete;
+
+  // Starts the intake and estimator threads.
+  void Start();
+  // See the file comment. Safe to call more than once and without Start().
+  void Stop();
+
+  // Manual drive. One bus.HandleOnce(timeout_ms) on the calling thread: returns the number of
+  // messages dispatched (to every subscriber of the bus, not only the daemon).
+  core::Result<int> PumpIntake(int timeout_ms);
+  // Waits up to timeout_s for queued messages and processes all of them in one update (or
+  // refines when none came and refinement is due); publishes. Returns the messages processed.
+  int StepEstimator(double timeout_s);
+
+  std::shared_ptr<const EstimateSnapshot> snapshot() const;
+  int queue_depth() const { return queue_.size(); }
+
+ private:
+  Daemon(const ServerParams& params, Bus* bus, std::unique_ptr<Estimator> estimator);
+
+  core::Status Subscribe();
+  template <typename Msg>
+  core::Status SubscribeInbound(const std::string& channel);
+  template <typename Msg>
+  void OnInbound(std::string_view channel, const Msg& msg);
+  void OnDecodeError(std::string_view channel, const core::Status& error);
+  void PublishReject(const Verdict& verdict, std::string_view channel, std::string_view type,
+                     std::string_view robot, std::int64_t utime);
+  std::string InboundChannel(const Inbound& in) const;
+  void PublishEstimates(const EstimateSnapshot& snap);
+  void PublishStatus(const EstimateSnapshot& snap);
+  void MaybePublishStatus(const EstimateSnapshot& snap);
+  void IntakeLoop();
+  void EstimatorLoop();
+
+  ServerParams params_;
+  Bus* bus_;
+  ChannelNames channels_;
+  std::unique_ptr<Estimator> estimator_;  // estimator thread only
+  IngestQueue queue_;
+  std::shared_ptr<spdlog::logger> log_;
+  std::vector<Subscription> subscriptions_;
+
+  // Intake counters (intake thread writes, status reads).
+  std::atomic<std::int64_t> received_{0}, queued_{0}, intake_rejected_{0}, decode_errors_{0};
+  std::array<std::atomic<std::int64_t>, kNumRejectReasonCodes> intake_rejects_by_reason_{};
+
+  // Estimator-thread state.
+  std::int64_t published_sequence_ = 0;
+  std::int64_t last_status_us_ = 0;
+  std::vector<double> update_us_;  // recent update latencies (ring of 1024) for status_t
+  size_t update_us_next_ = 0;
+
+  mutable std::mutex snapshot_mutex_;
+  std::shared_ptr<const EstimateSnapshot> snapshot_;
+
+  std::atomic<bool> stop_intake_{false}, stop_estimator_{false};
+  std::thread intake_thread_, estimator_thread_;
+  bool stopped_ = false;
+};
+
+// Microseconds on the steady clock (latency accounting) and since the Unix epoch (utime fields).
+std::int64_t SteadyMicros();
+std::int64_t WallMicros();
+
+}  // namespace slamd::server

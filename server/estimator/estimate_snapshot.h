@@ -1,0 +1,51 @@
+// EstimateSnapshot: an immutable picture of the estimator after one update or refinement, the
+// only thing the publisher (and later the query service) reads. Shared as
+// shared_ptr<const EstimateSnapshot>; never modified after it is built.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/factors/variable.h"
+#include "server/ingest/reject_reason.h"
+
+namespace slamd::server {
+
+struct EstimatorCounters {
+  std::int64_t processed = 0;  // messages handed to Estimator::Process
+  std::int64_t applied = 0;    // messages turned into factors (and variables)
+  std::int64_t held = 0;       // messages put on hold at least once
+  std::int64_t rejected = 0;   // stateful rejections (also counted per reason)
+  std::int64_t updates = 0;    // Isam2::Update calls (one per Process with anything new)
+  std::int64_t refinements = 0;
+  std::array<std::int64_t, kNumRejectReasonCodes> rejects_by_reason = {};
+};
+
+struct RobotEstimate {
+  std::string name;
+  std::uint8_t id = 0;
+  std::uint64_t pose_index = 0;  // newest (largest index) pose of the robot in the graph
+  core::Variable pose;           // its estimate: Pose2 or Pose3
+  // update_sequence of the last update/refinement that moved this robot's newest pose.
+  std::int64_t moved_sequence = 0;
+  // utime and transport receipt time [µs, steady clock] of the robot's newest applied message.
+  std::int64_t measurement_utime = 0;
+  std::int64_t received_us = 0;
+};
+
+struct EstimateSnapshot {
+  // Bumped by every Isam2 update and every refinement that changed the estimate.
+  std::int64_t update_sequence = 0;
+  double chi2 = 0.0;
+  std::int64_t residual_dimension = 0;
+  std::int64_t num_variables = 0;
+  std::int64_t num_factors = 0;
+  bool settled = true;  // the last refinement converged (or none was needed)
+  int held_messages = 0;
+  std::vector<RobotEstimate> robots;  // anchored robots only, in registration order
+  EstimatorCounters counters;
+};
+
+}  // namespace slamd::server

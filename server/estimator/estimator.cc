@@ -1,0 +1,481 @@
+#include "server/estimator/estimator.h"
+
+#include <cmath>
+#include <utility>
+
+#include "core/factors/bearing_range_factor.h"
+#include "core/factors/between_factor.h"
+#include "core/factors/position_prior_factor.h"
+#include "core/factors/prior_factor.h"
+#include "core/factors/relative_point_factor.h"
+
+namespace slamd::server {
+namespace {
+
+using core::Key;
+using core::MakeKey;
+using core::Pose2;
+using core::Pose3;
+using core::Variable;
+
+bool SameType(const Variable& v, const RelativePose& z) {
+  return std::holds_alternative<Pose2>(z) ? std::holds_alternative<Pose2>(v)
+                                          : std::holds_alternative<Pose3>(v);
+}
+
+// from ∘ z (inverse = false) or from ∘ z⁻¹; types checked by the caller.
+Variable Compose(const Variable& from, const RelativePose& z, bool inverse) {
+  if (const Pose2* z2 = std::get_if<Pose2>(&z)) {
+    const Pose2& a = std::get<Pose2>(from);
+    return inverse ? a * z2->Inverse() : a * *z2;
+  }
+  const Pose3& z3 = std::get<Pose3>(z);
+  const Pose3& a = std::get<Pose3>(from);
+  return inverse ? a * z3.Inverse() : a * z3;
+}
+
+core::FactorPtr MakeBetween(Key a, Key b, const RelativePose& z, const core::NoiseModel& noise,
+                            const core::RobustKernel& robust = {}) {
+  if (const Pose2* z2 = std::get_if<Pose2>(&z)) {
+    return std::make_shared<core::BetweenFactor<Pose2>>(a, b, *z2, noise, robust);
+  }
+  return std::make_shared<core::BetweenFactor<Pose3>>(a, b, std::get<Pose3>(z), noise, robust);
+}
+
+std::string PoseName(const std::string& robot, std::uint64_t index) {
+  return "robot '" + robot + "' pose " + std::to_string(index);
+}
+
+}  // namespace
+
+const char* MessageTypeName(const Inbound& in) {
+  static constexpr const char* kNames[] = {"odometry_t", "landmark_observation_t", "loop_closure_t",
+                                           "prior_t"};
+  return kNames[in.measurement.index()];
+}
+
+const std::string& MessageRobot(const Inbound& in) {
+  return std::visit(
+      [](const auto& m) -> const std::string& {
+        if constexpr (std::is_same_v<std::decay_t<decltype(m)>, LoopClosureMeasurement>) {
+          return m.robot_a;
+        } else {
+          return m.robot;
+        }
+      },
+      in.measurement);
+}
+
+std::int64_t MessageUtime(const Inbound& in) {
+  return std::visit([](const auto& m) { return m.utime; }, in.measurement);
+}
+
+core::Result<std::unique_ptr<Estimator>> Estimator::Create(const EstimatorParams& params,
+                                                           const core::Isam2Params& isam2) {
+  SLAMD_RETURN_IF_ERROR(params.Validate());
+  core::Result<std::unique_ptr<core::Isam2>> isam = core::Isam2::Create(isam2);
+  if (!isam.ok()) return isam.status();
+  return std::unique_ptr<Estimator>(new Estimator(params, std::move(isam).value()));
+}
+
+Estimator::Estimator(const EstimatorParams& params, std::unique_ptr<core::Isam2> isam)
+    : params_(params), isam_(std::move(isam)) {
+  PublishSnapshot(false);
+}
+
+bool Estimator::Known(Key key, const Staged& s) const {
+  return s.values.Contains(key) || isam_->linearization_point().Contains(key);
+}
+
+Variable Estimator::Estimate(Key key, const Staged& s) const {
+  if (s.values.Contains(key)) return s.values.Get(key);
+  return isam_->CalculateEstimate(key);
+}
+
+bool Estimator::FirstTime(char type, Key a, Key b, int kind, const char* what, Staged* s,
+                          Verdict* v) {
+  const auto id = std::make_tuple(type, a, b, kind);
+  if (seen_.count(id) != 0 || s->seen.count(id) != 0) {
+    *v = {RejectReason::kDuplicate, std::string(what) + ": the same measurement between " +
+                                        core::KeyToString(a) + " and " + core::KeyToString(b) +
+                                        " was already applied"};
+    return false;
+  }
+  s->seen.insert(id);
+  return true;
+}
+
+Estimator::RobotState& Estimator::Robot(std::uint8_t id, Staged* s) {
+  for (const auto& [saved, state] : s->robots_before) {
+    if (saved == id) return robots_[id];
+  }
+  s->robots_before.emplace_back(id, robots_[id]);
+  return robots_[id];
+}
+
+void Estimator::AddPose(std::uint8_t robot, std::uint64_t index, const Variable& value,
+                        const Inbound& in, Staged* s) {
+  (void)s->values.Insert(MakeKey('x', index, robot), value);  // new key: checked by the caller
+  RobotState& r = Robot(robot, s);
+  if (!r.anchored || index > r.newest) r.newest = index;
+  r.anchored = true;
+  Touch(robot, in, s);
+}
+
+void Estimator::Touch(std::uint8_t robot, const Inbound& in, Staged* s) {
+  RobotState& r = Robot(robot, s);
+  r.measurement_utime = MessageUtime(in);
+  r.received_us = in.received_us;
+}
+
+Estimator::Outcome Estimator::Apply(const Inbound& in, Staged* s, Verdict* v) {
+  return std::visit(
+      [&](const auto& m) -> Outcome {
+        using M = std::decay_t<decltype(m)>;
+        if constexpr (std::is_same_v<M, OdometryMeasurement>) return ApplyOdometry(m, in, s, v);
+        if constexpr (std::is_same_v<M, LandmarkMeasurement>) return ApplyLandmark(m, in, s, v);
+        if constexpr (std::is_same_v<M, LoopClosureMeasurement>) {
+          return ApplyLoopClosure(m, in, s, v);
+        }
+        if constexpr (std::is_same_v<M, PriorMeasurement>) return ApplyPrior(m, in, s, v);
+      },
+      in.measurement);
+}
+
+Estimator::Outcome Estimator::ApplyOdometry(const OdometryMeasurement& m, const Inbound& in,
+                                            Staged* s, Verdict* v) {
+  const auto id = registry_.FindOrAdd(m.robot);
+  if (!id) {
+    *v = {RejectReason::kTooManyElements, "odometry_t.robot: more than 255 robots"};
+    return Outcome::kRejected;
+  }
+  const Key from = MakeKey('x', m.from_index, *id);
+  const Key to = MakeKey('x', m.to_index, *id);
+  const bool origin = !Known(from, *s) && !robots_[*id].anchored &&
+                      params_.new_robot_anchor == AnchorPolicy::kAnchorAtOrigin;
+  if (!Known(from, *s) && !origin) return Outcome::kHeld;  // ahead, or robot not anchored
+  if (!origin && !SameType(Estimate(from, *s), m.measured)) {
+    *v = {RejectReason::kBadMeasurement,
+          "odometry_t.dimension: does not match " + PoseName(m.robot, m.from_index)};
+    return Outcome::kRejected;
+  }
+  if (Known(to, *s) && !SameType(Estimate(to, *s), m.measured)) {
+    *v = {RejectReason::kBadMeasurement,
+          "odometry_t.dimension: does not match " + PoseName(m.robot, m.to_index)};
+    return Outcome::kRejected;
+  }
+  if (!FirstTime('o', from, to, 0, "odometry_t", s, v)) return Outcome::kRejected;
+  if (origin) {
+    const bool is2d = std::holds_alternative<Pose2>(m.measured);
+    const core::NoiseModel anchor =
+        core::NoiseModel::Isotropic(is2d ? 3 : 6, params_.anchor_sigma).value();
+    AddPose(*id, m.from_index, is2d ? Variable(Pose2()) : Variable(Pose3()), in, s);
+    if (is2d) {
+      s->factors.Add(std::make_shared<core::PriorFactor<Pose2>>(from, Pose2(), anchor));
+    } else {
+      s->factors.Add(std::make_shared<core::PriorFactor<Pose3>>(from, Pose3(), anchor));
+    }
+  }
+  if (!Known(to, *s))
+    AddPose(*id, m.to_index, Compose(Estimate(from, *s), m.measured, false), in, s);
+  s->factors.Add(MakeBetween(from, to, m.measured, m.noise));
+  Touch(*id, in, s);
+  return Outcome::kApplied;
+}
+
+Estimator::Outcome Estimator::ApplyLandmark(const LandmarkMeasurement& m, const Inbound& in,
+                                            Staged* s, Verdict* v) {
+  const auto id = registry_.FindOrAdd(m.robot);
+  if (!id) {
+    *v = {RejectReason::kTooManyElements, "landmark_observation_t.robot: more than 255 robots"};
+    return Outcome::kRejected;
+  }
+  const Key pose = MakeKey('x', m.pose_index, *id);
+  if (!Known(pose, *s)) return Outcome::kHeld;
+  const Key landmark = MakeKey('l', m.landmark_id, *id);
+  const Variable x = Estimate(pose, *s);
+  const bool needs3d = m.kind == LandmarkKind::kRelativePoint3;
+  if (std::holds_alternative<Pose3>(x) != needs3d) {
+    *v = {RejectReason::kBadMeasurement,
+          "landmark_observation_t.kind: does not match " + PoseName(m.robot, m.pose_index)};
+    return Outcome::kRejected;
+  }
+  const bool known = Known(landmark, *s);
+  if (known && (std::holds_alternative<core::Point3>(Estimate(landmark, *s)) != needs3d)) {
+    *v = {RejectReason::kBadMeasurement, "landmark_observation_t.kind: landmark " +
+                                             std::to_string(m.landmark_id) +
+                                             " has the other dimension"};
+    return Outcome::kRejected;
+  }
+  if (!FirstTime('l', pose, landmark, static_cast<int>(m.kind), "landmark_observation_t", s, v)) {
+    return Outcome::kRejected;
+  }
+  core::FactorPtr factor;
+  Variable guess;
+  if (const BearingRange* br = std::get_if<BearingRange>(&m.measured)) {
+    const Pose2& p = std::get<Pose2>(x);
+    guess = p.TransformFrom(
+        core::Point2(br->range * std::cos(br->bearing), br->range * std::sin(br->bearing)));
+    factor =
+        std::make_shared<core::BearingRangeFactor>(pose, landmark, br->bearing, br->range, m.noise);
+  } else if (const core::Point2* p2 = std::get_if<core::Point2>(&m.measured)) {
+    guess = std::get<Pose2>(x).TransformFrom(*p2);
+    factor = std::make_shared<core::RelativePointFactor<Pose2, core::Point2>>(pose, landmark, *p2,
+                                                                              m.noise);
+  } else {
+    const core::Point3& p3 = std::get<core::Point3>(m.measured);
+    guess = std::get<Pose3>(x).TransformFrom(p3);
+    factor = std::make_shared<core::RelativePointFactor<Pose3, core::Point3>>(pose, landmark, p3,
+                                                                              m.noise);
+  }
+  if (!known) (void)s->values.Insert(landmark, guess);
+  s->factors.Add(std::move(factor));
+  Touch(*id, in, s);
+  return Outcome::kApplied;
+}
+
+Estimator::Outcome Estimator::ApplyLoopClosure(const LoopClosureMeasurement& m, const Inbound& in,
+                                               Staged* s, Verdict* v) {
+  const auto ida = registry_.Find(m.robot_a);
+  const auto idb = registry_.Find(m.robot_b);
+  const bool known_a = ida && Known(MakeKey('x', m.pose_a, *ida), *s);
+  const bool known_b = idb && Known(MakeKey('x', m.pose_b, *idb), *s);
+  if (!known_a && !known_b) {
+    if (!ida || !robots_[*ida].anchored) {
+      *v = {RejectReason::kUnknownRobot,
+            "loop_closure_t.robot_a: robot '" + m.robot_a + "' has no pose in the graph"};
+    } else if (!idb || !robots_[*idb].anchored) {
+      *v = {RejectReason::kUnknownRobot,
+            "loop_closure_t.robot_b: robot '" + m.robot_b + "' has no pose in the graph"};
+    } else {
+      *v = {RejectReason::kUnknownPose,
+            "loop_closure_t.pose_a: " + PoseName(m.robot_a, m.pose_a) + " is not in the graph"};
+    }
+    return Outcome::kRejected;
+  }
+  // Exactly one side known: it may connect (and anchor) a robot with no pose yet.
+  if (known_a != known_b) {
+    const std::string& robot = known_a ? m.robot_b : m.robot_a;
+    const std::optional<std::uint8_t> id = known_a ? idb : ida;
+    const std::uint64_t index = known_a ? m.pose_b : m.pose_a;
+    if (id && robots_[*id].anchored) {
+      *v = {RejectReason::kUnknownPose, std::string("loop_closure_t.") +
+                                            (known_a ? "pose_b: " : "pose_a: ") +
+                                            PoseName(robot, index) + " is not in the graph"};
+      return Outcome::kRejected;
+    }
+  }
+  const Key known_key = known_a ? MakeKey('x', m.pose_a, *ida) : MakeKey('x', m.pose_b, *idb);
+  if (!SameType(Estimate(known_key, *s), m.measured) ||
+      (known_a && known_b && !SameType(Estimate(MakeKey('x', m.pose_b, *idb), *s), m.measured))) {
+    *v = {RejectReason::kBadMeasurement, "loop_closure_t.dimension: does not match the poses"};
+    return Outcome::kRejected;
+  }
+  std::optional<std::uint8_t> a = ida, b = idb;
+  if (!a) a = registry_.FindOrAdd(m.robot_a);
+  if (!b) b = registry_.FindOrAdd(m.robot_b);
+  if (!a || !b) {
+    *v = {RejectReason::kTooManyElements, "loop_closure_t.robot_b: more than 255 robots"};
+    return Outcome::kRejected;
+  }
+  const Key ka = MakeKey('x', m.pose_a, *a);
+  const Key kb = MakeKey('x', m.pose_b, *b);
+  if (!FirstTime('c', std::min(ka, kb), std::max(ka, kb), 0, "loop_closure_t", s, v)) {
+    return Outcome::kRejected;
+  }
+  if (!known_b) AddPose(*b, m.pose_b, Compose(Estimate(ka, *s), m.measured, false), in, s);
+  if (!known_a) AddPose(*a, m.pose_a, Compose(Estimate(kb, *s), m.measured, true), in, s);
+  s->factors.Add(MakeBetween(ka, kb, m.measured, m.noise, m.robust));
+  Touch(*a, in, s);
+  return Outcome::kApplied;
+}
+
+Estimator::Outcome Estimator::ApplyPrior(const PriorMeasurement& m, const Inbound& in, Staged* s,
+                                         Verdict* v) {
+  const auto id = registry_.FindOrAdd(m.robot);
+  if (!id) {
+    *v = {RejectReason::kTooManyElements, "prior_t.robot: more than 255 robots"};
+    return Outcome::kRejected;
+  }
+  const Key key = MakeKey('x', m.pose_index, *id);
+  const bool is_pose = m.kind == PriorKind::kPose2 || m.kind == PriorKind::kPose3;
+  const bool needs3d = m.kind == PriorKind::kPose3 || m.kind == PriorKind::kPosition3;
+  const bool known = Known(key, *s);
+  if (!known && !(is_pose && !robots_[*id].anchored)) return Outcome::kHeld;
+  if (known && std::holds_alternative<Pose3>(Estimate(key, *s)) != needs3d) {
+    *v = {RejectReason::kBadMeasurement,
+          "prior_t.kind: does not match " + PoseName(m.robot, m.pose_index)};
+    return Outcome::kRejected;
+  }
+  if (!FirstTime('p', key, 0, static_cast<int>(m.kind), "prior_t", s, v)) {
+    return Outcome::kRejected;
+  }
+  core::FactorPtr factor;
+  if (const Pose2* p2 = std::get_if<Pose2>(&m.measured)) {
+    if (!known) AddPose(*id, m.pose_index, *p2, in, s);
+    factor = std::make_shared<core::PriorFactor<Pose2>>(key, *p2, m.noise);
+  } else if (const Pose3* p3 = std::get_if<Pose3>(&m.measured)) {
+    if (!known) AddPose(*id, m.pose_index, *p3, in, s);
+    factor = std::make_shared<core::PriorFactor<Pose3>>(key, *p3, m.noise);
+  } else if (const core::Point2* t2 = std::get_if<core::Point2>(&m.measured)) {
+    factor = std::make_shared<core::PositionPriorFactor<Pose2>>(key, *t2, m.noise);
+  } else {
+    factor = std::make_shared<core::PositionPriorFactor<Pose3>>(
+        key, std::get<core::Point3>(m.measured), m.noise);
+  }
+  s->factors.Add(std::move(factor));
+  Touch(*id, in, s);
+  return Outcome::kApplied;
+}
+
+void Estimator::Reject(const Inbound& in, RejectReason reason, std::string message,
+                       ProcessResult* result) {
+  ++counters_.rejected;
+  ++counters_.rejects_by_reason[static_cast<int>(reason)];
+  result->rejections.push_back({in, Verdict{reason, std::move(message)}});
+}
+
+ProcessResult Estimator::Process(std::vector<Inbound> batch) {
+  ProcessResult result;
+  counters_.processed += static_cast<std::int64_t>(batch.size());
+  std::vector<Held> pending(std::make_move_iterator(held_.begin()),
+                            std::make_move_iterator(held_.end()));
+  held_.clear();
+  const size_t num_old = pending.size();
+  for (Inbound& in : batch) pending.push_back({std::move(in), 0});
+
+  // Apply in order; a pass that adds anything may release held messages, so repeat until none
+  // is applied.
+  Staged s;
+  std::vector<char> done(pending.size(), 0);
+  std::vector<size_t> applied;
+  for (bool progress = true; progress;) {
+    progress = false;
+    for (size_t i = 0; i < pending.size(); ++i) {
+      if (done[i]) continue;
+      Verdict v;
+      switch (Apply(pending[i].message, &s, &v)) {
+        case Outcome::kApplied:
+          done[i] = 1;
+          applied.push_back(i);
+          progress = true;
+          break;
+        case Outcome::kRejected:
+          done[i] = 1;
+          Reject(pending[i].message, v.reason, std::move(v.message), &result);
+          break;
+        case Outcome::kHeld:
+          break;
+      }
+    }
+  }
+
+  // Still held: count, age, and reject beyond the bounds.
+  for (size_t i = 0; i < pending.size(); ++i) {
+    if (done[i]) continue;
+    if (i >= num_old) ++counters_.held;
+    Held& h = pending[i];
+    if (++h.waited > params_.max_hold_updates) {
+      Reject(h.message, RejectReason::kOutOfOrderTimeout,
+             std::string(MessageTypeName(h.message)) +
+                 ": the pose it needs did not arrive within " +
+                 std::to_string(params_.max_hold_updates) + " updates",
+             &result);
+    } else {
+      held_.push_back(std::move(h));
+    }
+  }
+  while (static_cast<int>(held_.size()) > params_.max_held_messages) {
+    Reject(held_.front().message, RejectReason::kOutOfOrderTimeout,
+           std::string(MessageTypeName(held_.front().message)) +
+               ": hold buffer full (estimator.max_held_messages = " +
+               std::to_string(params_.max_held_messages) + ")",
+           &result);
+    held_.pop_front();
+  }
+
+  if (s.factors.size() == 0 && s.values.empty()) {
+    PublishSnapshot(false);
+    return result;
+  }
+  result.update = isam_->Update(s.factors, s.values);
+  result.updated = true;
+  result.status = result.update.status;
+  if (!result.status.ok()) {
+    // The solver left its state unchanged: undo ours and reject what this batch applied.
+    for (const auto& [id, state] : s.robots_before) robots_[id] = state;
+    for (size_t i : applied) {
+      Reject(pending[i].message, RejectReason::kBadMeasurement,
+             std::string(MessageTypeName(pending[i].message)) +
+                 ": the solver refused the update: " + result.status.ToString(),
+             &result);
+    }
+    PublishSnapshot(false);
+    return result;
+  }
+  seen_.merge(s.seen);
+  num_factors_ += static_cast<std::int64_t>(s.factors.size());
+  for (const core::FactorPtr& f : s.factors.factors()) residual_dimension_ += f->dim();
+  result.applied = static_cast<int>(applied.size());
+  counters_.applied += result.applied;
+  ++counters_.updates;
+  settled_ = false;
+  PublishSnapshot(true);
+  return result;
+}
+
+core::Isam2::RefineResult Estimator::Refine(double budget_s) {
+  core::Isam2::RefineResult r = isam_->Refine(budget_s);
+  ++counters_.refinements;
+  settled_ = r.converged;
+  PublishSnapshot(r.rounds > 0);
+  return r;
+}
+
+core::Result<Variable> Estimator::PoseEstimate(const std::string& robot,
+                                               std::uint64_t index) const {
+  const auto id = registry_.Find(robot);
+  const Key key = id ? MakeKey('x', index, *id) : 0;
+  if (!id || !isam_->linearization_point().Contains(key)) {
+    return core::NotFound(PoseName(robot, index) + " is not in the graph");
+  }
+  return isam_->CalculateEstimate(key);
+}
+
+void Estimator::PublishSnapshot(bool bump) {
+  if (bump) ++sequence_;
+  auto snap = std::make_shared<EstimateSnapshot>();
+  snap->update_sequence = sequence_;
+  snap->num_variables = static_cast<std::int64_t>(isam_->linearization_point().size());
+  snap->num_factors = num_factors_;
+  snap->residual_dimension = residual_dimension_;
+  snap->held_messages = static_cast<int>(held_.size());
+  snap->settled = settled_;
+  if (bump) {
+    snap->chi2 = isam_->Chi2();
+  } else if (snapshot_) {
+    snap->chi2 = snapshot_->chi2;
+  }
+  for (std::uint8_t id : registry_.ids()) {
+    RobotState& r = robots_[id];
+    if (!r.anchored) continue;
+    if (bump) {
+      const Variable pose = isam_->CalculateEstimate(MakeKey('x', r.newest, id));
+      const bool moved = r.moved_sequence == 0 || r.published_index != r.newest ||
+                         pose.index() != r.published.index() ||
+                         core::LocalCoordinates(r.published, pose).squaredNorm() > 0.0;
+      if (moved) {
+        r.published = pose;
+        r.published_index = r.newest;
+        r.moved_sequence = sequence_;
+      }
+    }
+    if (r.moved_sequence == 0) continue;  // anchored by a batch that failed or not updated yet
+    snap->robots.push_back({registry_.Name(id), id, r.published_index, r.published,
+                            r.moved_sequence, r.measurement_utime, r.received_us});
+  }
+  snap->counters = counters_;
+  snapshot_ = std::move(snap);
+}
+
+}  // namespace slamd::server

@@ -1,0 +1,156 @@
+// Estimator: turns validated measurements (server/ingest) into factors and initial guesses for
+// core::Isam2, with the stateful checks the stateless validation cannot make. The only owner of
+// the solver; single-threaded (the estimator thread), not thread-safe.
+//
+// Keys: pose i of robot r = MakeKey('x', i, id(r)), landmark j of robot r = MakeKey('l', j, id(r))
+// (ids from RobotRegistry). Initial guesses: a new pose = estimate(from) ∘ odometry (or
+// estimate(a) ∘ z for a loop closure that connects an unanchored robot); a new landmark is placed
+// by its first observation from the observing pose's estimate; a pose prior places its pose.
+//
+// Process(batch) applies every message it can, in order, then runs ONE Isam2::Update for all of
+// them (coalescing). Per message, one of:
+//   applied   factors (and variables) added to the update;
+//   held      it needs a pose that may still come: odometry whose from-pose is not known yet
+//             (pose index ahead of the next expected, or a robot not anchored under
+//             kHoldUntilConnected), a landmark observation or prior on an unknown pose. Held
+//             messages are retried whenever a pose is added (in the same batch too); a message
+//             held for more than max_hold_updates Process calls, or the oldest beyond
+//             max_held_messages, is rejected with kOutOfOrderTimeout;
+//   rejected  with a Verdict: kDuplicate (same measurement type between the same variables as
+//             an earlier applied one), kUnknownRobot / kUnknownPose (loop closure to a robot or
+//             pose not in the graph, unless it connects an unanchored robot),
+//             kBadMeasurement (2D measurement on a 3D pose or vice versa; the solver refused the
+//             update: then every message applied in this batch is rejected and the estimator's
+//             state is unchanged), kTooManyElements (more than 255 robots).
+//
+// Exactness: with refinement off, each Process call is exactly one Isam2::Update of the factors
+// in message order and the values in creation order, so feeding the messages of one dataset step
+// per Process call reproduces an offline Isam2 run fed those steps (PrepareStep) bit for bit.
+// Coalescing k odometry messages into one call equals k lock-step calls when none of the
+// coalesced messages but the last closes a loop and relinearization.skip == 1 (the initial
+// guesses then equal the lock-step estimates: a chain's update does not move its poses), up to
+// rounding (tested to 1e-9).
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <set>
+#include <string>
+#include <tuple>
+#include <variant>
+#include <vector>
+
+#include "core/isam/isam2.h"
+#include "server/estimator/estimate_snapshot.h"
+#include "server/estimator/estimator_params.h"
+#include "server/estimator/robot_registry.h"
+#include "server/ingest/measurements.h"
+#include "server/ingest/validation.h"
+
+namespace slamd::server {
+
+// One inbound measurement with its transport receipt time [µs, steady clock].
+struct Inbound {
+  std::variant<OdometryMeasurement, LandmarkMeasurement, LoopClosureMeasurement, PriorMeasurement>
+      measurement;
+  std::int64_t received_us = 0;
+};
+
+// The wire type name ("odometry_t", ...), robot (robot_a for loop closures) and utime.
+const char* MessageTypeName(const Inbound& in);
+const std::string& MessageRobot(const Inbound& in);
+std::int64_t MessageUtime(const Inbound& in);
+
+struct Rejection {
+  Inbound message;
+  Verdict verdict;
+};
+
+struct ProcessResult {
+  core::Status status;   // of the Isam2 update (ok when there was none)
+  bool updated = false;  // an Isam2::Update ran
+  int applied = 0;
+  std::vector<Rejection> rejections;
+  core::Isam2Result update;  // when updated
+};
+
+class Estimator {
+ public:
+  // InvalidArgument when a params struct does not validate.
+  static core::Result<std::unique_ptr<Estimator>> Create(const EstimatorParams& params,
+                                                         const core::Isam2Params& isam2);
+
+  // Applies `batch` (see the file comment) with one Isam2::Update; publishes a new snapshot.
+  ProcessResult Process(std::vector<Inbound> batch);
+
+  // Isam2::Refine(budget_s); a new snapshot when anything moved.
+  core::Isam2::RefineResult Refine(double budget_s);
+
+  // The latest snapshot (never null).
+  std::shared_ptr<const EstimateSnapshot> snapshot() const { return snapshot_; }
+
+  // The current estimate of pose `index` of `robot` (NotFound when not in the graph).
+  core::Result<core::Variable> PoseEstimate(const std::string& robot, std::uint64_t index) const;
+  const core::Isam2& solver() const { return *isam_; }
+  int held_messages() const { return static_cast<int>(held_.size()); }
+
+ private:
+  Estimator(const EstimatorParams& params, std::unique_ptr<core::Isam2> isam);
+
+  enum class Outcome { kApplied, kHeld, kRejected };
+  struct Held {
+    Inbound message;
+    int waited = 0;  // Process calls it has waited through
+  };
+  struct RobotState {
+    bool anchored = false;  // has a pose in the graph (or staged)
+    std::uint64_t newest = 0;
+    std::int64_t measurement_utime = 0;
+    std::int64_t received_us = 0;
+    core::Variable published;  // newest pose's estimate in the last snapshot
+    std::uint64_t published_index = 0;
+    std::int64_t moved_sequence = 0;
+  };
+  // What one batch adds; committed only when the update succeeds.
+  struct Staged {
+    core::FactorGraph factors;
+    core::Values values;
+    std::set<std::tuple<char, core::Key, core::Key, int>> seen;
+    std::vector<std::pair<std::uint8_t, RobotState>> robots_before;  // for rollback
+  };
+
+  Outcome Apply(const Inbound& in, Staged* staged, Verdict* verdict);
+  Outcome ApplyOdometry(const OdometryMeasurement& m, const Inbound& in, Staged* s, Verdict* v);
+  Outcome ApplyLandmark(const LandmarkMeasurement& m, const Inbound& in, Staged* s, Verdict* v);
+  Outcome ApplyLoopClosure(const LoopClosureMeasurement& m, const Inbound& in, Staged* s,
+                           Verdict* v);
+  Outcome ApplyPrior(const PriorMeasurement& m, const Inbound& in, Staged* s, Verdict* v);
+
+  bool Known(core::Key key, const Staged& s) const;
+  core::Variable Estimate(core::Key key, const Staged& s) const;
+  // Marks `key` seen for this batch; false (and *v = kDuplicate) when already applied.
+  bool FirstTime(char type, core::Key a, core::Key b, int kind, const char* what, Staged* s,
+                 Verdict* v);
+  RobotState& Robot(std::uint8_t id, Staged* s);  // remembers its old state for rollback
+  void AddPose(std::uint8_t robot, std::uint64_t index, const core::Variable& value,
+               const Inbound& in, Staged* s);
+  void Touch(std::uint8_t robot, const Inbound& in, Staged* s);
+  void Reject(const Inbound& in, RejectReason reason, std::string message, ProcessResult* result);
+  void PublishSnapshot(bool bump);
+
+  EstimatorParams params_;
+  std::unique_ptr<core::Isam2> isam_;
+  RobotRegistry registry_;
+  RobotState robots_[256];
+  std::set<std::tuple<char, core::Key, core::Key, int>> seen_;  // applied measurements
+  std::deque<Held> held_;
+  EstimatorCounters counters_;
+  std::int64_t sequence_ = 0;
+  std::int64_t num_factors_ = 0;
+  std::int64_t residual_dimension_ = 0;
+  bool settled_ = true;
+  std::shared_ptr<const EstimateSnapshot> snapshot_;
+};
+
+}  // namespace slamd::server

@@ -1,0 +1,30 @@
+// EstimatorParams: the estimator's stateful policies (config section `estimator`).
+#pragma once
+
+#include "core/base/status.h"
+
+namespace slamd::server {
+
+// What happens to a robot whose first message is not an absolute pose prior.
+enum class AnchorPolicy {
+  // Its messages are held until a loop closure ties one of its poses to a known robot (or a
+  // pose prior arrives); bounded by max_held_messages / max_hold_updates, then rejected.
+  kHoldUntilConnected = 1,
+  // Its first pose is placed at the origin (identity) with a prior of sigma anchor_sigma.
+  kAnchorAtOrigin = 2,
+};
+
+struct EstimatorParams {
+  AnchorPolicy new_robot_anchor = AnchorPolicy::kHoldUntilConnected;
+  // Standard deviation of the origin anchor prior, every tangent component [m, rad]; (0, 1e3].
+  double anchor_sigma = 1e-3;
+  // Messages that may wait for a pose they need (odometry ahead of the next expected pose, a
+  // robot not anchored yet); beyond it the oldest is rejected (REASON_OUT_OF_ORDER_TIMEOUT). >= 0.
+  int max_held_messages = 1000;
+  // Solver updates a held message may wait before it is rejected the same way; >= 1.
+  int max_hold_updates = 100;
+
+  core::Status Validate() const;
+};
+
+}  // namespace slamd::server

@@ -1,0 +1,63 @@
+#include "server/estimator/ingest_queue.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "core/base/check.h"
+
+namespace slamd::server {
+namespace {
+
+std::chrono::nanoseconds ToDuration(double seconds) {
+  return std::chrono::nanoseconds(static_cast<std::int64_t>(std::max(0.0, seconds) * 1e9));
+}
+
+}  // namespace
+
+IngestQueue::IngestQueue(int capacity) : capacity_(capacity) {
+  SLAMD_CHECK(capacity >= 1) << "IngestQueue capacity " << capacity;
+}
+
+bool IngestQueue::Push(Inbound in, double timeout_s) {
+  std::unique_lock lock(mutex_);
+  const bool room = not_full_.wait_for(lock, ToDuration(timeout_s), [&] {
+    return closed_ || static_cast<int>(queue_.size()) < capacity_;
+  });
+  if (!room || closed_) return false;
+  queue_.push_back(std::move(in));
+  lock.unlock();
+  not_empty_.notify_one();
+  return true;
+}
+
+int IngestQueue::PopAll(std::vector<Inbound>* out, double timeout_s) {
+  std::unique_lock lock(mutex_);
+  not_empty_.wait_for(lock, ToDuration(timeout_s), [&] { return closed_ || !queue_.empty(); });
+  const int n = static_cast<int>(queue_.size());
+  for (Inbound& in : queue_) out->push_back(std::move(in));
+  queue_.clear();
+  lock.unlock();
+  if (n > 0) not_full_.notify_all();
+  return n;
+}
+
+void IngestQueue::Close() {
+  {
+    std::lock_guard lock(mutex_);
+    closed_ = true;
+  }
+  not_empty_.notify_all();
+  not_full_.notify_all();
+}
+
+int IngestQueue::size() const {
+  std::lock_guard lock(mutex_);
+  return static_cast<int>(queue_.size());
+}
+
+bool IngestQueue::closed() const {
+  std::lock_guard lock(mutex_);
+  return closed_;
+}
+
+}  // namespace slamd::server

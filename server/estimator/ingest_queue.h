@@ -1,0 +1,44 @@
+// IngestQueue: the bounded queue between the transport thread (producer) and the estimator
+// thread (consumer). Never drops silently: Push on a full queue waits up to a timeout and then
+// reports failure, so the caller rejects the message (reject_t REASON_QUEUE_FULL) and counts it.
+// PopAll hands the consumer everything queued at once (the estimator coalesces it into one
+// update). Thread-safe: any number of producers, one consumer.
+#pragma once
+
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <vector>
+
+#include "server/estimator/estimator.h"
+
+namespace slamd::server {
+
+class IngestQueue {
+ public:
+  explicit IngestQueue(int capacity);  // capacity >= 1 (checked)
+
+  // Appends `in`, waiting up to timeout_s while the queue is full. False (and `in` untouched
+  // in effect: it is dropped by the caller with a reject) when still full or Close()d.
+  bool Push(Inbound in, double timeout_s);
+
+  // Waits up to timeout_s for a message, then moves every queued message (in arrival order) to
+  // the end of *out. Returns how many; 0 on timeout or when closed and empty.
+  int PopAll(std::vector<Inbound>* out, double timeout_s);
+
+  // Refuses further pushes and wakes every waiter; queued messages can still be popped.
+  void Close();
+
+  int size() const;
+  int capacity() const { return capacity_; }
+  bool closed() const;
+
+ private:
+  const int capacity_;
+  mutable std::mutex mutex_;
+  std::condition_variable not_empty_, not_full_;
+  std::deque<Inbound> queue_;
+  bool closed_ = false;
+};
+
+}  // namespace slamd::server

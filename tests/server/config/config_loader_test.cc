@@ -1,0 +1,128 @@
+#include "server/config/config_loader.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "tests/testing/datasets.h"
+
+namespace slamd::server {
+namespace {
+
+TEST(ConfigLoaderTest, EmptyTextGivesDefaults) {
+  const core::Result<ServerParams> p = ParseConfigText("");
+  ASSERT_TRUE(p.ok()) << p.status().ToString();
+  EXPECT_EQ(p.value().lcm_url, ServerParams{}.lcm_url);
+  EXPECT_EQ(p.value().queue.depth, ServerParams{}.queue.depth);
+}
+
+TEST(ConfigLoaderTest, DefaultConfigTextParsesToDefaults) {
+  const core::Result<ServerParams> p = ParseConfigText(DefaultConfigText());
+  ASSERT_TRUE(p.ok()) << p.status().ToString();
+  const ServerParams d;
+  const ServerParams& v = p.value();
+  EXPECT_EQ(v.lcm_url, d.lcm_url);
+  EXPECT_EQ(v.channel_prefix, d.channel_prefix);
+  EXPECT_EQ(v.log_level, d.log_level);
+  EXPECT_EQ(v.queue.depth, d.queue.depth);
+  EXPECT_EQ(v.queue.block_timeout_s, d.queue.block_timeout_s);
+  EXPECT_EQ(v.publish.status_rate_hz, d.publish.status_rate_hz);
+  EXPECT_EQ(v.refine.enabled, d.refine.enabled);
+  EXPECT_EQ(v.refine.budget_s, d.refine.budget_s);
+  EXPECT_EQ(v.isam2.relinearization.skip, d.isam2.relinearization.skip);
+  EXPECT_EQ(v.isam2.relinearization.rotation_threshold, d.isam2.relinearization.rotation_threshold);
+  EXPECT_EQ(v.isam2.wildfire_threshold, d.isam2.wildfire_threshold);
+  EXPECT_EQ(v.estimator.new_robot_anchor, d.estimator.new_robot_anchor);
+  EXPECT_EQ(v.estimator.anchor_sigma, d.estimator.anchor_sigma);
+  EXPECT_EQ(v.estimator.max_held_messages, d.estimator.max_held_messages);
+  EXPECT_NE(DefaultConfigText().find("# "), std::string::npos);  // commented
+}
+
+TEST(ConfigLoaderTest, SetFieldsOverrideDefaults) {
+  const core::Result<ServerParams> p = ParseConfigText(R"(
+lcm_url: "memq://"
+channel_prefix: "TEST_"
+queue { depth: 7 block_timeout_s: 0.5 }
+refine { enabled: false }
+isam2 { relinearization { skip: 1 rotation_threshold: 0.01 } wildfire_threshold: 0 }
+estimator { new_robot_anchor: ANCHOR_AT_ORIGIN max_hold_updates: 3 }
+)");
+  ASSERT_TRUE(p.ok()) << p.status().ToString();
+  const ServerParams& v = p.value();
+  EXPECT_EQ(v.lcm_url, "memq://");
+  EXPECT_EQ(v.channel_prefix, "TEST_");
+  EXPECT_EQ(v.queue.depth, 7);
+  EXPECT_EQ(v.queue.block_timeout_s, 0.5);
+  EXPECT_FALSE(v.refine.enabled);
+  EXPECT_EQ(v.refine.budget_s, ServerParams{}.refine.budget_s);
+  EXPECT_EQ(v.isam2.relinearization.skip, 1);
+  EXPECT_EQ(v.isam2.relinearization.rotation_threshold, 0.01);
+  EXPECT_EQ(v.isam2.wildfire_threshold, 0.0);
+  EXPECT_EQ(v.estimator.new_robot_anchor, AnchorPolicy::kAnchorAtOrigin);
+  EXPECT_EQ(v.estimator.max_hold_updates, 3);
+}
+
+TEST(ConfigLoaderTest, UnknownFieldNamesLineAndField) {
+  const core::Result<ServerParams> p =
+      ParseConfigText("lcm_url: \"memq://\"\nqueue {\n  deph: 3\n}\n", "x.textproto");
+  ASSERT_FALSE(p.ok());
+  EXPECT_EQ(p.status().code(), core::StatusCode::kInvalidArgument);
+  EXPECT_NE(p.status().message().find("x.textproto:3:"), std::string::npos) << p.status().message();
+  EXPECT_NE(p.status().message().find("deph"), std::string::npos) << p.status().message();
+}
+
+TEST(ConfigLoaderTest, OutOfRangeFieldNamesLineAndField) {
+  const core::Result<ServerParams> p = ParseConfigText(
+      "queue {\n  depth: 5\n}\nisam2 {\n  relinearization {\n    skip: 0\n  }\n}\n", "c");
+  ASSERT_FALSE(p.ok());
+  EXPECT_EQ(p.status().message(), "c:6:5: isam2.relinearization.skip = 0; violates >= 1");
+  const core::Result<ServerParams> q = ParseConfigText("\n\nqueue { depth: 0 }\n", "c");
+  ASSERT_FALSE(q.ok());
+  EXPECT_EQ(q.status().message(), "c:3:9: queue.depth = 0; violates >= 1");
+  const core::Result<ServerParams> r = ParseConfigText("log_level: \"loud\"", "c");
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("c:1:1: log_level"), std::string::npos)
+      << r.status().message();
+}
+
+TEST(ConfigLoaderTest, ValueOutOfTypeRangeAndBadEnumAreParseErrors) {
+  const core::Result<ServerParams> p = ParseConfigText("queue { depth: 99999999999 }", "c");
+  ASSERT_FALSE(p.ok());
+  EXPECT_NE(p.status().message().find("c:1:"), std::string::npos) << p.status().message();
+  const core::Result<ServerParams> q = ParseConfigText("estimator { new_robot_anchor: NOWHERE }");
+  ASSERT_FALSE(q.ok());
+  EXPECT_NE(q.status().message().find("NOWHERE"), std::string::npos) << q.status().message();
+}
+
+TEST(ConfigLoaderTest, LoadsFileAndReportsMissingFile) {
+  const std::string path =
+      testing::WriteTempFile("slamd_config_test.textproto", "channel_prefix: \"F_\"\n");
+  const core::Result<ServerParams> p = LoadConfigFile(path);
+  ASSERT_TRUE(p.ok()) << p.status().ToString();
+  EXPECT_EQ(p.value().channel_prefix, "F_");
+  const core::Result<ServerParams> missing = LoadConfigFile("/nonexistent/slamd.textproto");
+  ASSERT_FALSE(missing.ok());
+  EXPECT_EQ(missing.status().code(), core::StatusCode::kNotFound);
+}
+
+}  // namespace
+}  // namespace slamd::server
+
+namespace slamd::server {
+namespace {
+
+// config/slamd.textproto is what --print-default-config prints; it must stay in step.
+TEST(ConfigLoaderTest, ShippedDefaultConfigMatchesDefaultConfigText) {
+  const std::string path = testing::TestDataPath("../../config/slamd.textproto");
+  std::ifstream in(path);
+  ASSERT_TRUE(in) << path;
+  std::ostringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(text.str(), DefaultConfigText()) << "regenerate: slamd --print-default-config > "
+                                             << "config/slamd.textproto";
+  EXPECT_TRUE(LoadConfigFile(path).ok());
+}
+
+}  // namespace
+}  // namespace slamd::server
