@@ -111,7 +111,7 @@ class Isam2 {
     int num_factors = 0;
     std::vector<std::pair<int, FactorPtr>> removed_factors;
     std::vector<std::pair<int, Variable>> theta;               // relinearised variables' old θ
-    std::vector<std::pair<int, Eigen::VectorXd>> delta;        // ... and their old δ
+    std::vector<double> delta;  // ... and their old δ, concatenated in the order of `theta`
     std::vector<int> relinearized_factors;  // re-linearised at the restored θ on rollback
     bool top_removed = false;  // the tree's top was detached (removed_frontals_, orphans_)
     void Clear(int vars, int factors) {

@@ -165,7 +165,7 @@ Status Isam2::Relinearize(const std::vector<int>& relin, std::vector<int>* affec
   for (int v : relin) {
     Eigen::Map<Eigen::VectorXd> d(delta_.data() + offsets_[v], dims_[v]);
     undo_.theta.emplace_back(v, theta_.VariableAt(v));
-    undo_.delta.emplace_back(v, d);
+    undo_.delta.insert(undo_.delta.end(), d.data(), d.data() + d.size());
     RetractInPlace(&theta_.MutableVariableAt(v), d.data());
     d.setZero();
   }
@@ -299,7 +299,11 @@ void Isam2::Rollback() {
   for (int f : undo_.relinearized_factors) {
     if (f < undo_.num_factors) SLAMD_CHECK(LinearizeFactor(f).ok()) << "re-linearising factor " << f;
   }
-  for (auto& [v, old] : undo_.delta) delta_.segment(offsets_[v], dims_[v]) = old;
+  std::size_t at = 0;
+  for (const auto& [v, unused] : undo_.theta) {
+    std::copy_n(undo_.delta.data() + at, dims_[v], delta_.data() + offsets_[v]);
+    at += dims_[v];
+  }
   for (int f = static_cast<int>(factors_.size()) - 1; f >= undo_.num_factors; --f) {
     const Status removed = variable_index_.RemoveFactor(f, linearized_[f].vars());
     SLAMD_CHECK(removed.ok()) << removed.ToString();
