@@ -74,9 +74,11 @@ Isam2Result Isam2::UpdateWith(const FactorGraph& new_factors, const Values& new_
                      (params_.batch_every > 0 && num_updates_ % params_.batch_every == 0);
   result.batch_step = batch;
   if (result.status.ok() &&
-      (batch || options.force_relinearize || num_updates_ % relinearization.skip == 0)) {
+      (batch || options.force_relinearize || relinearization_backlog_ ||
+       num_updates_ % relinearization.skip == 0)) {
     std::vector<int> relin;
-    SelectRelinearization(options, batch, relinearization, &relin);
+    // Capped by max_variables: what is left over is taken at the next update, not `skip` later.
+    relinearization_backlog_ = SelectRelinearization(options, batch, relinearization, &relin);
     result.relinearized_variables = static_cast<int>(relin.size());
     result.status = Relinearize(relin, &affected, &result.relinearized_factors);
   }

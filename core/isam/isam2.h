@@ -90,7 +90,8 @@ class Isam2 {
   void AddVariables(const Values& new_values);
   Status AddFactors(const FactorGraph& new_factors, std::vector<int>* indices);
   void RemoveFactors(const std::vector<int>& indices, std::vector<int>* affected);
-  void SelectRelinearization(const Isam2UpdateOptions& options, bool all,
+  // Returns true when max_variables left some variables over the threshold for later.
+  bool SelectRelinearization(const Isam2UpdateOptions& options, bool all,
                              const Isam2Params::Relinearization& thresholds,
                              std::vector<int>* relin) const;
   Status Relinearize(const std::vector<int>& relin, std::vector<int>* affected, int* num_factors);
@@ -136,6 +137,7 @@ class Isam2 {
   BayesTree tree_;
   Eliminator eliminator_;
   int num_updates_ = 0;
+  bool relinearization_backlog_ = false;  // the last check was capped by max_variables
 
   // Scratch reused across updates (no allocation per step once warm).
   std::vector<int> mark_;  // per var id: 0, or 1 + position in the current elimination set

@@ -18,7 +18,7 @@ struct Isam2Params {
     // The check runs every `skip` updates (1 = every update). >= 1.
     int skip = 10;
     // At most this many variables are relinearised in one update, those whose δ exceeds the
-    // threshold by the largest factor first; the rest wait for a later check. This bounds the
+    // threshold by the largest factor first; the rest are checked again at the next update. This bounds the
     // worst step: after a large loop closure nearly every δ exceeds the threshold at once, and
     // relinearising them all re-eliminates the whole tree in one update. 0 = no limit. >= 0.
     int max_variables = 0;

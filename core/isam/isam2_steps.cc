@@ -129,7 +129,7 @@ void Isam2::RemoveFactors(const std::vector<int>& indices, std::vector<int>* aff
   }
 }
 
-void Isam2::SelectRelinearization(const Isam2UpdateOptions& options, bool all,
+bool Isam2::SelectRelinearization(const Isam2UpdateOptions& options, bool all,
                                   const Isam2Params::Relinearization& thresholds,
                                   std::vector<int>* relin) const {
   const int n = static_cast<int>(theta_.size());
@@ -152,12 +152,15 @@ void Isam2::SelectRelinearization(const Isam2UpdateOptions& options, bool all,
     if (all || ratio > 1.0) over.emplace_back(ratio, v);
   }
   const int limit = thresholds.max_variables;
+  bool capped = false;
   if (!all && limit > 0 && static_cast<int>(over.size()) > limit) {
     std::nth_element(over.begin(), over.begin() + limit, over.end(),
                      [](const auto& a, const auto& b) { return a.first > b.first; });
     over.resize(limit);
+    capped = true;
   }
   for (const auto& [ratio, v] : over) relin->push_back(v);
+  return capped;
 }
 
 Status Isam2::Relinearize(const std::vector<int>& relin, std::vector<int>* affected,
