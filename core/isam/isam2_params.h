@@ -34,6 +34,10 @@ struct Isam2Params {
   // entries). > 0.
   double refine_threshold = 1e-6;
 
+  // Threads that relinearise factors when an update relinearises many (512+ per thread), as the
+  // slowest steps do. 1 = the calling thread only. >= 1.
+  int linearization_threads = 2;
+
   // Every `batch_every` updates, relinearise every variable and re-eliminate the whole graph
   // with a fresh COLAMD ordering (the iSAM1-style batch step). 0 = never. >= 0.
   int batch_every = 0;

@@ -1,5 +1,6 @@
 // The steps of Isam2::Update (isam2.cc).
 #include <algorithm>
+#include <thread>
 #include <unordered_set>
 
 #include "core/base/timing.h"
@@ -175,9 +176,27 @@ Status Isam2::Relinearize(const std::vector<int>& relin, std::vector<int>* affec
   std::vector<int> factors;
   variable_index_.CollectFactors(relin, &factors);
   *num_factors = static_cast<int>(factors.size());
+  undo_.relinearized_factors.insert(undo_.relinearized_factors.end(), factors.begin(),
+                                    factors.end());
+  // Each factor's linearisation is independent (θ is only read, each writes its own cache), so a
+  // large relinearisation — the slowest steps relinearise most of the graph — is split across
+  // threads. Below kFactorsPerThread factors a thread costs more than it saves.
+  constexpr int kFactorsPerThread = 512;
+  const int n = static_cast<int>(factors.size());
+  const int threads = std::max(1, std::min(params_.linearization_threads, n / kFactorsPerThread));
+  std::vector<Status> status(threads);
+  auto linearize_share = [&](int t) {
+    for (int i = t * n / threads; i < (t + 1) * n / threads; ++i) {
+      status[t] = LinearizeFactor(factors[i]);
+      if (!status[t].ok()) return;
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(linearize_share, t);
+  linearize_share(0);
+  for (std::thread& th : pool) th.join();
+  for (const Status& s : status) SLAMD_RETURN_IF_ERROR(s);
   for (int f : factors) {
-    undo_.relinearized_factors.push_back(f);
-    SLAMD_RETURN_IF_ERROR(LinearizeFactor(f));
     const std::span<const int> vars = linearized_[f].vars();
     affected->insert(affected->end(), vars.begin(), vars.end());
   }
