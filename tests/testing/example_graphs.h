@@ -1,7 +1,10 @@
 // Small example graphs with known structure, for solver tests (GTSAM smallExample.h in spirit).
 #pragma once
 
+#include <map>
 #include <random>
+#include <set>
+#include <vector>
 
 #include "core/factors/between_factor.h"
 #include "core/factors/factor_graph.h"
@@ -90,6 +93,37 @@ inline ExampleProblem MakeSpatialProblem(int num_poses, unsigned seed) {
   for (int i = 0; i + 4 < num_poses; i += 4) link(i, i + 4);
   link(0, num_poses - 1);
   return p;
+}
+
+// One incremental step of an example problem: new factors and the initial values they introduce.
+struct ExampleStep {
+  core::FactorGraph factors;
+  core::Values values;
+};
+
+// The problem as one update per pose: pose i with every factor whose newest pose is i, and each
+// variable's initial value at its first appearance (the protocol of the solver tests).
+inline std::vector<ExampleStep> StreamByPose(const ExampleProblem& p) {
+  using namespace core;
+  std::map<int, ExampleStep> steps;
+  for (const FactorPtr& f : p.graph) {
+    int newest = 0;
+    for (Key k : f->keys()) {
+      if (KeySymbol(k) == 'x') newest = std::max(newest, static_cast<int>(KeyIndex(k)));
+    }
+    steps[newest].factors.Add(f);
+  }
+  std::set<Key> introduced;
+  std::vector<ExampleStep> out;
+  for (auto& [i, s] : steps) {
+    for (const FactorPtr& f : s.factors) {
+      for (Key k : f->keys()) {
+        if (introduced.insert(k).second) (void)s.values.Insert(k, p.initial.Get(k));
+      }
+    }
+    out.push_back(std::move(s));
+  }
+  return out;
 }
 
 }  // namespace slamd::testing

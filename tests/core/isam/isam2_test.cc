@@ -16,36 +16,6 @@ namespace {
 
 using testing::ExampleProblem;
 
-// The example problem as one update per pose: pose i with every factor whose newest pose is i
-// (and landmarks at their first observation), predicted from the truth plus the initial's error.
-struct Step {
-  FactorGraph factors;
-  Values values;
-};
-
-std::vector<Step> Stream(const ExampleProblem& p) {
-  std::map<int, Step> steps;
-  for (const FactorPtr& f : p.graph) {
-    int newest = 0;
-    for (Key k : f->keys()) {
-      if (KeySymbol(k) == 'x') newest = std::max(newest, static_cast<int>(KeyIndex(k)));
-    }
-    steps[newest].factors.Add(f);
-  }
-  std::set<Key> introduced;
-  std::vector<Step> out;
-  for (auto& [i, s] : steps) {
-    for (const FactorPtr& f : s.factors) {
-      for (Key k : f->keys()) {
-        if (introduced.insert(k).second) {
-          EXPECT_TRUE(s.values.Insert(k, p.initial.Get(k)).ok());
-        }
-      }
-    }
-    out.push_back(std::move(s));
-  }
-  return out;
-}
 
 std::unique_ptr<Isam2> MakeIsam2(const Isam2Params& params = {}) {
   Result<std::unique_ptr<Isam2>> isam = Isam2::Create(params);
@@ -59,7 +29,7 @@ TEST_P(Isam2ParityTest, EveryStepEqualsTheBatchSolutionAtTheSameLinearizationPoi
   const bool planar = GetParam();
   const ExampleProblem p = planar ? testing::MakePlanarProblem(40, 8, 3) : testing::MakeSpatialProblem(30, 3);
   auto isam = MakeIsam2({.relinearization = {.skip = 1}});
-  for (const Step& step : Stream(p)) {
+  for (const testing::ExampleStep& step : testing::StreamByPose(p)) {
     const Isam2Result r = isam->Update(step.factors, step.values, {.force_full_solve = true});
     ASSERT_TRUE(r.status.ok()) << r.status.ToString();
     ASSERT_TRUE(CheckConsistency(isam->tree()).ok()) << CheckConsistency(isam->tree()).ToString();
@@ -72,7 +42,7 @@ TEST_P(Isam2ParityTest, SettlesToTheBatchOptimum) {
   const bool planar = GetParam();
   const ExampleProblem p = planar ? testing::MakePlanarProblem(40, 8, 5) : testing::MakeSpatialProblem(30, 5);
   auto isam = MakeIsam2();
-  for (const Step& step : Stream(p)) ASSERT_TRUE(isam->Update(step.factors, step.values).status.ok());
+  for (const testing::ExampleStep& step : testing::StreamByPose(p)) ASSERT_TRUE(isam->Update(step.factors, step.values).status.ok());
   for (int k = 0; k < 10; ++k) {
     ASSERT_TRUE(isam->Update({}, {}, {.force_full = true}).status.ok());
   }
@@ -86,7 +56,7 @@ INSTANTIATE_TEST_SUITE_P(PlanarAndSpatial, Isam2ParityTest, ::testing::Bool());
 
 TEST(Isam2Test, RemovingAFactorEqualsNeverAddingIt) {
   const ExampleProblem p = testing::MakePlanarProblem(30, 0, 7);
-  const std::vector<Step> steps = Stream(p);
+  const std::vector<testing::ExampleStep> steps = testing::StreamByPose(p);
   auto with = MakeIsam2(), without = MakeIsam2();
   const Key a = MakeKey('x', 2), b = MakeKey('x', 25);
   const FactorPtr wrong = std::make_shared<BetweenFactor<Pose2>>(a, b, Pose2(5, 5, 1), NoiseModel::Unit(3));
@@ -111,14 +81,14 @@ TEST(Isam2Test, RemovingAFactorEqualsNeverAddingIt) {
 
 TEST(Isam2Test, RobustKernelsSettleOnTheRobustBatchOptimum) {
   ExampleProblem p = testing::MakePlanarProblem(30, 0, 11);
-  std::vector<Step> steps = Stream(p);
+  std::vector<testing::ExampleStep> steps = testing::StreamByPose(p);
   const Key a = MakeKey('x', 4), b = MakeKey('x', 22);
   const Pose2 wrong = p.truth.At<Pose2>(a).Between(p.truth.At<Pose2>(b)).Compose(Pose2(2.0, -1.5, 0.8));
   steps[22].factors.Emplace<BetweenFactor<Pose2>>(
       a, b, wrong, *NoiseModel::Diagonal(Vector3(0.05, 0.05, 0.02)),
       *RobustKernel::Create(RobustKernel::Kind::kCauchy, 1.0));
   auto isam = MakeIsam2();
-  for (const Step& step : steps) ASSERT_TRUE(isam->Update(step.factors, step.values).status.ok());
+  for (const testing::ExampleStep& step : steps) ASSERT_TRUE(isam->Update(step.factors, step.values).status.ok());
   ASSERT_TRUE(isam->Refine(5.0).converged);
   const FactorGraph graph = isam->Factors();
   const BatchResult batch = Optimize(graph, p.initial, {.relative_tolerance = 1e-12});
@@ -131,7 +101,7 @@ TEST(Isam2Test, RobustKernelsSettleOnTheRobustBatchOptimum) {
 TEST(Isam2Test, IndeterminateUpdateNamesTheVariableAndChangesNothing) {
   const ExampleProblem p = testing::MakePlanarProblem(10, 0, 2);
   auto isam = MakeIsam2();
-  for (const Step& step : Stream(p)) ASSERT_TRUE(isam->Update(step.factors, step.values).status.ok());
+  for (const testing::ExampleStep& step : testing::StreamByPose(p)) ASSERT_TRUE(isam->Update(step.factors, step.values).status.ok());
   const Values before = isam->CalculateEstimate();
   const std::size_t factors_before = isam->Factors().size();
   // A second robot's pose linked only to another new pose: nothing anchors them.
@@ -158,7 +128,7 @@ TEST(Isam2Test, EmptyUpdatesAreHarmless) {
   auto isam = MakeIsam2({.relinearization = {.skip = 1000}});
   EXPECT_TRUE(isam->Update({}, {}).status.ok());  // nothing at all yet
   const ExampleProblem p = testing::MakePlanarProblem(8, 0, 3);
-  for (const Step& step : Stream(p)) ASSERT_TRUE(isam->Update(step.factors, step.values).status.ok());
+  for (const testing::ExampleStep& step : testing::StreamByPose(p)) ASSERT_TRUE(isam->Update(step.factors, step.values).status.ok());
   const Values before = isam->CalculateEstimate();
   const Isam2Result r = isam->Update({}, {});
   EXPECT_TRUE(r.status.ok()) << r.status.ToString();

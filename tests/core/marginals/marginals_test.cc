@@ -17,36 +17,6 @@ namespace {
 
 using testing::ExampleProblem;
 
-// The example problem as one update per pose (as in isam2_test.cc): pose i with every factor
-// whose newest pose is i, and each variable's initial value at its first appearance.
-struct Step {
-  FactorGraph factors;
-  Values values;
-};
-
-std::vector<Step> Stream(const ExampleProblem& p) {
-  std::map<int, Step> steps;
-  for (const FactorPtr& f : p.graph) {
-    int newest = 0;
-    for (Key k : f->keys()) {
-      if (KeySymbol(k) == 'x') newest = std::max(newest, static_cast<int>(KeyIndex(k)));
-    }
-    steps[newest].factors.Add(f);
-  }
-  std::set<Key> introduced;
-  std::vector<Step> out;
-  for (auto& [i, s] : steps) {
-    for (const FactorPtr& f : s.factors) {
-      for (Key k : f->keys()) {
-        if (introduced.insert(k).second) {
-          EXPECT_TRUE(s.values.Insert(k, p.initial.Get(k)).ok());
-        }
-      }
-    }
-    out.push_back(std::move(s));
-  }
-  return out;
-}
 
 std::unique_ptr<Isam2> MakeIsam2() {
   Result<std::unique_ptr<Isam2>> isam = Isam2::Create();
@@ -124,7 +94,7 @@ bool IsAncestorOrSelf(const BayesTree& tree, int a, int c) {
 
 std::unique_ptr<Isam2> Solve(const ExampleProblem& p) {
   auto isam = MakeIsam2();
-  for (const Step& s : Stream(p)) EXPECT_TRUE(isam->Update(s.factors, s.values).status.ok());
+  for (const testing::ExampleStep& s : testing::StreamByPose(p)) EXPECT_TRUE(isam->Update(s.factors, s.values).status.ok());
   return isam;
 }
 
@@ -214,7 +184,7 @@ TEST(MarginalsTest, CachedResultsEqualAFreshComputationAfterEveryUpdate) {
     auto isam = MakeIsam2();
     BayesTreeMarginals cached(&isam->tree());
     int reused_steps = 0;
-    const std::vector<Step> steps = Stream(p);
+    const std::vector<testing::ExampleStep> steps = testing::StreamByPose(p);
     for (std::size_t i = 0; i < steps.size(); ++i) {
       ASSERT_TRUE(isam->Update(steps[i].factors, steps[i].values).status.ok());
       if (i % 3 == 0) {  // some steps skipped: the cache must notice changes it did not see
@@ -250,7 +220,7 @@ TEST(MarginalsTest, NewestPoseAfterAnOdometryStepTouchesOnlyThePathToTheRoot) {
   BayesTreeMarginals marginals(&isam->tree());
   Eigen::MatrixXd cov;
   int max_checked = 0;
-  for (const Step& s : Stream(p)) {
+  for (const testing::ExampleStep& s : testing::StreamByPose(p)) {
     ASSERT_TRUE(isam->Update(s.factors, s.values).status.ok());
     const int newest = static_cast<int>(isam->linearization_point().size()) - 1;
     ASSERT_TRUE(marginals.Marginal(newest, &cov).ok());
@@ -342,7 +312,7 @@ TEST(MarginalsTest, Isam2MarginalsConvertToTheEstimateTangent) {
     const ExampleProblem p = kind == 0 ? testing::MakePlanarProblem(20, 4, 71) : testing::MakeSpatialProblem(16, 72);
     auto isam = MakeIsam2();
     // Relinearise rarely so that δ ≠ 0 at the end.
-    for (const Step& s : Stream(p)) ASSERT_TRUE(isam->Update(s.factors, s.values).status.ok());
+    for (const testing::ExampleStep& s : testing::StreamByPose(p)) ASSERT_TRUE(isam->Update(s.factors, s.values).status.ok());
     const Values& theta = isam->linearization_point();
     const Values estimate = isam->CalculateEstimate();
     const DenseReference ref = Dense(*isam);
