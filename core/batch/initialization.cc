@@ -5,9 +5,9 @@
 #include <queue>
 #include <vector>
 
-#include "core/factors/bearing_range_factor.h"
 #include "core/batch/batch_solver.h"
 #include "core/factors/between_factor.h"
+#include "core/factors/predict.h"
 #include "core/factors/relative_point_factor.h"
 
 namespace slamd::core {
@@ -30,7 +30,6 @@ struct Observation {
 struct PlanarGraph {
   std::vector<Edge> edges;
   std::vector<Observation> observations;
-  std::vector<const BearingRangeFactor*> bearing_range;
   std::vector<std::vector<int>> edges_of;  // per slot: indices into edges
 };
 
@@ -48,8 +47,6 @@ PlanarGraph Collect(const FactorGraph& graph, const Values& values) {
       const int i = values.SlotOf(r->keys()[0]), l = values.SlotOf(r->keys()[1]);
       if (i < 0 || l < 0) continue;
       g.observations.push_back({i, l, r->measured(), r->noise_model().Information()});
-    } else if (const auto* br = dynamic_cast<const BearingRangeFactor*>(f.get())) {
-      g.bearing_range.push_back(br);
     }
   }
   return g;
@@ -104,22 +101,25 @@ Status CheckReached(const Values& values, const std::vector<int>& parent, int ro
   return Status::Ok();
 }
 
-// Places each landmark not yet placed from its first observation.
-void PlaceLandmarksFromFirstObservation(const PlanarGraph& g, const std::vector<char>& placed,
+// Places each landmark (Point2) not yet placed from its first observation; relative-point
+// observations take precedence over bearing-range ones (pass 0, then pass 1).
+void PlaceLandmarksFromFirstObservation(const FactorGraph& graph, std::vector<char> done,
                                         Values* values) {
-  std::vector<char> done = placed;
-  for (const Observation& o : g.observations) {
-    if (done[o.landmark]) continue;
-    values->MutableVariableAt(o.landmark) =
-        values->At<Pose2>(values->KeyAt(o.pose)).TransformFrom(o.z);
-    done[o.landmark] = 1;
-  }
-  for (const BearingRangeFactor* f : g.bearing_range) {
-    const int p = values->SlotOf(f->keys()[0]), l = values->SlotOf(f->keys()[1]);
-    if (p < 0 || l < 0 || done[l]) continue;
-    const Point2 local(f->range() * std::cos(f->bearing()), f->range() * std::sin(f->bearing()));
-    values->MutableVariableAt(l) = values->At<Pose2>(values->KeyAt(p)).TransformFrom(local);
-    done[l] = 1;
+  for (int pass = 0; pass < 2; ++pass) {
+    for (const FactorPtr& f : graph) {
+      if (f->keys().size() != 2) continue;
+      const bool relative = dynamic_cast<const RelativePointFactor<Pose2, Point2>*>(f.get()) != nullptr;
+      if (relative != (pass == 0)) continue;
+      const int p = values->SlotOf(f->keys()[0]), l = values->SlotOf(f->keys()[1]);
+      if (p < 0 || l < 0 || done[l] || values->TypeAt(p) != VariableType::kPose2 ||
+          values->TypeAt(l) != VariableType::kPoint2) {
+        continue;
+      }
+      if (const std::optional<Variable> v = PredictFromFactor(*f, 0, values->VariableAt(p))) {
+        values->MutableVariableAt(l) = *v;
+        done[l] = 1;
+      }
+    }
   }
 }
 
@@ -148,7 +148,7 @@ Result<Values> InitializeSpanningTree(const FactorGraph& graph, const Values& in
   const std::vector<int> parent = SpanningTreeParents(g, static_cast<int>(values.size()), r, &order);
   SLAMD_RETURN_IF_ERROR(CheckReached(values, parent, r));
   ComposeTree(g, parent, order, &values);
-  PlaceLandmarksFromFirstObservation(g, std::vector<char>(values.size(), 0), &values);
+  PlaceLandmarksFromFirstObservation(graph, std::vector<char>(values.size(), 0), &values);
   return values;
 }
 
@@ -268,7 +268,7 @@ Result<Values> InitializeLago(const FactorGraph& graph, const Values& initial, K
       values.MutableVariableAt(s) = position[s];
     }
   }
-  PlaceLandmarksFromFirstObservation(g, placed, &values);
+  PlaceLandmarksFromFirstObservation(graph, placed, &values);
   return values;
 }
 
@@ -329,19 +329,10 @@ Result<Values> InitializeIncremental(const FactorGraph& graph, const Values& ini
       if (f->keys().size() != 2) continue;
       const int a = estimate.SlotOf(f->keys()[0]), b = estimate.SlotOf(f->keys()[1]);
       if (a < 0 || b < 0 || placed[a] == placed[b]) continue;
-      if (const auto* between = dynamic_cast<const BetweenFactor<Pose2>*>(f.get())) {
-        const Pose2& z = between->measured();
-        estimate.MutableVariableAt(placed[a] ? b : a) =
-            placed[a] ? estimate.At<Pose2>(f->keys()[0]).Compose(z)
-                      : estimate.At<Pose2>(f->keys()[1]).Compose(z.Inverse());
-      } else if (const auto* obs = dynamic_cast<const RelativePointFactor<Pose2, Point2>*>(f.get())) {
-        if (!placed[a]) continue;  // a landmark cannot place its pose
-        estimate.MutableVariableAt(b) = estimate.At<Pose2>(f->keys()[0]).TransformFrom(obs->measured());
-      } else if (const auto* br = dynamic_cast<const BearingRangeFactor*>(f.get())) {
-        if (!placed[a]) continue;
-        const Point2 local(br->range() * std::cos(br->bearing()), br->range() * std::sin(br->bearing()));
-        estimate.MutableVariableAt(b) = estimate.At<Pose2>(f->keys()[0]).TransformFrom(local);
-      }
+      const int known = placed[a] ? 0 : 1;
+      const std::optional<Variable> v = PredictFromFactor(*f, known, estimate.VariableAt(placed[a] ? a : b));
+      if (!v) continue;
+      estimate.MutableVariableAt(placed[a] ? b : a) = *v;
       placed[a] = placed[b] = 1;
     }
     // Optimise the active part: the variables of active factors.

@@ -1,38 +1,20 @@
 #include "core/io/dataset_stream.h"
 
 #include <algorithm>
-#include <cmath>
 #include <optional>
 #include <unordered_map>
 
-#include "core/factors/bearing_range_factor.h"
 #include "core/factors/between_factor.h"
-#include "core/factors/relative_point_factor.h"
+#include "core/factors/predict.h"
 
 namespace slamd::core {
 namespace {
-
-// Where `factor` (an observation of its second key from the pose `pose`) puts the landmark, or
-// nothing when it is not such an observation.
-std::optional<Variable> LandmarkFromObservation(const Factor& factor, const Variable& pose) {
-  if (const auto* f = dynamic_cast<const RelativePointFactor<Pose2, Point2>*>(&factor)) {
-    return std::get<Pose2>(pose).TransformFrom(f->measured());
-  }
-  if (const auto* f = dynamic_cast<const RelativePointFactor<Pose3, Point3>*>(&factor)) {
-    return std::get<Pose3>(pose).TransformFrom(f->measured());
-  }
-  if (const auto* f = dynamic_cast<const BearingRangeFactor*>(&factor)) {
-    const Point2 local = f->range() * Point2(std::cos(f->bearing()), std::sin(f->bearing()));
-    return std::get<Pose2>(pose).TransformFrom(local);
-  }
-  return std::nullopt;
-}
 
 // The landmark `key`'s first guess from `factor`, its first observation (see the header).
 Variable InitialLandmark(const Dataset& dataset, const Factor& factor, Key key) {
   const KeyVector& keys = factor.keys();
   if (keys.size() == 2 && keys[1] == key) {
-    const std::optional<Variable> v = LandmarkFromObservation(factor, dataset.initial.Get(keys[0]));
+    const std::optional<Variable> v = PredictFromFactor(factor, 0, dataset.initial.Get(keys[0]));
     if (v) return *v;
   }
   return dataset.initial.Get(key);  // checked: aborts if the dataset has no value for it
@@ -138,17 +120,10 @@ std::vector<DatasetStep> MakeIncrementalSteps(const Dataset& dataset) {
 Variable PredictPose(const DatasetStep& step, const Variable& from) {
   SLAMD_CHECK(step.odometry != nullptr)
       << "PredictPose: step of " << KeyToString(step.pose) << " has no odometry";
-  const bool forward = step.odometry->keys()[0] == step.odometry_from;
-  if (const auto* f = dynamic_cast<const BetweenFactor<Pose2>*>(step.odometry.get())) {
-    SLAMD_CHECK(std::holds_alternative<Pose2>(from)) << "PredictPose: `from` is not a Pose2";
-    const Pose2& z = f->measured();
-    return std::get<Pose2>(from).Compose(forward ? z : z.Inverse());
-  }
-  const auto* f = dynamic_cast<const BetweenFactor<Pose3>*>(step.odometry.get());
-  SLAMD_CHECK(f != nullptr) << "PredictPose: the odometry is a " << step.odometry->Name();
-  SLAMD_CHECK(std::holds_alternative<Pose3>(from)) << "PredictPose: `from` is not a Pose3";
-  const Pose3& z = f->measured();
-  return std::get<Pose3>(from).Compose(forward ? z : z.Inverse());
+  const int known = step.odometry->keys()[0] == step.odometry_from ? 0 : 1;
+  const std::optional<Variable> pose = PredictFromFactor(*step.odometry, known, from);
+  SLAMD_CHECK(pose.has_value()) << "PredictPose: the odometry is a " << step.odometry->Name();
+  return *pose;
 }
 
 }  // namespace slamd::core
@@ -165,7 +140,7 @@ void PrepareStep(const DatasetStep& step, const std::function<Variable(Key)>& es
       if (f->keys().size() != 2 || f->keys()[1] != key) continue;
       const Key observer = f->keys()[0];
       const Variable from = observer == step.pose ? pose : estimate(observer);
-      if (std::optional<Variable> v = LandmarkFromObservation(*f, from)) {
+      if (std::optional<Variable> v = PredictFromFactor(*f, 0, from)) {
         guess = *v;
         break;
       }
