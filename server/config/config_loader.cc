@@ -65,6 +65,9 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   const proto::PublishConfig& pub = config.publish();
   if (pub.has_status_rate_hz()) p->publish.status_rate_hz = pub.status_rate_hz();
   if (pub.has_map_rate_hz()) p->publish.map_rate_hz = pub.map_rate_hz();
+  if (pub.has_map_covariance()) p->publish.map_covariance = pub.map_covariance();
+  if (pub.has_estimate_covariance()) p->publish.estimate_covariance = pub.estimate_covariance();
+  if (pub.has_query_budget_s()) p->publish.query_budget_s = pub.query_budget_s();
   const proto::RefineConfig& r = config.refine();
   if (r.has_enabled()) p->refine.enabled = r.enabled();
   if (r.has_budget_s()) p->refine.budget_s = r.budget_s();
@@ -148,7 +151,13 @@ std::string DefaultConfigText() {
       << "publish {\n"
       << "  status_rate_hz: " << Num(d.publish.status_rate_hz) << "  # status_t [Hz], 0 = never\n"
       << "  map_rate_hz: " << Num(d.publish.map_rate_hz)
-      << "  # map_t [Hz], 0 = never (not implemented yet)\n"
+      << "  # periodic map_t of every robot [Hz], 0 = on request only\n"
+      << "  map_covariance: " << (d.publish.map_covariance ? "true" : "false")
+      << "  # periodic maps carry marginal covariances\n"
+      << "  estimate_covariance: " << (d.publish.estimate_covariance ? "true" : "false")
+      << "  # estimate_t carries the newest pose's covariance\n"
+      << "  query_budget_s: " << Num(d.publish.query_budget_s)
+      << "  # time for a query's marginals, then STATUS_PARTIAL [s], (0, 10]\n"
       << "}\n\n"
       << "refine {\n"
       << "  enabled: " << (d.refine.enabled ? "true" : "false")

@@ -71,6 +71,8 @@ core::Status ServerParams::Validate() const {
   SLAMD_CONFIG_CHECK(publish.status_rate_hz, <=, 1000.0);
   SLAMD_CONFIG_CHECK(publish.map_rate_hz, >=, 0.0);
   SLAMD_CONFIG_CHECK(publish.map_rate_hz, <=, 100.0);
+  SLAMD_CONFIG_CHECK(publish.query_budget_s, >, 0.0);
+  SLAMD_CONFIG_CHECK(publish.query_budget_s, <=, 10.0);
   SLAMD_CONFIG_CHECK(refine.budget_s, >, 0.0);
   SLAMD_CONFIG_CHECK(refine.budget_s, <=, 10.0);
   const core::Status isam2_ok = isam2.Validate();

@@ -34,8 +34,16 @@ struct ServerParams {
   struct Publish {
     // status_t rate [Hz]; 0 = never; 0..1000.
     double status_rate_hz = 1.0;
-    // map_t rate [Hz]; 0 = never; 0..100 (map_t is not published yet).
+    // Periodic map_t (every robot's map, paged) rate [Hz]; 0 = never (maps on request only);
+    // 0..100.
     double map_rate_hz = 0.0;
+    // Periodic maps carry every variable's marginal covariance (one Bayes-tree pass each).
+    bool map_covariance = false;
+    // estimate_t carries the newest pose's marginal covariance (a few µs per update).
+    bool estimate_covariance = true;
+    // Time a query may spend on marginals before the rest are left out
+    // (query_reply_t.STATUS_PARTIAL) [s]; (0, 10].
+    double query_budget_s = 0.1;
   };
   Publish publish = {};
 

@@ -6,13 +6,18 @@
 #include <chrono>
 
 #include "server/ingest/conversion.h"
+#include "server/publish/replies.h"
 #include "server/publish/wire_values.h"
+#include "server/query/query_service.h"
 #include "server/transport/typed_subscribe.h"
 #include "slamd/estimate_t.hpp"
 #include "slamd/landmark_observation_t.hpp"
 #include "slamd/loop_closure_t.hpp"
+#include "slamd/map_t.hpp"
 #include "slamd/odometry_t.hpp"
 #include "slamd/prior_t.hpp"
+#include "slamd/query_reply_t.hpp"
+#include "slamd/query_t.hpp"
 #include "slamd/reject_t.hpp"
 #include "slamd/remove_factor_t.hpp"
 #include "slamd/status_t.hpp"
@@ -26,6 +31,16 @@ const std::string& RobotOf(const slamd::odometry_t& m) { return m.robot; }
 const std::string& RobotOf(const slamd::landmark_observation_t& m) { return m.robot; }
 const std::string& RobotOf(const slamd::loop_closure_t& m) { return m.robot_a; }
 const std::string& RobotOf(const slamd::prior_t& m) { return m.robot; }
+const std::string& RobotOf(const slamd::remove_factor_t& m) { return m.robot_a; }
+const std::string& RobotOf(const slamd::query_t& m) { return m.client; }
+
+void Record(std::vector<double>* ring, size_t* next, double value) {
+  if (ring->size() < kLatencyWindow) {
+    ring->push_back(value);
+  } else {
+    (*ring)[(*next)++ % kLatencyWindow] = value;
+  }
+}
 
 }  // namespace
 
@@ -37,8 +52,12 @@ std::string Daemon::InboundChannel(const Inbound& in) const {
       return channels_.Landmark();
     case 2:
       return channels_.LoopClosure();
-    default:
+    case 3:
       return channels_.Prior();
+    case 4:
+      return channels_.RemoveFactor();
+    default:
+      return channels_.Query();
   }
 }
 
@@ -105,6 +124,7 @@ core::Status Daemon::Subscribe() {
   SLAMD_RETURN_IF_ERROR(SubscribeInbound<slamd::loop_closure_t>(channels_.LoopClosure()));
   SLAMD_RETURN_IF_ERROR(SubscribeInbound<slamd::prior_t>(channels_.Prior()));
   SLAMD_RETURN_IF_ERROR(SubscribeInbound<slamd::remove_factor_t>(channels_.RemoveFactor()));
+  SLAMD_RETURN_IF_ERROR(SubscribeInbound<slamd::query_t>(channels_.Query()));
   return core::Status::Ok();
 }
 
@@ -112,24 +132,26 @@ template <typename Msg>
 void Daemon::OnInbound(std::string_view channel, const Msg& msg) {
   ++received_;
   const char* type = Msg::getTypeName();
-  if constexpr (std::is_same_v<Msg, slamd::remove_factor_t>) {
-    PublishReject({RejectReason::kUnknownFactor, "remove_factor_t: not implemented yet"}, channel,
-                  type, msg.robot_a, msg.utime);
+  auto checked = Convert(msg, Limits{});
+  Verdict verdict;
+  if (!checked.ok()) {
+    verdict = checked.verdict();
+  } else if (queue_.Push(Inbound{std::move(checked).value(), SteadyMicros()},
+                         params_.queue.block_timeout_s)) {
+    ++queued_;
+    return;
   } else {
-    auto checked = Convert(msg, Limits{});
-    if (!checked.ok()) {
-      PublishReject(checked.verdict(), channel, type, RobotOf(msg), msg.utime);
-      return;
-    }
-    if (queue_.Push(Inbound{std::move(checked).value(), SteadyMicros()},
-                    params_.queue.block_timeout_s)) {
-      ++queued_;
-      return;
-    }
-    PublishReject(
-        {RejectReason::kQueueFull, std::string(type) + ": ingest queue full (queue.depth = " +
-                                       std::to_string(params_.queue.depth) + ")"},
-        channel, type, RobotOf(msg), msg.utime);
+    verdict = {RejectReason::kQueueFull, std::string(type) + ": ingest queue full (queue.depth = " +
+                                             std::to_string(params_.queue.depth) + ")"};
+  }
+  PublishReject(verdict, channel, type, RobotOf(msg), msg.utime);
+  if constexpr (std::is_same_v<Msg, slamd::query_t>) {
+    // The asker waits for a reply, not for a reject_t.
+    slamd::query_reply_t reply;
+    FillRejectedQueryReply(QueryRequest{.client = msg.client, .request_id = msg.request_id},
+                           verdict.message, WallMicros(), &reply);
+    const core::Status s = server::Publish(*bus_, channels_.QueryReply(), reply);
+    if (!s.ok()) log_->warn("cannot publish query_reply_t: {}", s.ToString());
   }
 }
 
@@ -153,21 +175,24 @@ void Daemon::PublishReject(const Verdict& verdict, std::string_view channel, std
 core::Result<int> Daemon::PumpIntake(int timeout_ms) { return bus_->HandleOnce(timeout_ms); }
 
 int Daemon::StepEstimator(double timeout_s) {
-  std::vector<Inbound> batch;
-  const int n = queue_.PopAll(&batch, timeout_s);
-  std::shared_ptr<const EstimateSnapshot> snap;
-  if (n > 0) {
-    const ProcessResult r = estimator_->Process(std::move(batch));
-    if (r.updated) {
-      const double us = r.update.seconds.total * 1e6;
-      if (update_us_.size() < kLatencyWindow) {
-        update_us_.push_back(us);
-      } else {
-        update_us_[update_us_next_++ % kLatencyWindow] = us;
-      }
-      log_->debug("update: {}", r.update.Brief());
-      if (!r.status.ok()) log_->warn("solver update failed: {}", r.status.ToString());
+  std::vector<Inbound> popped, batch;
+  std::vector<QueryRequest> queries;
+  const int n = queue_.PopAll(&popped, timeout_s);
+  for (Inbound& in : popped) {
+    if (QueryRequest* q = std::get_if<QueryRequest>(&in.measurement)) {
+      queries.push_back(std::move(*q));
+    } else {
+      batch.push_back(std::move(in));
     }
+  }
+  std::shared_ptr<const EstimateSnapshot> snap;
+  if (!batch.empty()) {
+    const ProcessResult r = estimator_->Process(std::move(batch));
+    for (const core::Isam2Result& u : r.updates) {
+      Record(&update_us_, &update_us_next_, u.seconds.total * 1e6);
+      log_->debug("update: {}", u.Brief());
+    }
+    if (!r.status.ok()) log_->warn("solver update failed: {}", r.status.ToString());
     for (const Rejection& rej : r.rejections) {
       // Stateful rejects are counted by the estimator; publish them through the same helper
       // but without double counting.
@@ -178,7 +203,7 @@ int Daemon::StepEstimator(double timeout_s) {
       const core::Status s = server::Publish(*bus_, channels_.Reject(), out);
       if (!s.ok()) log_->warn("cannot publish reject_t: {}", s.ToString());
     }
-  } else if (params_.refine.enabled && !estimator_->snapshot()->settled) {
+  } else if (queries.empty() && params_.refine.enabled && !estimator_->snapshot()->settled) {
     const core::Isam2::RefineResult r = estimator_->Refine(params_.refine.budget_s);
     if (!r.status.ok()) log_->warn("refine failed: {}", r.status.ToString());
   }
@@ -188,8 +213,55 @@ int Daemon::StepEstimator(double timeout_s) {
     snapshot_ = snap;
   }
   PublishEstimates(*snap);
+  for (const QueryRequest& q : queries) AnswerAndPublish(q, snap->update_sequence);
+  MaybePublishMaps(*snap);
   MaybePublishStatus(*snap);
   return n;
+}
+
+void Daemon::AnswerAndPublish(const QueryRequest& query, std::int64_t update_sequence) {
+  const QueryAnswer answer = AnswerQuery(*estimator_, query, params_.publish.query_budget_s);
+  int pages = 0;
+  bool maps_partial = false;
+  if (!query.map_robot.empty()) {
+    pages = PublishMaps(query.map_robot, query.want_marginals, query.request_id, update_sequence,
+                        &maps_partial);
+  }
+  slamd::query_reply_t reply;
+  FillQueryReply(query, answer, update_sequence, pages, WallMicros(), &reply);
+  if (maps_partial && reply.status == slamd::query_reply_t::STATUS_OK) {
+    reply.status = slamd::query_reply_t::STATUS_PARTIAL;
+    reply.error = "map marginals not ready within the query budget";
+  }
+  const core::Status s = server::Publish(*bus_, channels_.QueryReply(), reply);
+  if (!s.ok()) log_->warn("cannot publish query_reply_t: {}", s.ToString());
+}
+
+int Daemon::PublishMaps(const std::string& robot, bool marginals, std::int64_t request_id,
+                        std::int64_t update_sequence, bool* partial) {
+  const std::vector<RobotMap> maps =
+      CollectMaps(*estimator_, robot, marginals, params_.publish.query_budget_s, partial);
+  int pages = 0;
+  const std::int64_t now = WallMicros();
+  for (const RobotMap& map : maps) {
+    for (const slamd::map_t& page : MapPages(map, update_sequence, request_id, now)) {
+      const core::Status s = server::Publish(*bus_, channels_.Map(), page);
+      if (!s.ok()) log_->warn("cannot publish map_t: {}", s.ToString());
+      ++pages;
+    }
+  }
+  return pages;
+}
+
+void Daemon::MaybePublishMaps(const EstimateSnapshot& snap) {
+  if (params_.publish.map_rate_hz <= 0.0 || snap.update_sequence == last_map_sequence_) return;
+  const std::int64_t now = SteadyMicros();
+  const auto period = static_cast<std::int64_t>(1e6 / params_.publish.map_rate_hz);
+  if (last_map_us_ != 0 && now - last_map_us_ < period) return;
+  last_map_us_ = now;
+  last_map_sequence_ = snap.update_sequence;
+  bool partial = false;
+  PublishMaps("*", params_.publish.map_covariance, 0, snap.update_sequence, &partial);
 }
 
 void Daemon::PublishEstimates(const EstimateSnapshot& snap) {
@@ -211,9 +283,17 @@ void Daemon::PublishEstimates(const EstimateSnapshot& snap) {
       out.values = ToValues(std::get<core::Pose3>(r.pose));
     }
     out.num_values = static_cast<std::int32_t>(out.values.size());
-    out.num_covariance = 0;
+    if (params_.publish.estimate_covariance) {
+      Eigen::MatrixXd cov;
+      const core::Key key = core::MakeKey('x', r.pose_index, r.id);
+      if (estimator_->Marginal(key, &cov).ok()) out.covariance = ToRowMajor(cov);
+    }
+    out.num_covariance = static_cast<std::int32_t>(out.covariance.size());
     out.measurement_utime = r.measurement_utime;
     out.latency_us = r.received_us > 0 ? now_steady - r.received_us : 0;
+    if (r.received_us > 0) {
+      Record(&publish_us_, &publish_us_next_, static_cast<double>(out.latency_us));
+    }
     const core::Status s = server::Publish(*bus_, channels_.Estimate(), out);
     if (!s.ok()) log_->warn("cannot publish estimate_t: {}", s.ToString());
   }
@@ -251,8 +331,8 @@ void Daemon::PublishStatus(const EstimateSnapshot& snap) {
   out.update_latency_p90_us = Percentile(update_us_, 0.9);
   out.update_latency_p99_us = Percentile(update_us_, 0.99);
   out.update_latency_max_us = Percentile(update_us_, 1.0);
-  out.publish_latency_p50_us = 0;  // not measured yet
-  out.publish_latency_p99_us = 0;
+  out.publish_latency_p50_us = Percentile(publish_us_, 0.5);
+  out.publish_latency_p99_us = Percentile(publish_us_, 0.99);
   out.journal_records = 0;  // no journal yet (issue 7)
   out.journal_bytes = 0;
   out.chi2 = snap.chi2;

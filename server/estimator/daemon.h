@@ -9,9 +9,12 @@
 //                     newest pose moved, status_t at publish.status_rate_hz; when the queue is
 //                     empty and refine.enabled, Isam2::Refine(refine.budget_s) until settled.
 //
-// Inbound channels: ODOMETRY, LANDMARK, LOOP_CLOSURE, PRIOR; REMOVE_FACTOR is answered with a
-// reject_t (REASON_UNKNOWN_FACTOR: not implemented yet). QUERY and MAP are not served yet.
-// estimate_t carries no covariance yet (num_covariance = 0).
+// Inbound channels: ODOMETRY, LANDMARK, LOOP_CLOSURE, PRIOR, REMOVE_FACTOR (all through the
+// queue into Estimator::Process) and QUERY (through the same queue, so a query sees everything
+// sent before it; answered on QUERY_REPLY, maps on MAP, after the update of its batch, within
+// publish.query_budget_s for marginals). An invalid query gets a reject_t and a
+// STATUS_REJECTED reply. estimate_t carries the newest pose's marginal covariance when
+// publish.estimate_covariance; map_t pages of every robot go out at publish.map_rate_hz.
 //
 // Either Start() the two threads, or drive the same steps by hand (no threads) with
 // PumpIntake / StepEstimator, as deterministic tests do; do not mix the two.
@@ -79,6 +82,11 @@ class Daemon {
   void PublishEstimates(const EstimateSnapshot& snap);
   void PublishStatus(const EstimateSnapshot& snap);
   void MaybePublishStatus(const EstimateSnapshot& snap);
+  void MaybePublishMaps(const EstimateSnapshot& snap);
+  void AnswerAndPublish(const QueryRequest& query, std::int64_t update_sequence);
+  // Publishes the map_t pages of `robot` ("*" = all); returns how many.
+  int PublishMaps(const std::string& robot, bool marginals, std::int64_t request_id,
+                  std::int64_t update_sequence, bool* partial);
   void IntakeLoop();
   void EstimatorLoop();
 
@@ -99,6 +107,9 @@ class Daemon {
   std::int64_t last_status_us_ = 0;
   std::vector<double> update_us_;  // recent update latencies (ring of 1024) for status_t
   size_t update_us_next_ = 0;
+  std::vector<double> publish_us_;  // recent ingest-to-publish latencies (ring of 1024)
+  size_t publish_us_next_ = 0;
+  std::int64_t last_map_us_ = 0, last_map_sequence_ = -1;
 
   mutable std::mutex snapshot_mutex_;
   std::shared_ptr<const EstimateSnapshot> snapshot_;

@@ -50,15 +50,19 @@ std::string PoseName(const std::string& robot, std::uint64_t index) {
 
 const char* MessageTypeName(const Inbound& in) {
   static constexpr const char* kNames[] = {"odometry_t", "landmark_observation_t", "loop_closure_t",
-                                           "prior_t"};
+                                           "prior_t",    "remove_factor_t",        "query_t"};
   return kNames[in.measurement.index()];
 }
 
 const std::string& MessageRobot(const Inbound& in) {
   return std::visit(
       [](const auto& m) -> const std::string& {
-        if constexpr (std::is_same_v<std::decay_t<decltype(m)>, LoopClosureMeasurement>) {
+        using M = std::decay_t<decltype(m)>;
+        if constexpr (std::is_same_v<M, LoopClosureMeasurement> ||
+                      std::is_same_v<M, RemoveFactorRequest>) {
           return m.robot_a;
+        } else if constexpr (std::is_same_v<M, QueryRequest>) {
+          return m.client;
         } else {
           return m.robot;
         }
@@ -79,7 +83,9 @@ core::Result<std::unique_ptr<Estimator>> Estimator::Create(const EstimatorParams
 }
 
 Estimator::Estimator(const EstimatorParams& params, std::unique_ptr<core::Isam2> isam)
-    : params_(params), isam_(std::move(isam)) {
+    : params_(params),
+      isam_(std::move(isam)),
+      marginals_(std::make_unique<core::Isam2Marginals>(isam_.get())) {
   PublishSnapshot(false);
 }
 
@@ -94,15 +100,23 @@ Variable Estimator::Estimate(Key key, const Staged& s) const {
 
 bool Estimator::FirstTime(char type, Key a, Key b, int kind, const char* what, Staged* s,
                           Verdict* v) {
-  const auto id = std::make_tuple(type, a, b, kind);
-  if (seen_.count(id) != 0 || s->seen.count(id) != 0) {
+  const MeasurementId id = std::make_tuple(type, a, b, kind);
+  if (applied_.count(id) != 0 || s->seen.count(id) != 0) {
     *v = {RejectReason::kDuplicate, std::string(what) + ": the same measurement between " +
                                         core::KeyToString(a) + " and " + core::KeyToString(b) +
                                         " was already applied"};
     return false;
   }
   s->seen.insert(id);
+  s->pending_id = id;
   return true;
+}
+
+void Estimator::AddMeasured(core::FactorPtr factor, Key first, Staged* s) {
+  SLAMD_CHECK(s->pending_id.has_value()) << "AddMeasured without FirstTime";
+  s->ids.emplace_back(s->factors.size(), *s->pending_id, first);
+  s->pending_id.reset();
+  s->factors.Add(std::move(factor));
 }
 
 Estimator::RobotState& Estimator::Robot(std::uint8_t id, Staged* s) {
@@ -138,6 +152,8 @@ Estimator::Outcome Estimator::Apply(const Inbound& in, Staged* s, Verdict* v) {
           return ApplyLoopClosure(m, in, s, v);
         }
         if constexpr (std::is_same_v<M, PriorMeasurement>) return ApplyPrior(m, in, s, v);
+        SLAMD_CHECK(false) << MessageTypeName(in) << " reached Estimator::Apply";
+        return Outcome::kRejected;
       },
       in.measurement);
 }
@@ -178,7 +194,7 @@ Estimator::Outcome Estimator::ApplyOdometry(const OdometryMeasurement& m, const 
   }
   if (!Known(to, *s))
     AddPose(*id, m.to_index, Compose(Estimate(from, *s), m.measured, false), in, s);
-  s->factors.Add(MakeBetween(from, to, m.measured, m.noise));
+  AddMeasured(MakeBetween(from, to, m.measured, m.noise), from, s);
   Touch(*id, in, s);
   return Outcome::kApplied;
 }
@@ -229,7 +245,7 @@ Estimator::Outcome Estimator::ApplyLandmark(const LandmarkMeasurement& m, const 
                                                                               m.noise);
   }
   if (!known) (void)s->values.Insert(landmark, guess);
-  s->factors.Add(std::move(factor));
+  AddMeasured(std::move(factor), pose, s);
   Touch(*id, in, s);
   return Outcome::kApplied;
 }
@@ -285,7 +301,7 @@ Estimator::Outcome Estimator::ApplyLoopClosure(const LoopClosureMeasurement& m, 
   }
   if (!known_b) AddPose(*b, m.pose_b, Compose(Estimate(ka, *s), m.measured, false), in, s);
   if (!known_a) AddPose(*a, m.pose_a, Compose(Estimate(kb, *s), m.measured, true), in, s);
-  s->factors.Add(MakeBetween(ka, kb, m.measured, m.noise, m.robust));
+  AddMeasured(MakeBetween(ka, kb, m.measured, m.noise, m.robust), ka, s);
   Touch(*a, in, s);
   return Outcome::kApplied;
 }
@@ -323,7 +339,7 @@ Estimator::Outcome Estimator::ApplyPrior(const PriorMeasurement& m, const Inboun
     factor = std::make_shared<core::PositionPriorFactor<Pose3>>(
         key, std::get<core::Point3>(m.measured), m.noise);
   }
-  s->factors.Add(std::move(factor));
+  AddMeasured(std::move(factor), key, s);
   Touch(*id, in, s);
   return Outcome::kApplied;
 }
@@ -338,6 +354,24 @@ void Estimator::Reject(const Inbound& in, RejectReason reason, std::string messa
 ProcessResult Estimator::Process(std::vector<Inbound> batch) {
   ProcessResult result;
   counters_.processed += static_cast<std::int64_t>(batch.size());
+  std::vector<Inbound> segment;
+  for (Inbound& in : batch) {
+    SLAMD_CHECK(!std::holds_alternative<QueryRequest>(in.measurement))
+        << "queries are answered by the daemon, not Estimator::Process";
+    if (std::holds_alternative<RemoveFactorRequest>(in.measurement)) {
+      if (!segment.empty()) ApplyBatch(std::move(segment), &result);
+      segment.clear();
+      Remove(in, &result);
+    } else {
+      segment.push_back(std::move(in));
+    }
+  }
+  ApplyBatch(std::move(segment), &result);  // also ages held messages when empty
+  return result;
+}
+
+void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
+  ProcessResult& result = *out;
   std::vector<Held> pending(std::make_move_iterator(held_.begin()),
                             std::make_move_iterator(held_.end()));
   held_.clear();
@@ -396,32 +430,99 @@ ProcessResult Estimator::Process(std::vector<Inbound> batch) {
 
   if (s.factors.size() == 0 && s.values.empty()) {
     PublishSnapshot(false);
-    return result;
+    return;
   }
-  result.update = isam_->Update(s.factors, s.values);
-  result.updated = true;
-  result.status = result.update.status;
-  if (!result.status.ok()) {
+  result.updates.push_back(isam_->Update(s.factors, s.values));
+  const core::Isam2Result& update = result.updates.back();
+  if (!update.status.ok()) {
+    if (result.status.ok()) result.status = update.status;
     // The solver left its state unchanged: undo ours and reject what this batch applied.
     for (const auto& [id, state] : s.robots_before) robots_[id] = state;
     for (size_t i : applied) {
       Reject(pending[i].message, RejectReason::kBadMeasurement,
              std::string(MessageTypeName(pending[i].message)) +
-                 ": the solver refused the update: " + result.status.ToString(),
+                 ": the solver refused the update: " + update.status.ToString(),
              &result);
     }
     PublishSnapshot(false);
-    return result;
+    return;
   }
-  seen_.merge(s.seen);
+  for (const auto& [position, id, first] : s.ids) {
+    applied_[id] = {update.new_factor_indices[position], first, s.factors[position]->dim()};
+  }
   num_factors_ += static_cast<std::int64_t>(s.factors.size());
   for (const core::FactorPtr& f : s.factors.factors()) residual_dimension_ += f->dim();
-  result.applied = static_cast<int>(applied.size());
-  counters_.applied += result.applied;
+  result.applied += static_cast<int>(applied.size());
+  counters_.applied += static_cast<std::int64_t>(applied.size());
   ++counters_.updates;
   settled_ = false;
   PublishSnapshot(true);
-  return result;
+}
+
+std::optional<Estimator::MeasurementId> Estimator::RemovalId(const RemoveFactorRequest& r,
+                                                             Key* first, std::string* why) const {
+  const auto a = registry_.Find(r.robot_a);
+  if (!a) {
+    *why = "remove_factor_t.robot_a: robot '" + r.robot_a + "' is not known";
+    return std::nullopt;
+  }
+  const Key pose = MakeKey('x', r.index_a, *a);
+  *first = pose;
+  switch (r.target) {
+    case RemoveTarget::kOdometry:
+      return MeasurementId{'o', pose, MakeKey('x', r.index_b, *a), 0};
+    case RemoveTarget::kLandmarkObservation:
+      return MeasurementId{'l', pose, MakeKey('l', r.index_b, *a), r.kind};
+    case RemoveTarget::kPrior:
+      return MeasurementId{'p', pose, 0, r.kind};
+    case RemoveTarget::kLoopClosure: {
+      const auto b = registry_.Find(r.robot_b);
+      if (!b) {
+        *why = "remove_factor_t.robot_b: robot '" + r.robot_b + "' is not known";
+        return std::nullopt;
+      }
+      const Key other = MakeKey('x', r.index_b, *b);
+      return MeasurementId{'c', std::min(pose, other), std::max(pose, other), 0};
+    }
+  }
+  *why = "remove_factor_t.target: unknown";
+  return std::nullopt;
+}
+
+void Estimator::Remove(const Inbound& in, ProcessResult* result) {
+  const auto& r = std::get<RemoveFactorRequest>(in.measurement);
+  Key first = 0;
+  std::string why;
+  const std::optional<MeasurementId> id = RemovalId(r, &first, &why);
+  const auto it = id ? applied_.find(*id) : applied_.end();
+  if (!id || it == applied_.end() || it->second.first != first) {
+    if (id) {
+      why = "remove_factor_t: no such measurement was applied (from " +
+            core::KeyToString(std::get<1>(*id)) +
+            (std::get<2>(*id) != 0 ? " to " + core::KeyToString(std::get<2>(*id)) : "") +
+            (it != applied_.end() ? "; the loop closure was sent the other way round)" : ")");
+    }
+    Reject(in, RejectReason::kUnknownFactor, std::move(why), result);
+    return;
+  }
+  core::Isam2UpdateOptions options;
+  options.remove_factors = {it->second.factor};
+  result->updates.push_back(isam_->Update({}, {}, options));
+  const core::Isam2Result& update = result->updates.back();
+  if (!update.status.ok()) {
+    Reject(in, RejectReason::kWouldDisconnect,
+           "remove_factor_t: the solver refused the removal: " + update.status.ToString(), result);
+    PublishSnapshot(false);
+    return;
+  }
+  --num_factors_;
+  residual_dimension_ -= it->second.dim;
+  applied_.erase(it);
+  ++result->applied;
+  ++counters_.applied;
+  ++counters_.updates;
+  settled_ = false;
+  PublishSnapshot(true);
 }
 
 core::Isam2::RefineResult Estimator::Refine(double budget_s) {
@@ -440,6 +541,28 @@ core::Result<Variable> Estimator::PoseEstimate(const std::string& robot,
     return core::NotFound(PoseName(robot, index) + " is not in the graph");
   }
   return isam_->CalculateEstimate(key);
+}
+
+std::optional<Key> Estimator::KeyOf(const WireKey& key) const {
+  const auto id = registry_.Find(key.robot);
+  if (!id || key.index > core::kMaxKeyIndex) return std::nullopt;
+  const Key k = MakeKey(key.kind == KeyKind::kPose ? 'x' : 'l', key.index, *id);
+  if (!isam_->linearization_point().Contains(k)) return std::nullopt;
+  return k;
+}
+
+core::Status Estimator::Marginal(Key key, Eigen::MatrixXd* cov) {
+  return marginals_->Marginal(key, core::Isam2Marginals::Frame::kEstimate, cov);
+}
+
+core::Status Estimator::JointMarginal(std::span<const Key> keys, Eigen::MatrixXd* cov) {
+  return marginals_->JointMarginal(keys, core::Isam2Marginals::Frame::kEstimate, cov);
+}
+
+void Estimator::ComputeAllMarginals() { marginals_->ComputeAll(); }
+
+core::Status Estimator::CachedMarginal(Key key, Eigen::MatrixXd* cov) const {
+  return marginals_->CachedMarginal(key, core::Isam2Marginals::Frame::kEstimate, cov);
 }
 
 void Estimator::PublishSnapshot(bool bump) {

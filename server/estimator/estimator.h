@@ -22,6 +22,11 @@
 //             kBadMeasurement (2D measurement on a 3D pose or vice versa; the solver refused the
 //             update: then every message applied in this batch is rejected and the estimator's
 //             state is unchanged), kTooManyElements (more than 255 robots).
+// A RemoveFactorRequest splits the batch: the measurements before it go into one update, the
+// removal into its own (so a removal the solver refuses, kWouldDisconnect, rejects nothing
+// else), the rest into the next. It names an applied measurement by its identifying fields
+// (msgs/lcm/remove_factor_t.lcm); none matching is kUnknownFactor. A removed measurement may be
+// sent again. Origin anchors (kAnchorAtOrigin) cannot be removed.
 //
 // Exactness: with refinement off, each Process call is exactly one Isam2::Update of the factors
 // in message order and the values in creation order, so feeding the messages of one dataset step
@@ -34,14 +39,18 @@
 
 #include <cstdint>
 #include <deque>
+#include <map>
 #include <memory>
+#include <optional>
 #include <set>
+#include <span>
 #include <string>
 #include <tuple>
 #include <variant>
 #include <vector>
 
 #include "core/isam/isam2.h"
+#include "core/marginals/marginals.h"
 #include "server/estimator/estimate_snapshot.h"
 #include "server/estimator/estimator_params.h"
 #include "server/estimator/robot_registry.h"
@@ -50,14 +59,18 @@
 
 namespace slamd::server {
 
-// One inbound measurement with its transport receipt time [µs, steady clock].
+// One inbound message with its transport receipt time [µs, steady clock]: a measurement, a
+// retraction, or a query (queries go through the same queue so they see every message queued
+// before them; the daemon answers them, Process never sees one).
 struct Inbound {
-  std::variant<OdometryMeasurement, LandmarkMeasurement, LoopClosureMeasurement, PriorMeasurement>
+  std::variant<OdometryMeasurement, LandmarkMeasurement, LoopClosureMeasurement, PriorMeasurement,
+               RemoveFactorRequest, QueryRequest>
       measurement;
   std::int64_t received_us = 0;
 };
 
-// The wire type name ("odometry_t", ...), robot (robot_a for loop closures) and utime.
+// The wire type name ("odometry_t", ...), robot (robot_a for loop closures and removals, the
+// client for queries) and utime.
 const char* MessageTypeName(const Inbound& in);
 const std::string& MessageRobot(const Inbound& in);
 std::int64_t MessageUtime(const Inbound& in);
@@ -68,11 +81,10 @@ struct Rejection {
 };
 
 struct ProcessResult {
-  core::Status status;   // of the Isam2 update (ok when there was none)
-  bool updated = false;  // an Isam2::Update ran
-  int applied = 0;
+  core::Status status;  // of the first failed Isam2 update (ok when none failed)
+  int applied = 0;      // measurements and retractions that took effect
   std::vector<Rejection> rejections;
-  core::Isam2Result update;  // when updated
+  std::vector<core::Isam2Result> updates;  // every Isam2::Update that ran, in order
 };
 
 class Estimator {
@@ -92,6 +104,17 @@ class Estimator {
 
   // The current estimate of pose `index` of `robot` (NotFound when not in the graph).
   core::Result<core::Variable> PoseEstimate(const std::string& robot, std::uint64_t index) const;
+  // The solver key of a wire key; nullopt when that variable is not in the graph.
+  std::optional<core::Key> KeyOf(const WireKey& key) const;
+  // Marginal covariances at the current estimate (tangent at θ ⊕ δ, translation first), from
+  // the Bayes tree with a cache kept across updates (core/marginals). NotFound for unknown keys.
+  core::Status Marginal(core::Key key, Eigen::MatrixXd* cov);
+  core::Status JointMarginal(std::span<const core::Key> keys, Eigen::MatrixXd* cov);
+  // Computes every clique's marginal once, so that CachedMarginal is O(1) per variable until
+  // the next update (a whole map with covariances).
+  void ComputeAllMarginals();
+  core::Status CachedMarginal(core::Key key, Eigen::MatrixXd* cov) const;
+  const RobotRegistry& registry() const { return registry_; }
   const core::Isam2& solver() const { return *isam_; }
   int held_messages() const { return static_cast<int>(held_.size()); }
 
@@ -112,11 +135,22 @@ class Estimator {
     std::uint64_t published_index = 0;
     std::int64_t moved_sequence = 0;
   };
+  // A measurement's identity for duplicates and removal: (message type letter, first key,
+  // second key or 0, kind); loop closures with the smaller key first.
+  using MeasurementId = std::tuple<char, core::Key, core::Key, int>;
+  struct AppliedFactor {
+    int factor = 0;       // Isam2 factor index
+    core::Key first = 0;  // the key the message named first (loop closures are directed)
+    int dim = 0;
+  };
   // What one batch adds; committed only when the update succeeds.
   struct Staged {
     core::FactorGraph factors;
     core::Values values;
-    std::set<std::tuple<char, core::Key, core::Key, int>> seen;
+    std::set<MeasurementId> seen;
+    // (position in `factors`, id, first key) of each measured (removable) factor.
+    std::vector<std::tuple<size_t, MeasurementId, core::Key>> ids;
+    std::optional<MeasurementId> pending_id;  // set by FirstTime, taken by AddMeasured
     std::vector<std::pair<std::uint8_t, RobotState>> robots_before;  // for rollback
   };
 
@@ -132,7 +166,13 @@ class Estimator {
   // Marks `key` seen for this batch; false (and *v = kDuplicate) when already applied.
   bool FirstTime(char type, core::Key a, core::Key b, int kind, const char* what, Staged* s,
                  Verdict* v);
+  // Adds the factor of the message FirstTime() just admitted, remembering its identity.
+  void AddMeasured(core::FactorPtr factor, core::Key first, Staged* s);
   RobotState& Robot(std::uint8_t id, Staged* s);  // remembers its old state for rollback
+  void ApplyBatch(std::vector<Inbound> batch, ProcessResult* result);
+  void Remove(const Inbound& in, ProcessResult* result);
+  std::optional<MeasurementId> RemovalId(const RemoveFactorRequest& r, core::Key* first,
+                                         std::string* why) const;
   void AddPose(std::uint8_t robot, std::uint64_t index, const core::Variable& value,
                const Inbound& in, Staged* s);
   void Touch(std::uint8_t robot, const Inbound& in, Staged* s);
@@ -143,7 +183,8 @@ class Estimator {
   std::unique_ptr<core::Isam2> isam_;
   RobotRegistry registry_;
   RobotState robots_[256];
-  std::set<std::tuple<char, core::Key, core::Key, int>> seen_;  // applied measurements
+  std::map<MeasurementId, AppliedFactor> applied_;  // applied (not removed) measurements
+  std::unique_ptr<core::Isam2Marginals> marginals_;
   std::deque<Held> held_;
   EstimatorCounters counters_;
   std::int64_t sequence_ = 0;

@@ -110,10 +110,10 @@ struct QueryRequest {
   std::int64_t utime = 0;
   std::string client;
   std::int64_t request_id = 0;
-  std::vector<WireKey> keys;
+  std::vector<WireKey> keys = {};
   bool want_marginals = false;
   bool want_joint_marginal = false;
-  std::string map_robot;  // "" none, "*" all, or a robot name
+  std::string map_robot = "";  // "" none, "*" all, or a robot name
 };
 
 }  // namespace slamd::server

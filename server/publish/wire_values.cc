@@ -17,6 +17,10 @@ std::vector<double> ToValues(const core::Point3& point) {
   return {point.x(), point.y(), point.z()};
 }
 
+std::vector<double> ToValues(const core::Variable& variable) {
+  return std::visit([](const auto& v) { return ToValues(v); }, variable);
+}
+
 std::vector<double> ToRowMajor(const Eigen::Ref<const Eigen::MatrixXd>& matrix) {
   std::vector<double> out(static_cast<size_t>(matrix.size()));
   Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(

@@ -13,6 +13,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/factors/variable.h"
 #include "core/geometry/pose2.h"
 #include "core/geometry/pose3.h"
 #include "server/ingest/validation.h"
@@ -27,6 +28,7 @@ std::vector<double> ToValues(const core::Pose2& pose);
 std::vector<double> ToValues(const core::Pose3& pose);
 std::vector<double> ToValues(const core::Point2& point);
 std::vector<double> ToValues(const core::Point3& point);
+std::vector<double> ToValues(const core::Variable& variable);  // whichever of the above it holds
 std::vector<double> ToRowMajor(const Eigen::Ref<const Eigen::MatrixXd>& matrix);
 
 // Fills *out for a rejected message: `verdict` (not ok) gives reason and detail; `channel`,

@@ -10,8 +10,12 @@
 #include "server/transport/in_process_bus.h"
 #include "server/transport/typed_subscribe.h"
 #include "slamd/estimate_t.hpp"
+#include "slamd/loop_closure_t.hpp"
+#include "slamd/map_t.hpp"
 #include "slamd/odometry_t.hpp"
 #include "slamd/prior_t.hpp"
+#include "slamd/query_reply_t.hpp"
+#include "slamd/query_t.hpp"
 #include "slamd/reject_t.hpp"
 #include "slamd/remove_factor_t.hpp"
 #include "slamd/status_t.hpp"
@@ -112,7 +116,7 @@ TEST(DaemonTest, BadMessagesGetTheirRejectAndChangeNothing) {
   ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", Prior()).ok());     // duplicate
   slamd::remove_factor_t remove;
   ToLcm(RemoveFactorRequest{1, RemoveTarget::kOdometry, "r", 0, "", 1, 0}, &remove);
-  ASSERT_TRUE(Publish(bus, "SLAMD_REMOVE_FACTOR", remove).ok());  // not implemented
+  ASSERT_TRUE(Publish(bus, "SLAMD_REMOVE_FACTOR", remove).ok());  // no such odometry
   ASSERT_TRUE(daemon->PumpIntake(0).ok());
   daemon->StepEstimator(0.0);
   ASSERT_TRUE(daemon->PumpIntake(0).ok());
@@ -120,10 +124,12 @@ TEST(DaemonTest, BadMessagesGetTheirRejectAndChangeNothing) {
   EXPECT_EQ(client.rejects[0].reason, slamd::reject_t::REASON_NOT_FINITE);
   EXPECT_EQ(client.rejects[0].channel, "SLAMD_ODOMETRY");
   EXPECT_EQ(client.rejects[1].reason, slamd::reject_t::REASON_DECODE_ERROR);
-  EXPECT_EQ(client.rejects[2].reason, slamd::reject_t::REASON_UNKNOWN_FACTOR);
-  EXPECT_EQ(client.rejects[3].reason, slamd::reject_t::REASON_DUPLICATE);
-  EXPECT_EQ(client.rejects[3].channel, "SLAMD_PRIOR");
-  EXPECT_EQ(client.rejects[3].robot, "r");
+  EXPECT_EQ(client.rejects[2].reason, slamd::reject_t::REASON_DUPLICATE);
+  EXPECT_EQ(client.rejects[2].channel, "SLAMD_PRIOR");
+  EXPECT_EQ(client.rejects[2].robot, "r");
+  EXPECT_EQ(client.rejects[3].reason, slamd::reject_t::REASON_UNKNOWN_FACTOR);
+  EXPECT_EQ(client.rejects[3].channel, "SLAMD_REMOVE_FACTOR");
+  EXPECT_EQ(client.rejects[3].message_type, "remove_factor_t");
   const auto after = daemon->snapshot();
   EXPECT_EQ(after->num_factors, before->num_factors);
   EXPECT_EQ(after->num_variables, before->num_variables);
@@ -184,6 +190,134 @@ TEST(DaemonTest, ThreadsProcessEverythingAndStopCleanly) {
   const auto snap = daemon->snapshot();
   EXPECT_EQ(snap->counters.applied, 201);
   EXPECT_LE(snap->counters.updates, 201);  // coalesced whenever messages queued up
+}
+
+slamd::query_t Query(std::int64_t id, std::vector<std::uint64_t> poses, bool marginals, bool joint,
+                     const std::string& map_robot = "") {
+  QueryRequest q{.utime = 1, .client = "tester", .request_id = id};
+  for (std::uint64_t i : poses) q.keys.push_back({"r", KeyKind::kPose, i});
+  q.want_marginals = marginals;
+  q.want_joint_marginal = joint;
+  q.map_robot = map_robot;
+  slamd::query_t msg;
+  ToLcm(q, &msg);
+  return msg;
+}
+
+// Queries are answered after the update of the messages queued before them; estimates carry
+// the newest pose's covariance; maps come in pages. Reference: a prior (sigma a) and identity
+// odometry (sigma b) give x1 the covariance (a² + b²) I and x0, x1 the cross-covariance a² I.
+TEST(DaemonTest, QueriesEstimateCovariancesAndMapsAnswered) {
+  InProcessBus bus;
+  auto daemon = Daemon::Create(Params(), &bus).value();
+  Client client(bus);
+  std::vector<slamd::query_reply_t> replies;
+  std::vector<slamd::map_t> maps;
+  client.subs.push_back(
+      Subscribe<slamd::query_reply_t>(
+          bus, "SLAMD_QUERY_REPLY",
+          [&](std::string_view, const slamd::query_reply_t& m) { replies.push_back(m); }, nullptr)
+          .value());
+  client.subs.push_back(Subscribe<slamd::map_t>(
+                            bus, "SLAMD_MAP",
+                            [&](std::string_view, const slamd::map_t& m) { maps.push_back(m); },
+                            nullptr)
+                            .value());
+  const double a = 0.01, b = 0.1;
+  slamd::odometry_t odo;
+  ToLcm(OdometryMeasurement{10, "r", 0, 1, core::Pose2(), Noise(3, b)}, &odo);
+  ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", Prior()).ok());
+  ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", odo).ok());
+  ASSERT_TRUE(Publish(bus, "SLAMD_QUERY", Query(7, {0, 1, 5}, true, false)).ok());
+  ASSERT_TRUE(Publish(bus, "SLAMD_QUERY", Query(8, {0, 1}, true, true, "*")).ok());
+  slamd::query_t bad = Query(9, {0}, false, false);
+  bad.client = "bad name!";
+  ASSERT_TRUE(Publish(bus, "SLAMD_QUERY", bad).ok());
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+  EXPECT_EQ(daemon->StepEstimator(0.0), 4);
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+
+  ASSERT_EQ(client.estimates.size(), 1u);
+  ASSERT_EQ(client.estimates[0].num_covariance, 9);
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      EXPECT_NEAR(client.estimates[0].covariance[3 * i + j], i == j ? a * a + b * b : 0.0, 1e-12);
+    }
+  }
+  ASSERT_EQ(replies.size(), 3u);
+  // The invalid query is rejected at intake, so its reply comes first (and a reject_t).
+  EXPECT_EQ(replies[0].request_id, 9);
+  EXPECT_EQ(replies[0].status, slamd::query_reply_t::STATUS_REJECTED);
+  EXPECT_NE(replies[0].error.find("client"), std::string::npos) << replies[0].error;
+  ASSERT_EQ(client.rejects.size(), 1u);
+  EXPECT_EQ(client.rejects[0].message_type, "query_t");
+
+  const slamd::query_reply_t& r7 = replies[1];
+  EXPECT_EQ(r7.request_id, 7);
+  EXPECT_EQ(r7.client, "tester");
+  EXPECT_EQ(r7.update_sequence, 1);
+  EXPECT_EQ(r7.status, slamd::query_reply_t::STATUS_OK);
+  ASSERT_EQ(r7.num_results, 3);
+  EXPECT_TRUE(r7.results[0].found);
+  EXPECT_TRUE(r7.results[1].found);
+  EXPECT_FALSE(r7.results[2].found);  // pose 5 does not exist
+  EXPECT_EQ(r7.results[2].key.index, 5);
+  ASSERT_EQ(r7.results[0].num_covariance, 9);
+  EXPECT_NEAR(r7.results[0].covariance[0], a * a, 1e-12);
+  EXPECT_NEAR(r7.results[1].covariance[8], a * a + b * b, 1e-12);
+  EXPECT_EQ(r7.joint_dimension, 0);
+  EXPECT_EQ(r7.map_pages, 0);
+
+  const slamd::query_reply_t& r8 = replies[2];
+  EXPECT_EQ(r8.status, slamd::query_reply_t::STATUS_OK) << r8.error;
+  ASSERT_EQ(r8.joint_dimension, 6);
+  for (int i = 0; i < 6; ++i) {
+    for (int j = 0; j < 6; ++j) {
+      double expected = 0.0;
+      if (i % 3 == j % 3) expected = (i >= 3 && j >= 3) ? a * a + b * b : a * a;
+      EXPECT_NEAR(r8.joint_covariance[6 * i + j], expected, 1e-12) << i << "," << j;
+    }
+  }
+  EXPECT_EQ(r8.map_pages, 1);
+  ASSERT_EQ(maps.size(), 1u);
+  EXPECT_EQ(maps[0].robot, "r");
+  EXPECT_EQ(maps[0].request_id, 8);
+  EXPECT_EQ(maps[0].page_count, 1);
+  ASSERT_EQ(maps[0].num_poses, 2);
+  EXPECT_EQ(maps[0].poses[1].index, 1);
+  ASSERT_EQ(maps[0].poses[1].num_covariance, 9);
+  EXPECT_NEAR(maps[0].poses[1].covariance[4], a * a + b * b, 1e-12);
+  EXPECT_EQ(maps[0].num_landmarks, 0);
+}
+
+TEST(DaemonTest, RemovedLoopClosureLeavesTheGraph) {
+  InProcessBus bus;
+  auto daemon = Daemon::Create(Params(), &bus).value();
+  Client client(bus);
+  ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", Prior()).ok());
+  for (int i = 0; i < 4; ++i) ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(i, i + 1)).ok());
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+  daemon->StepEstimator(0.0);
+  const auto before = daemon->snapshot();
+  slamd::loop_closure_t wrong;
+  ToLcm(LoopClosureMeasurement{11, "r", 4, "r", 0, core::Pose2(3, 2, 1), Noise(3, 0.1), {}},
+        &wrong);
+  ASSERT_TRUE(Publish(bus, "SLAMD_LOOP_CLOSURE", wrong).ok());
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+  daemon->StepEstimator(0.0);
+  EXPECT_EQ(daemon->snapshot()->num_factors, before->num_factors + 1);
+  EXPECT_GT(daemon->snapshot()->chi2, 1.0);
+  slamd::remove_factor_t remove;
+  ToLcm(RemoveFactorRequest{12, RemoveTarget::kLoopClosure, "r", 4, "r", 0, 0}, &remove);
+  ASSERT_TRUE(Publish(bus, "SLAMD_REMOVE_FACTOR", remove).ok());
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+  daemon->StepEstimator(0.0);
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+  EXPECT_TRUE(client.rejects.empty());
+  const auto after = daemon->snapshot();
+  EXPECT_EQ(after->num_factors, before->num_factors);
+  EXPECT_EQ(after->residual_dimension, before->residual_dimension);
+  EXPECT_LT(after->chi2, 1e-6);
 }
 
 }  // namespace
