@@ -71,6 +71,8 @@ class Isam2 {
   const Values& linearization_point() const { return theta_; }
   // The current factors (removed ones left out), in index order.
   FactorGraph Factors() const;
+  // Every factor by its index (Isam2Result::new_factor_indices); null once removed.
+  const std::vector<FactorPtr>& factor_slots() const { return factors_; }
   const BayesTree& tree() const { return tree_; }
   const Isam2Params& params() const { return params_; }
   int num_updates() const { return num_updates_; }

@@ -8,6 +8,7 @@
 #include "core/factors/position_prior_factor.h"
 #include "core/factors/prior_factor.h"
 #include "core/factors/relative_point_factor.h"
+#include "server/estimator/estimator_state.h"
 
 namespace slamd::server {
 namespace {
@@ -543,6 +544,80 @@ core::Result<Variable> Estimator::PoseEstimate(const std::string& robot,
   return isam_->CalculateEstimate(key);
 }
 
+EstimatorState Estimator::ExportState() const {
+  EstimatorState state;
+  state.update_sequence = sequence_;
+  std::vector<int> position(isam_->factor_slots().size(), -1);
+  for (size_t i = 0; i < isam_->factor_slots().size(); ++i) {
+    if (const core::FactorPtr& f = isam_->factor_slots()[i]) {
+      position[i] = static_cast<int>(state.factors.size());
+      state.factors.push_back(f);
+    }
+  }
+  state.linearization_point = isam_->linearization_point();
+  state.estimate = isam_->CalculateEstimate();
+  for (const auto& [id, f] : applied_) {
+    SLAMD_CHECK(position[f.factor] >= 0) << "applied measurement on a removed factor";
+    state.applied.push_back({std::get<0>(id), std::get<1>(id), std::get<2>(id), std::get<3>(id),
+                             position[f.factor], f.first, f.dim});
+  }
+  for (std::uint8_t id : registry_.ids()) {
+    const RobotState& r = robots_[id];
+    state.robots.push_back({registry_.Name(id), id, r.anchored, r.newest, r.measurement_utime,
+                            r.published, r.published_index, r.moved_sequence});
+  }
+  for (const Held& h : held_) state.held.push_back({h.message, h.waited});
+  state.counters = counters_;
+  state.num_factors = num_factors_;
+  state.residual_dimension = residual_dimension_;
+  return state;
+}
+
+core::Result<std::unique_ptr<Estimator>> Estimator::Restore(const EstimatorParams& params,
+                                                            const core::Isam2Params& isam2,
+                                                            const EstimatorState& state) {
+  core::Result<std::unique_ptr<Estimator>> made = Create(params, isam2);
+  if (!made.ok()) return made.status();
+  std::unique_ptr<Estimator> e = std::move(made).value();
+  for (const EstimatorState::Robot& r : state.robots) {
+    const std::optional<std::uint8_t> id = e->registry_.FindOrAdd(r.name);
+    if (!id || *id != r.id) {
+      return core::DataLoss("snapshot: robot '" + r.name + "' has id " + std::to_string(r.id) +
+                            ", registration order gives another");
+    }
+    RobotState& s = e->robots_[*id];
+    s.anchored = r.anchored;
+    s.newest = r.newest;
+    s.measurement_utime = r.measurement_utime;
+    s.published = r.published;
+    s.published_index = r.published_index;
+    s.moved_sequence = r.moved_sequence;
+  }
+  for (const EstimatorState::Applied& a : state.applied) {
+    if (a.factor < 0 || a.factor >= static_cast<int>(state.factors.size())) {
+      return core::DataLoss("snapshot: applied measurement names factor " +
+                            std::to_string(a.factor) + " of " +
+                            std::to_string(state.factors.size()));
+    }
+    e->applied_[{a.type, a.a, a.b, a.kind}] = {a.factor, a.first, a.dim};
+  }
+  if (!state.factors.empty() || !state.linearization_point.empty()) {
+    core::FactorGraph graph;
+    for (const core::FactorPtr& f : state.factors) graph.Add(f);
+    const core::Isam2Result r = e->isam_->Update(graph, state.linearization_point);
+    if (!r.status.ok()) return core::DataLoss("snapshot: " + r.status.ToString());
+  }
+  for (const EstimatorState::HeldMessage& h : state.held) e->held_.push_back({h.message, h.waited});
+  e->counters_ = state.counters;
+  e->sequence_ = state.update_sequence;
+  e->num_factors_ = state.num_factors;
+  e->residual_dimension_ = state.residual_dimension;
+  e->settled_ = false;
+  e->snapshot_.reset();
+  e->PublishSnapshot(false);
+  return e;
+}
+
 std::optional<Key> Estimator::KeyOf(const WireKey& key) const {
   const auto id = registry_.Find(key.robot);
   if (!id || key.index > core::kMaxKeyIndex) return std::nullopt;
@@ -574,9 +649,9 @@ void Estimator::PublishSnapshot(bool bump) {
   snap->residual_dimension = residual_dimension_;
   snap->held_messages = static_cast<int>(held_.size());
   snap->settled = settled_;
-  if (bump) {
+  if (bump || !snapshot_) {
     snap->chi2 = isam_->Chi2();
-  } else if (snapshot_) {
+  } else {
     snap->chi2 = snapshot_->chi2;
   }
   for (std::uint8_t id : registry_.ids()) {

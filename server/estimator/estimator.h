@@ -75,6 +75,8 @@ const char* MessageTypeName(const Inbound& in);
 const std::string& MessageRobot(const Inbound& in);
 std::int64_t MessageUtime(const Inbound& in);
 
+struct EstimatorState;  // estimator_state.h
+
 struct Rejection {
   Inbound message;
   Verdict verdict;
@@ -92,6 +94,17 @@ class Estimator {
   // InvalidArgument when a params struct does not validate.
   static core::Result<std::unique_ptr<Estimator>> Create(const EstimatorParams& params,
                                                          const core::Isam2Params& isam2);
+
+  // An estimator rebuilt from a state exported by ExportState (a snapshot): the factors are
+  // eliminated in one batch at the state's linearisation point, so the estimate is re-solved
+  // there (equal to the exported one up to the partial back-substitution's tolerance).
+  // DataLoss naming what is inconsistent (a factor index out of range, a robot id that does
+  // not match registration order, a factor on an unknown variable).
+  static core::Result<std::unique_ptr<Estimator>> Restore(const EstimatorParams& params,
+                                                          const core::Isam2Params& isam2,
+                                                          const EstimatorState& state);
+  // Everything needed to Restore this estimator; O(variables + factors), no solver work.
+  EstimatorState ExportState() const;
 
   // Applies `batch` (see the file comment) with one Isam2::Update; publishes a new snapshot.
   ProcessResult Process(std::vector<Inbound> batch);

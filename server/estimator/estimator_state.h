@@ -1,0 +1,58 @@
+// EstimatorState: everything an Estimator is, as plain values, so that a snapshot can be
+// written from an immutable copy on a background thread and an Estimator rebuilt from it at
+// recovery (server/snapshot/state_codec.h turns it into bytes). Factors are shared immutable
+// objects, so a copy is cheap: O(variables + factors) pointers and values.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/factors/factor.h"
+#include "core/factors/values.h"
+#include "server/estimator/estimate_snapshot.h"
+#include "server/estimator/estimator.h"
+
+namespace slamd::server {
+
+struct EstimatorState {
+  std::int64_t update_sequence = 0;
+  std::vector<core::FactorPtr> factors = {};  // the current factors, in solver index order
+  core::Values linearization_point;
+  core::Values estimate;  // θ ⊕ δ; informational (a restore re-solves at θ)
+
+  // A retractable measurement (remove_factor_t) and its factor's position in `factors`.
+  struct Applied {
+    char type = 0;  // 'o' odometry, 'l' landmark, 'c' loop closure, 'p' prior
+    core::Key a = 0, b = 0;
+    int kind = 0;
+    int factor = 0;
+    core::Key first = 0;
+    int dim = 0;
+  };
+  std::vector<Applied> applied = {};
+
+  struct Robot {
+    std::string name;
+    std::uint8_t id = 0;
+    bool anchored = false;
+    std::uint64_t newest = 0;
+    std::int64_t measurement_utime = 0;
+    core::Variable published;
+    std::uint64_t published_index = 0;
+    std::int64_t moved_sequence = 0;
+  };
+  std::vector<Robot> robots = {};  // registration order
+
+  struct HeldMessage {
+    Inbound message;
+    int waited = 0;
+  };
+  std::vector<HeldMessage> held = {};
+
+  EstimatorCounters counters;
+  std::int64_t num_factors = 0;
+  std::int64_t residual_dimension = 0;
+};
+
+}  // namespace slamd::server

@@ -1,0 +1,149 @@
+#include "server/snapshot/state_codec.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/geometry/rot3.h"
+
+namespace slamd::server {
+namespace {
+
+using core::Pose2;
+using core::Pose3;
+
+core::NoiseModel Noise(int dim, double sigma) {
+  return core::NoiseModel::Isotropic(dim, sigma).value();
+}
+
+Pose3 P3(double x, double yaw) {
+  return Pose3(core::Rot3::FromRollPitchYaw(0.1, -0.05, yaw), core::Point3(x, 0.2, -0.1));
+}
+
+// Every factor type the estimator makes, a removal, a robust loop closure, and a held message.
+std::vector<Inbound> Messages() {
+  std::vector<Inbound> m;
+  m.push_back(
+      {PriorMeasurement{1, "r", 0, PriorKind::kPose2, Pose2(1, 2, 0.3), Noise(3, 0.01)}, 0});
+  for (std::uint64_t i = 0; i < 5; ++i) {
+    m.push_back({OdometryMeasurement{2, "r", i, i + 1, Pose2(1, 0.1, 0.2), Noise(3, 0.1)}, 0});
+  }
+  m.push_back({LandmarkMeasurement{3, "r", 1, 7, LandmarkKind::kBearingRange2,
+                                   BearingRange{0.2, 3.0}, Noise(2, 0.05)},
+               0});
+  m.push_back({LandmarkMeasurement{3, "r", 2, 7, LandmarkKind::kBearingRange2,
+                                   BearingRange{0.1, 2.5}, Noise(2, 0.05)},
+               0});
+  m.push_back({LandmarkMeasurement{3, "r", 3, 8, LandmarkKind::kRelativePoint2, core::Point2(1, -1),
+                                   Noise(2, 0.05)},
+               0});
+  m.push_back(
+      {PriorMeasurement{4, "r", 4, PriorKind::kPosition2, core::Point2(4, 3), Noise(2, 1)}, 0});
+  m.push_back({LoopClosureMeasurement{
+                   5, "r", 5, "r", 1, Pose2(-3, 0.5, -0.6), Noise(3, 0.2),
+                   core::RobustKernel::Create(core::RobustKernel::Kind::kCauchy, 1.0).value()},
+               0});
+  m.push_back(
+      {LoopClosureMeasurement{5, "r", 5, "r", 2, Pose2(-2, 0.3, -0.4), Noise(3, 0.2), {}}, 0});
+  m.push_back({PriorMeasurement{6, "s", 0, PriorKind::kPose3, P3(0, 0.1), Noise(6, 0.01)}, 0});
+  m.push_back({OdometryMeasurement{7, "s", 0, 1, P3(1, 0.2), Noise(6, 0.1)}, 0});
+  m.push_back({LandmarkMeasurement{8, "s", 1, 2, LandmarkKind::kRelativePoint3,
+                                   core::Point3(1, 2, 3), Noise(3, 0.1)},
+               0});
+  m.push_back(
+      {PriorMeasurement{9, "s", 1, PriorKind::kPosition3, core::Point3(1, 0, 0), Noise(3, 2)}, 0});
+  m.push_back({RemoveFactorRequest{10, RemoveTarget::kLoopClosure, "r", 5, "r", 2, 0}, 0});
+  m.push_back({OdometryMeasurement{11, "r", 7, 8, Pose2(1, 0, 0), Noise(3, 0.1)}, 0});  // held
+  return m;
+}
+
+TEST(StateCodecTest, RoundTripRestoresAnEquivalentEstimator) {
+  core::Isam2Params isam2;
+  auto original = Estimator::Create({}, isam2).value();
+  ASSERT_TRUE(original->Process(Messages()).status.ok());
+  ASSERT_EQ(original->held_messages(), 1);
+  const EstimatorState state = original->ExportState();
+  ASSERT_EQ(state.applied.size(), 15u);  // 16 measurements applied, one removed
+
+  const std::string bytes = EncodeState(state, 42);
+  std::int64_t position = 0;
+  core::Result<EstimatorState> decoded = DecodeState(bytes, &position);
+  ASSERT_TRUE(decoded.ok()) << decoded.status().ToString();
+  EXPECT_EQ(position, 42);
+  const EstimatorState& d = decoded.value();
+  ASSERT_EQ(d.factors.size(), state.factors.size());
+  // Factors: same types, keys, and errors at the same values (bit for bit: the geometry is
+  // stored exactly; the noise model is re-factored, so its whitening to rounding).
+  for (size_t i = 0; i < state.factors.size(); ++i) {
+    EXPECT_STREQ(d.factors[i]->Name(), state.factors[i]->Name());
+    EXPECT_EQ(d.factors[i]->keys(), state.factors[i]->keys());
+    EXPECT_EQ(d.factors[i]->robust_kernel().kind(), state.factors[i]->robust_kernel().kind());
+    const auto e0 = state.factors[i]->Error(state.estimate);
+    const auto e1 = d.factors[i]->Error(state.estimate);
+    EXPECT_LT((e0 - e1).norm(), 1e-15) << d.factors[i]->Name();
+    const auto& R0 = state.factors[i]->noise_model().sqrt_information();
+    const auto& R1 = d.factors[i]->noise_model().sqrt_information();
+    EXPECT_LT((R0.transpose() * R0 - R1.transpose() * R1).norm(), 1e-9 * R0.squaredNorm());
+  }
+  ASSERT_EQ(d.linearization_point.size(), state.linearization_point.size());
+  for (core::Key k : state.linearization_point.keys()) {
+    EXPECT_LT(core::LocalCoordinates(state.linearization_point.Get(k), d.linearization_point.Get(k))
+                  .norm(),
+              1e-15);
+  }
+  EXPECT_EQ(d.robots.size(), 2u);
+  EXPECT_EQ(d.held.size(), 1u);
+  EXPECT_EQ(d.counters.applied, state.counters.applied);
+  EXPECT_EQ(d.num_factors, state.num_factors);
+
+  auto restored = Estimator::Restore({}, isam2, d).value();
+  EXPECT_EQ(restored->snapshot()->update_sequence, original->snapshot()->update_sequence);
+  EXPECT_EQ(restored->snapshot()->num_factors, original->snapshot()->num_factors);
+  EXPECT_EQ(restored->held_messages(), 1);
+  ASSERT_EQ(restored->snapshot()->robots.size(), 2u);
+  // The same further messages on both: the held odometry is released, a duplicate is refused,
+  // a removal finds its measurement, and both settle to the same estimate.
+  const std::vector<Inbound> more = {
+      {OdometryMeasurement{12, "r", 6, 7, Pose2(1, 0, 0.1), Noise(3, 0.1)}, 0},
+      {OdometryMeasurement{12, "r", 5, 6, Pose2(1, 0, 0.1), Noise(3, 0.1)}, 0},
+      {OdometryMeasurement{13, "r", 0, 1, Pose2(1, 0.1, 0.2), Noise(3, 0.1)}, 0},  // duplicate
+      {RemoveFactorRequest{14, RemoveTarget::kLoopClosure, "r", 5, "r", 1, 0}, 0}};
+  for (Estimator* e : {original.get(), restored.get()}) {
+    const ProcessResult r = e->Process(more);
+    ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+    EXPECT_EQ(r.applied, 4);
+    ASSERT_EQ(r.rejections.size(), 1u);
+    EXPECT_EQ(r.rejections[0].verdict.reason, RejectReason::kDuplicate);
+    EXPECT_EQ(e->held_messages(), 0);
+    ASSERT_TRUE(e->Refine(5.0).converged);
+  }
+  const core::Values a = original->solver().CalculateEstimate();
+  const core::Values b = restored->solver().CalculateEstimate();
+  ASSERT_EQ(a.size(), b.size());
+  for (core::Key k : a.keys()) {
+    EXPECT_LT(core::LocalCoordinates(a.Get(k), b.Get(k)).norm(), 1e-7) << core::KeyToString(k);
+  }
+  EXPECT_NEAR(original->snapshot()->chi2, restored->snapshot()->chi2, 1e-9);
+}
+
+TEST(StateCodecTest, CorruptBytesGiveDataLossNamingThePart) {
+  std::int64_t position = 0;
+  core::Result<EstimatorState> r = DecodeState("\xff\xff\xff garbage", &position);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), core::StatusCode::kDataLoss);
+
+  core::Isam2Params isam2;
+  auto e = Estimator::Create({}, isam2).value();
+  ASSERT_TRUE(e->Process(Messages()).status.ok());
+  EstimatorState state = e->ExportState();
+  state.applied[0].factor = 1000;
+  core::Result<EstimatorState> d = DecodeState(EncodeState(state, 1), &position);
+  ASSERT_TRUE(d.ok());
+  core::Result<std::unique_ptr<Estimator>> bad = Estimator::Restore({}, isam2, d.value());
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("factor 1000"), std::string::npos)
+      << bad.status().ToString();
+}
+
+}  // namespace
+}  // namespace slamd::server
