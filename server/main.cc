@@ -52,6 +52,9 @@ int main(int argc, char** argv) {
                  "config file (protobuf text format, msgs/proto/config.proto)");
   app.add_option("--lcm-url", lcm_url, "LCM URL (overrides lcm_url)");
   app.add_option("--data-dir", data_dir, "journal and snapshot directory (overrides data_dir)");
+  bool salvage = false;
+  app.add_flag("--salvage", salvage,
+               "at recovery, skip corrupt journal records instead of refusing to start");
   app.add_option("--channel-prefix", channel_prefix,
                  "channel name prefix (overrides channel_prefix)");
   app.add_option("--log-level", log_level,
@@ -77,6 +80,7 @@ int main(int argc, char** argv) {
   if (app.count("--data-dir")) params.data_dir = data_dir;
   if (app.count("--channel-prefix")) params.channel_prefix = channel_prefix;
   if (app.count("--log-level")) params.log_level = log_level;
+  params.salvage = salvage;
   if (const slamd::core::Status valid = params.Validate(); !valid.ok()) {
     std::fprintf(stderr, "slamd: %s\n", valid.message().c_str());
     return 2;
@@ -88,6 +92,8 @@ int main(int argc, char** argv) {
   sigaddset(&signals, SIGINT);
   sigaddset(&signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  // A journal write beyond RLIMIT_FSIZE must fail with EFBIG (rejected, counted), not kill us.
+  std::signal(SIGXFSZ, SIG_IGN);
 
   const std::shared_ptr<spdlog::logger> log = MakeLogger(params);
   auto bus = slamd::server::LcmBus::Create({.url = params.lcm_url});

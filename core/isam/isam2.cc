@@ -19,13 +19,13 @@ Isam2Result Isam2::Update(const FactorGraph& new_factors, const Values& new_valu
   return UpdateWith(new_factors, new_values, options, params_.relinearization);
 }
 
-Isam2::RefineResult Isam2::Refine(double budget_s) {
+Isam2::RefineResult Isam2::Refine(double budget_s, int max_rounds) {
   Stopwatch timer;
   RefineResult out;
   const Isam2Params::Relinearization fine{.rotation_threshold = params_.refine_threshold,
                                           .translation_threshold = params_.refine_threshold,
                                           .skip = 1};
-  while (timer.Seconds() < budget_s) {
+  while (out.rounds < max_rounds && timer.Seconds() < budget_s) {
     const Isam2Result r =
         UpdateWith({}, {}, {.force_relinearize = true, .force_full_solve = true}, fine);
     --num_updates_;  // refinement rounds are not updates (the skip and batch counters ignore them)

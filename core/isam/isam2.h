@@ -23,6 +23,7 @@
 // Thread safety: not thread-safe; one thread drives a solver (the server's estimator thread).
 #pragma once
 
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -60,7 +61,9 @@ class Isam2 {
     bool converged = false;
     double seconds = 0.0;
   };
-  RefineResult Refine(double budget_s);
+  // At most `max_rounds` rounds: a journal replay repeats a refinement exactly by its round
+  // count, whatever the time.
+  RefineResult Refine(double budget_s, int max_rounds = std::numeric_limits<int>::max());
 
   // θ ⊕ δ for every variable (O(n)), or for one (O(1); the key must exist, checked).
   Values CalculateEstimate() const;

@@ -82,6 +82,18 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   if (i.has_wildfire_threshold()) p->isam2.wildfire_threshold = i.wildfire_threshold();
   if (i.has_refine_threshold()) p->isam2.refine_threshold = i.refine_threshold();
   if (i.has_batch_every()) p->isam2.batch_every = i.batch_every();
+  const proto::JournalConfig& j = config.journal();
+  if (j.has_sync()) {
+    p->journal.sync = j.sync() == proto::JournalConfig::ALWAYS     ? SyncPolicy::kAlways
+                      : j.sync() == proto::JournalConfig::INTERVAL ? SyncPolicy::kInterval
+                                                                   : SyncPolicy::kNever;
+  }
+  if (j.has_sync_interval_ms()) p->journal.sync_interval_ms = j.sync_interval_ms();
+  if (j.has_snapshot_every_updates()) {
+    p->journal.snapshot_every_updates = j.snapshot_every_updates();
+  }
+  if (j.has_snapshot_every_s()) p->journal.snapshot_every_s = j.snapshot_every_s();
+  if (j.has_keep_snapshots()) p->journal.keep_snapshots = j.keep_snapshots();
   const proto::EstimatorConfig& e = config.estimator();
   if (e.has_new_robot_anchor()) {
     p->estimator.new_robot_anchor = static_cast<AnchorPolicy>(e.new_robot_anchor());
@@ -140,7 +152,7 @@ std::string DefaultConfigText() {
       << "# Flags override: --lcm-url, --data-dir, --channel-prefix, --log-level.\n\n"
       << "lcm_url: " << Quote(d.lcm_url) << "  # LCM URL; \"memq://\" = in-process\n"
       << "channel_prefix: " << Quote(d.channel_prefix) << "  # 1..40 chars of [A-Za-z0-9_]\n"
-      << "data_dir: " << Quote(d.data_dir) << "  # journal and snapshots (issue 7; unused)\n"
+      << "data_dir: " << Quote(d.data_dir) << "  # journal and snapshots; \"\" = memory only\n"
       << "log_level: " << Quote(d.log_level) << "  # trace debug info warn error critical off\n"
       << "log_file: " << Quote(d.log_file) << "  # \"\" = console only\n\n"
       << "queue {\n"
@@ -189,6 +201,18 @@ std::string DefaultConfigText() {
       << "  # waiting for a pose (out of order, unanchored)\n"
       << "  max_hold_updates: " << d.estimator.max_hold_updates
       << "  # updates a held message may wait, >= 1\n"
+      << "}\n\n"
+      << "journal {\n"
+      << "  sync: "
+      << (d.journal.sync == SyncPolicy::kAlways     ? "ALWAYS"
+          : d.journal.sync == SyncPolicy::kInterval ? "INTERVAL"
+                                                    : "NEVER")
+      << "  # ALWAYS (per update) / INTERVAL / NEVER\n"
+      << "  sync_interval_ms: " << d.journal.sync_interval_ms << "  # for INTERVAL [ms]\n"
+      << "  snapshot_every_updates: " << d.journal.snapshot_every_updates
+      << "  # 0 = not by count\n"
+      << "  snapshot_every_s: " << Num(d.journal.snapshot_every_s) << "  # [s], 0 = not by time\n"
+      << "  keep_snapshots: " << d.journal.keep_snapshots << "  # >= 1\n"
       << "}\n";
   return out.str();
 }

@@ -75,6 +75,12 @@ core::Status ServerParams::Validate() const {
   SLAMD_CONFIG_CHECK(publish.query_budget_s, <=, 10.0);
   SLAMD_CONFIG_CHECK(refine.budget_s, >, 0.0);
   SLAMD_CONFIG_CHECK(refine.budget_s, <=, 10.0);
+  SLAMD_CONFIG_CHECK(journal.sync_interval_ms, >=, 1);
+  SLAMD_CONFIG_CHECK(journal.sync_interval_ms, <=, 60000);
+  SLAMD_CONFIG_CHECK(journal.snapshot_every_updates, >=, 0);
+  SLAMD_CONFIG_CHECK(journal.snapshot_every_s, >=, 0.0);
+  SLAMD_CONFIG_CHECK(journal.snapshot_every_s, <=, 1e6);
+  SLAMD_CONFIG_CHECK(journal.keep_snapshots, >=, 1);
   const core::Status isam2_ok = isam2.Validate();
   if (!isam2_ok.ok()) {
     // "Isam2Params::relinearization.skip = 0; ..." -> "isam2.relinearization.skip = 0; ..."

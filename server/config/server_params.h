@@ -8,6 +8,7 @@
 #include "core/base/status.h"
 #include "core/isam/isam2_params.h"
 #include "server/estimator/estimator_params.h"
+#include "server/journal/journal_writer.h"
 
 namespace slamd::server {
 
@@ -16,8 +17,12 @@ struct ServerParams {
   std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
   // Prefix of every channel name (server/transport/channels.h); 1..40 chars of [A-Za-z0-9_].
   std::string channel_prefix = "SLAMD_";
-  // Journal and snapshot directory; unused until the journal exists (issue 7). May be empty.
+  // Journal and snapshot directory (created if missing). "" = no journal: accepted messages
+  // live only in memory and a restart starts empty.
   std::string data_dir = "";
+  // Skip corrupt journal records at recovery instead of refusing to start (`slamd --salvage`;
+  // not a config-file field: it is a one-off decision after reading the error).
+  bool salvage = false;
   // spdlog level: trace, debug, info, warn, error, critical or off.
   std::string log_level = "info";
   // Optional rotating log file ("" = console only).
@@ -54,6 +59,23 @@ struct ServerParams {
     double budget_s = 0.005;
   };
   Refine refine = {};
+
+  struct Journal {
+    // When the journal is fdatasync'ed: ALWAYS once per solver update (group commit; estimates
+    // are published after their messages are durable), INTERVAL every sync_interval_ms, or
+    // NEVER (the OS decides; a process crash still loses nothing, a power failure may).
+    SyncPolicy sync = SyncPolicy::kAlways;
+    // [ms]; 1..60000.
+    int sync_interval_ms = 50;
+    // A snapshot after this many solver updates (0 = not by count) ... >= 0.
+    int snapshot_every_updates = 2000;
+    // ... or this many seconds since the last one, if anything changed (0 = not by time) [s];
+    // 0..1e6.
+    double snapshot_every_s = 300.0;
+    // Snapshots kept on disk (the newest and older ones, in case the newest is damaged); >= 1.
+    int keep_snapshots = 2;
+  };
+  Journal journal = {};
 
   // The solver (core/isam/isam2_params.h); validated by Isam2Params::Validate.
   core::Isam2Params isam2 = {};

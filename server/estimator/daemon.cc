@@ -4,11 +4,17 @@
 
 #include <algorithm>
 #include <chrono>
+#include <filesystem>
 
+#include "core/base/timing.h"
+#include "server/estimator/estimator_state.h"
+#include "server/estimator/recovery.h"
 #include "server/ingest/conversion.h"
+#include "server/journal/snapshot_file.h"
 #include "server/publish/replies.h"
 #include "server/publish/wire_values.h"
 #include "server/query/query_service.h"
+#include "server/snapshot/state_codec.h"
 #include "server/transport/typed_subscribe.h"
 #include "slamd/estimate_t.hpp"
 #include "slamd/landmark_observation_t.hpp"
@@ -87,23 +93,74 @@ std::int64_t WallMicros() {
 core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params, Bus* bus) {
   SLAMD_RETURN_IF_ERROR(params.Validate());
   if (bus == nullptr) return core::InvalidArgument("Daemon::Create: null bus");
-  core::Result<std::unique_ptr<Estimator>> estimator =
-      Estimator::Create(params.estimator, params.isam2);
-  if (!estimator.ok()) return estimator.status();
-  std::unique_ptr<Daemon> daemon(new Daemon(params, bus, std::move(estimator).value()));
+  std::shared_ptr<spdlog::logger> log = spdlog::get("slamd");
+  if (!log) log = spdlog::default_logger();
+  std::unique_ptr<Estimator> estimator;
+  std::unique_ptr<Journal> journal;
+  std::vector<Inbound> pending;
+  if (params.data_dir.empty()) {
+    log->warn("no data_dir: accepted messages are not journaled and a restart starts empty");
+    core::Result<std::unique_ptr<Estimator>> made =
+        Estimator::Create(params.estimator, params.isam2);
+    if (!made.ok()) return made.status();
+    estimator = std::move(made).value();
+  } else {
+    std::error_code ec;
+    std::filesystem::create_directories(params.data_dir, ec);
+    if (ec) {
+      return core::IoError("data_dir '" + params.data_dir + "': " + ec.message());
+    }
+    core::Result<RecoveryResult> recovered =
+        Recover(params.data_dir, params.estimator, params.isam2, params.salvage);
+    if (!recovered.ok()) return recovered.status();
+    RecoveryResult& r = recovered.value();
+    for (const std::string& note : r.notes) log->warn("recovery: {}", note);
+    if (r.torn_tail_offset >= 0) {
+      log->warn("recovery: torn journal tail at offset {} ({}), truncated", r.torn_tail_offset,
+                r.torn_tail_reason);
+    }
+    if (r.salvaged_bytes > 0) log->warn("recovery: skipped {} corrupt bytes", r.salvaged_bytes);
+    log->info(
+        "recovered '{}' in {:.3f} s: snapshot '{}' (message {}), then {} messages in {} updates "
+        "and {} refinements from the journal; {} accepted messages still to process",
+        params.data_dir, r.seconds, r.snapshot_path, r.snapshot_sequence, r.replayed_messages,
+        r.replayed_updates, r.replayed_refinements, r.pending.size());
+    estimator = std::move(r.estimator);
+    pending = std::move(r.pending);
+    core::Result<std::unique_ptr<Journal>> opened = Journal::Open(
+        params.data_dir,
+        {.sync_policy = params.journal.sync, .interval_ms = params.journal.sync_interval_ms},
+        r.last_sequence);
+    if (!opened.ok()) return opened.status();
+    journal = std::move(opened).value();
+  }
+  std::unique_ptr<Daemon> daemon(new Daemon(params, bus, std::move(estimator), std::move(journal)));
+  if (!pending.empty()) {
+    // Accepted and journaled before the restart but never processed: first, as one update.
+    daemon->processed_sequence_ = pending.back().journal_sequence;
+    daemon->estimator_->Process(pending);
+    daemon->JournalUpdate(pending);
+  } else if (daemon->journal_) {
+    daemon->processed_sequence_ = daemon->journal_->last_sequence();
+  }
+  daemon->snapshot_ = daemon->estimator_->snapshot();
+  daemon->snapshot_update_sequence_ = daemon->snapshot_->update_sequence;
   SLAMD_RETURN_IF_ERROR(daemon->Subscribe());
   return daemon;
 }
 
-Daemon::Daemon(const ServerParams& params, Bus* bus, std::unique_ptr<Estimator> estimator)
+Daemon::Daemon(const ServerParams& params, Bus* bus, std::unique_ptr<Estimator> estimator,
+               std::unique_ptr<Journal> journal)
     : params_(params),
       bus_(bus),
       channels_{params.channel_prefix},
       estimator_(std::move(estimator)),
+      journal_(std::move(journal)),
       queue_(params.queue.depth),
       snapshot_(estimator_->snapshot()) {
   log_ = spdlog::get("slamd");
   if (!log_) log_ = spdlog::default_logger();
+  snapshot_us_ = SteadyMicros();
 }
 
 Daemon::~Daemon() { Stop(); }
@@ -136,13 +193,43 @@ void Daemon::OnInbound(std::string_view channel, const Msg& msg) {
   Verdict verdict;
   if (!checked.ok()) {
     verdict = checked.verdict();
-  } else if (queue_.Push(Inbound{std::move(checked).value(), SteadyMicros()},
-                         params_.queue.block_timeout_s)) {
-    ++queued_;
-    return;
   } else {
-    verdict = {RejectReason::kQueueFull, std::string(type) + ": ingest queue full (queue.depth = " +
-                                             std::to_string(params_.queue.depth) + ")"};
+    const Verdict full{RejectReason::kQueueFull, std::string(type) +
+                                                     ": ingest queue full (queue.depth = " +
+                                                     std::to_string(params_.queue.depth) + ")"};
+    Inbound in{std::move(checked).value(), SteadyMicros()};
+    constexpr bool kJournaled = !std::is_same_v<Msg, slamd::query_t>;
+    if (!journal_ || !kJournaled) {
+      if (queue_.Push(std::move(in), params_.queue.block_timeout_s)) {
+        ++queued_;
+        return;
+      }
+      verdict = full;
+    } else {
+      std::lock_guard lock(intake_mutex_);
+      if (!queue_.WaitForRoom(params_.queue.block_timeout_s)) {
+        verdict = full;
+      } else {
+        std::vector<std::uint8_t> bytes(static_cast<size_t>(msg.getEncodedSize()));
+        msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+        const core::Result<std::int64_t> seq =
+            journal_->AppendMessage(channel, type, bytes, WallMicros());
+        if (seq.ok()) {
+          in.journal_sequence = seq.value();
+          if (!queue_.Push(std::move(in), 0.0)) {
+            log_->error("message {} journaled but the queue closed: it is replayed at restart",
+                        seq.value());
+          }
+          ++queued_;
+          return;
+        }
+        ++journal_errors_;
+        verdict = {
+            RejectReason::kStorageError,
+            std::string(type) + ": the journal could not take it: " + seq.status().message()};
+        log_->error("journal: {}", seq.status().ToString());
+      }
+    }
   }
   PublishReject(verdict, channel, type, RobotOf(msg), msg.utime);
   if constexpr (std::is_same_v<Msg, slamd::query_t>) {
@@ -187,7 +274,11 @@ int Daemon::StepEstimator(double timeout_s) {
   }
   std::shared_ptr<const EstimateSnapshot> snap;
   if (!batch.empty()) {
-    const ProcessResult r = estimator_->Process(std::move(batch));
+    for (const Inbound& in : batch) {
+      processed_sequence_ = std::max(processed_sequence_, in.journal_sequence);
+    }
+    const ProcessResult r = estimator_->Process(batch);
+    JournalUpdate(batch);
     for (const core::Isam2Result& u : r.updates) {
       Record(&update_us_, &update_us_next_, u.seconds.total * 1e6);
       log_->debug("update: {}", u.Brief());
@@ -206,7 +297,19 @@ int Daemon::StepEstimator(double timeout_s) {
   } else if (queries.empty() && params_.refine.enabled && !estimator_->snapshot()->settled) {
     const core::Isam2::RefineResult r = estimator_->Refine(params_.refine.budget_s);
     if (!r.status.ok()) log_->warn("refine failed: {}", r.status.ToString());
+    if (journal_ && r.rounds > 0) {
+      const core::Status s = journal_->AppendRefinement(r.rounds);
+      if (!s.ok()) {
+        ++journal_errors_;
+        log_->error("journal: {}", s.ToString());
+      }
+    }
   }
+  if (journal_ && params_.journal.sync == SyncPolicy::kInterval) {
+    const core::Status s = journal_->Commit();
+    if (!s.ok()) log_->error("journal sync: {}", s.ToString());
+  }
+  MaybeSnapshot();
   snap = estimator_->snapshot();
   {
     std::lock_guard lock(snapshot_mutex_);
@@ -217,6 +320,61 @@ int Daemon::StepEstimator(double timeout_s) {
   MaybePublishMaps(*snap);
   MaybePublishStatus(*snap);
   return n;
+}
+
+void Daemon::JournalUpdate(const std::vector<Inbound>& batch) {
+  if (!journal_) return;
+  int count = 0;
+  std::int64_t last = 0;
+  for (const Inbound& in : batch) {
+    if (in.journal_sequence == 0) continue;
+    ++count;
+    last = std::max(last, in.journal_sequence);
+  }
+  if (count == 0) return;
+  core::Status s = journal_->AppendBoundary(estimator_->snapshot()->update_sequence, last, count);
+  if (s.ok()) s = journal_->Commit();
+  if (!s.ok()) {
+    // The messages are in the journal; a replay merges them into the next update.
+    ++journal_errors_;
+    log_->error("journal: {}", s.ToString());
+  }
+}
+
+void Daemon::MaybeSnapshot() {
+  if (!journal_ || snapshot_busy_) return;
+  const std::int64_t sequence = estimator_->snapshot()->update_sequence;
+  if (sequence == snapshot_update_sequence_) return;
+  const std::int64_t now = SteadyMicros();
+  const auto& j = params_.journal;
+  const bool by_count = j.snapshot_every_updates > 0 &&
+                        sequence - snapshot_update_sequence_ >= j.snapshot_every_updates;
+  const bool by_time = j.snapshot_every_s > 0 && now - snapshot_us_ >= j.snapshot_every_s * 1e6;
+  if (!by_count && !by_time) return;
+  JoinSnapshotWriter();
+  snapshot_update_sequence_ = sequence;
+  snapshot_us_ = now;
+  auto state = std::make_shared<EstimatorState>(estimator_->ExportState());
+  const JournalPosition position{.last_message_sequence = processed_sequence_,
+                                 .journal_offset = journal_->offset()};
+  snapshot_busy_ = true;
+  snapshot_thread_ = std::thread([this, state, position] {
+    core::Stopwatch timer;
+    const std::string bytes = EncodeState(*state, position);
+    const core::Result<std::string> path = WriteSnapshotFile(
+        params_.data_dir, position.journal_offset, bytes, {.keep = params_.journal.keep_snapshots});
+    if (path.ok()) {
+      log_->info("snapshot {} ({} bytes, message {}) in {:.3f} s", path.value(), bytes.size(),
+                 position.last_message_sequence, timer.Seconds());
+    } else {
+      log_->error("snapshot: {}", path.status().ToString());
+    }
+    snapshot_busy_ = false;
+  });
+}
+
+void Daemon::JoinSnapshotWriter() {
+  if (snapshot_thread_.joinable()) snapshot_thread_.join();
 }
 
 void Daemon::AnswerAndPublish(const QueryRequest& query, std::int64_t update_sequence) {
@@ -333,8 +491,8 @@ void Daemon::PublishStatus(const EstimateSnapshot& snap) {
   out.update_latency_max_us = Percentile(update_us_, 1.0);
   out.publish_latency_p50_us = Percentile(publish_us_, 0.5);
   out.publish_latency_p99_us = Percentile(publish_us_, 0.99);
-  out.journal_records = 0;  // no journal yet (issue 7)
-  out.journal_bytes = 0;
+  out.journal_records = journal_ ? journal_->records() : 0;
+  out.journal_bytes = journal_ ? journal_->durable_offset() : 0;
   out.chi2 = snap.chi2;
   out.residual_dimension = snap.residual_dimension;
   out.settled = snap.settled;
@@ -383,6 +541,11 @@ void Daemon::Stop() {
   queue_.Close();
   stop_estimator_ = true;
   if (estimator_thread_.joinable()) estimator_thread_.join();
+  JoinSnapshotWriter();
+  if (journal_) {
+    const core::Status s = journal_->Sync();
+    if (!s.ok()) log_->error("journal sync at shutdown: {}", s.ToString());
+  }
   const std::shared_ptr<const EstimateSnapshot> snap = snapshot();
   PublishStatus(*snap);
   log_->info("slamd stopped after {} updates; {} messages received", snap->counters.updates,

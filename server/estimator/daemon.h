@@ -16,6 +16,14 @@
 // STATUS_REJECTED reply. estimate_t carries the newest pose's marginal covariance when
 // publish.estimate_covariance; map_t pages of every robot go out at publish.map_rate_hz.
 //
+// Durability (params.data_dir set; server/journal, server/estimator/recovery.h): Create()
+// recovers the directory's snapshot and journal before subscribing. Intake appends every
+// accepted message to the journal before queueing it (a message the journal cannot take is
+// rejected with REASON_STORAGE_ERROR: nothing unjournaled is ever accepted); the estimator
+// appends an update boundary after each update and commits (journal.sync) before publishing;
+// refinements are journaled by round count; a background thread writes snapshots from an
+// exported copy of the estimator every journal.snapshot_every_updates / _s.
+//
 // Either Start() the two threads, or drive the same steps by hand (no threads) with
 // PumpIntake / StepEstimator, as deterministic tests do; do not mix the two.
 // Stop(): stop intake, finish the update in progress and whatever is queued, publish a last
@@ -34,6 +42,7 @@
 #include "server/config/server_params.h"
 #include "server/estimator/estimator.h"
 #include "server/estimator/ingest_queue.h"
+#include "server/journal/journal.h"
 #include "server/transport/bus.h"
 #include "server/transport/channels.h"
 
@@ -65,10 +74,17 @@ class Daemon {
   int StepEstimator(double timeout_s);
 
   std::shared_ptr<const EstimateSnapshot> snapshot() const;
+  // The estimator, for tests that drive the daemon by hand (no threads running).
+  const Estimator& estimator_for_tests() const { return *estimator_; }
   int queue_depth() const { return queue_.size(); }
 
  private:
-  Daemon(const ServerParams& params, Bus* bus, std::unique_ptr<Estimator> estimator);
+  Daemon(const ServerParams& params, Bus* bus, std::unique_ptr<Estimator> estimator,
+         std::unique_ptr<Journal> journal);
+  // Journals what the estimator did (no-op without a journal).
+  void JournalUpdate(const std::vector<Inbound>& batch);
+  void MaybeSnapshot();
+  void JoinSnapshotWriter();
 
   core::Status Subscribe();
   template <typename Msg>
@@ -94,12 +110,15 @@ class Daemon {
   Bus* bus_;
   ChannelNames channels_;
   std::unique_ptr<Estimator> estimator_;  // estimator thread only
+  std::unique_ptr<Journal> journal_;      // null without data_dir
   IngestQueue queue_;
+  std::mutex intake_mutex_;  // journal append + queue push, so journal order = queue order
   std::shared_ptr<spdlog::logger> log_;
   std::vector<Subscription> subscriptions_;
 
   // Intake counters (intake thread writes, status reads).
   std::atomic<std::int64_t> received_{0}, queued_{0}, intake_rejected_{0}, decode_errors_{0};
+  std::atomic<std::int64_t> journal_errors_{0};
   std::array<std::atomic<std::int64_t>, kNumRejectReasonCodes> intake_rejects_by_reason_{};
 
   // Estimator-thread state.
@@ -110,6 +129,10 @@ class Daemon {
   std::vector<double> publish_us_;  // recent ingest-to-publish latencies (ring of 1024)
   size_t publish_us_next_ = 0;
   std::int64_t last_map_us_ = 0, last_map_sequence_ = -1;
+  std::int64_t processed_sequence_ = 0;  // last journal sequence handed to the estimator
+  std::int64_t snapshot_update_sequence_ = 0, snapshot_us_ = 0;
+  std::thread snapshot_thread_;
+  std::atomic<bool> snapshot_busy_{false};
 
   mutable std::mutex snapshot_mutex_;
   std::shared_ptr<const EstimateSnapshot> snapshot_;

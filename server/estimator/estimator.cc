@@ -526,8 +526,8 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
   PublishSnapshot(true);
 }
 
-core::Isam2::RefineResult Estimator::Refine(double budget_s) {
-  core::Isam2::RefineResult r = isam_->Refine(budget_s);
+core::Isam2::RefineResult Estimator::Refine(double budget_s, int max_rounds) {
+  core::Isam2::RefineResult r = isam_->Refine(budget_s, max_rounds);
   ++counters_.refinements;
   settled_ = r.converged;
   PublishSnapshot(r.rounds > 0);

@@ -39,6 +39,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -67,6 +68,8 @@ struct Inbound {
                RemoveFactorRequest, QueryRequest>
       measurement;
   std::int64_t received_us = 0;
+  // Its journal sequence number (1, 2, ...); 0 when not journaled (no data_dir, or a query).
+  std::int64_t journal_sequence = 0;
 };
 
 // The wire type name ("odometry_t", ...), robot (robot_a for loop closures and removals, the
@@ -109,8 +112,9 @@ class Estimator {
   // Applies `batch` (see the file comment) with one Isam2::Update; publishes a new snapshot.
   ProcessResult Process(std::vector<Inbound> batch);
 
-  // Isam2::Refine(budget_s); a new snapshot when anything moved.
-  core::Isam2::RefineResult Refine(double budget_s);
+  // Isam2::Refine(budget_s, max_rounds); a new snapshot when anything moved.
+  core::Isam2::RefineResult Refine(double budget_s,
+                                   int max_rounds = std::numeric_limits<int>::max());
 
   // The latest snapshot (never null).
   std::shared_ptr<const EstimateSnapshot> snapshot() const { return snapshot_; }

@@ -30,6 +30,14 @@ bool IngestQueue::Push(Inbound in, double timeout_s) {
   return true;
 }
 
+bool IngestQueue::WaitForRoom(double timeout_s) {
+  std::unique_lock lock(mutex_);
+  const bool room = not_full_.wait_for(lock, ToDuration(timeout_s), [&] {
+    return closed_ || static_cast<int>(queue_.size()) < capacity_;
+  });
+  return room && !closed_;
+}
+
 int IngestQueue::PopAll(std::vector<Inbound>* out, double timeout_s) {
   std::unique_lock lock(mutex_);
   not_empty_.wait_for(lock, ToDuration(timeout_s), [&] { return closed_ || !queue_.empty(); });

@@ -31,7 +31,8 @@ SLAMD_SAME_CODE(kDuplicate, REASON_DUPLICATE);
 SLAMD_SAME_CODE(kOutOfOrderTimeout, REASON_OUT_OF_ORDER_TIMEOUT);
 SLAMD_SAME_CODE(kQueueFull, REASON_QUEUE_FULL);
 SLAMD_SAME_CODE(kWouldDisconnect, REASON_WOULD_DISCONNECT);
-static_assert(kNumRejectReasonCodes == ::slamd::reject_t::REASON_WOULD_DISCONNECT + 1);
+SLAMD_SAME_CODE(kStorageError, REASON_STORAGE_ERROR);
+static_assert(kNumRejectReasonCodes == ::slamd::reject_t::REASON_STORAGE_ERROR + 1);
 #undef SLAMD_SAME_CODE
 
 const char* RejectReasonName(RejectReason reason) {
@@ -88,6 +89,8 @@ const char* RejectReasonName(RejectReason reason) {
       return "queue_full";
     case RejectReason::kWouldDisconnect:
       return "would_disconnect";
+    case RejectReason::kStorageError:
+      return "storage_error";
   }
   return "unknown";
 }

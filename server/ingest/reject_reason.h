@@ -35,10 +35,11 @@ enum class RejectReason : std::int32_t {
   kOutOfOrderTimeout = 36,
   kQueueFull = 37,
   kWouldDisconnect = 38,
+  kStorageError = 39,
 };
 
 // One past the largest code: the length of status_t.rejects_by_reason.
-inline constexpr int kNumRejectReasonCodes = 39;
+inline constexpr int kNumRejectReasonCodes = 40;
 
 // "covariance_not_positive_definite", ... ("none" for kNone, "unknown" for other values).
 const char* RejectReasonName(RejectReason reason);

@@ -209,9 +209,10 @@ core::Result<core::FactorPtr> ReadFactor(const pb::Factor& in, int index) {
 
 }  // namespace
 
-std::string EncodeState(const EstimatorState& state, std::int64_t last_message_sequence) {
+std::string EncodeState(const EstimatorState& state, const JournalPosition& position) {
   pb::EstimatorState out;
-  out.set_last_message_sequence(last_message_sequence);
+  out.set_last_message_sequence(position.last_message_sequence);
+  out.set_journal_offset(position.journal_offset);
   out.set_update_sequence(state.update_sequence);
   out.mutable_factors()->Reserve(static_cast<int>(state.factors.size()));
   for (const core::FactorPtr& f : state.factors) WriteFactor(*f, out.add_factors());
@@ -259,15 +260,15 @@ std::string EncodeState(const EstimatorState& state, std::int64_t last_message_s
   return out.SerializeAsString();
 }
 
-core::Result<EstimatorState> DecodeState(std::string_view bytes,
-                                         std::int64_t* last_message_sequence) {
+core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition* position) {
   pb::EstimatorState in;
   if (!in.ParseFromArray(bytes.data(), static_cast<int>(bytes.size()))) {
     return core::DataLoss("snapshot: the state does not parse (" + std::to_string(bytes.size()) +
                           " bytes)");
   }
   EstimatorState state;
-  *last_message_sequence = in.last_message_sequence();
+  position->last_message_sequence = in.last_message_sequence();
+  position->journal_offset = in.journal_offset();
   state.update_sequence = in.update_sequence();
   state.factors.reserve(static_cast<size_t>(in.factors_size()));
   for (int i = 0; i < in.factors_size(); ++i) {

@@ -12,13 +12,17 @@
 
 namespace slamd::server {
 
-// `last_message_sequence`: the journal position the state includes (every accepted message
-// with a sequence up to it).
-std::string EncodeState(const EstimatorState& state, std::int64_t last_message_sequence);
+// The journal position a state includes: every accepted message with a sequence up to
+// last_message_sequence, and every update-boundary / refinement record before journal_offset.
+struct JournalPosition {
+  std::int64_t last_message_sequence = 0;
+  std::int64_t journal_offset = 0;
+};
+
+std::string EncodeState(const EstimatorState& state, const JournalPosition& position);
 
 // DataLoss naming what is wrong (unparseable bytes, a factor of unknown type or with the wrong
 // number of keys or values, a noise model that is not square-root information).
-core::Result<EstimatorState> DecodeState(std::string_view bytes,
-                                         std::int64_t* last_message_sequence);
+core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition* position);
 
 }  // namespace slamd::server

@@ -17,7 +17,8 @@ TEST(RejectReason, CodesMatchTheWireConstants) {
             slamd::reject_t::REASON_COVARIANCE_NOT_POSITIVE_DEFINITE);
   EXPECT_EQ(static_cast<int>(RejectReason::kWouldDisconnect),
             slamd::reject_t::REASON_WOULD_DISCONNECT);
-  EXPECT_EQ(kNumRejectReasonCodes, slamd::reject_t::REASON_WOULD_DISCONNECT + 1);
+  EXPECT_EQ(static_cast<int>(RejectReason::kStorageError), slamd::reject_t::REASON_STORAGE_ERROR);
+  EXPECT_EQ(kNumRejectReasonCodes, slamd::reject_t::REASON_STORAGE_ERROR + 1);
 }
 
 TEST(RejectReason, EveryCodeHasAUniqueName) {
@@ -29,7 +30,7 @@ TEST(RejectReason, EveryCodeHasAUniqueName) {
     ++named;
     EXPECT_TRUE(names.insert(name).second) << name;
   }
-  EXPECT_EQ(named, 1 + 18 + 7);  // none, 18 stateless, 7 stateful
+  EXPECT_EQ(named, 1 + 18 + 8);  // none, 18 stateless, 8 stateful
   EXPECT_STREQ(RejectReasonName(RejectReason::kNone), "none");
   EXPECT_STREQ(RejectReasonName(static_cast<RejectReason>(25)), "unknown");
 }

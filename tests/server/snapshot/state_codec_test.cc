@@ -65,11 +65,12 @@ TEST(StateCodecTest, RoundTripRestoresAnEquivalentEstimator) {
   const EstimatorState state = original->ExportState();
   ASSERT_EQ(state.applied.size(), 15u);  // 16 measurements applied, one removed
 
-  const std::string bytes = EncodeState(state, 42);
-  std::int64_t position = 0;
+  const std::string bytes = EncodeState(state, {.last_message_sequence = 42, .journal_offset = 7});
+  JournalPosition position;
   core::Result<EstimatorState> decoded = DecodeState(bytes, &position);
   ASSERT_TRUE(decoded.ok()) << decoded.status().ToString();
-  EXPECT_EQ(position, 42);
+  EXPECT_EQ(position.last_message_sequence, 42);
+  EXPECT_EQ(position.journal_offset, 7);
   const EstimatorState& d = decoded.value();
   ASSERT_EQ(d.factors.size(), state.factors.size());
   // Factors: same types, keys, and errors at the same values (bit for bit: the geometry is
@@ -127,7 +128,7 @@ TEST(StateCodecTest, RoundTripRestoresAnEquivalentEstimator) {
 }
 
 TEST(StateCodecTest, CorruptBytesGiveDataLossNamingThePart) {
-  std::int64_t position = 0;
+  JournalPosition position;
   core::Result<EstimatorState> r = DecodeState("\xff\xff\xff garbage", &position);
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.status().code(), core::StatusCode::kDataLoss);
@@ -137,7 +138,7 @@ TEST(StateCodecTest, CorruptBytesGiveDataLossNamingThePart) {
   ASSERT_TRUE(e->Process(Messages()).status.ok());
   EstimatorState state = e->ExportState();
   state.applied[0].factor = 1000;
-  core::Result<EstimatorState> d = DecodeState(EncodeState(state, 1), &position);
+  core::Result<EstimatorState> d = DecodeState(EncodeState(state, {}), &position);
   ASSERT_TRUE(d.ok());
   core::Result<std::unique_ptr<Estimator>> bad = Estimator::Restore({}, isam2, d.value());
   ASSERT_FALSE(bad.ok());

@@ -1,0 +1,132 @@
+#include "server/estimator/recovery.h"
+
+#include <sys/stat.h>
+
+#include "core/base/timing.h"
+#include "server/estimator/estimator_state.h"
+#include "server/estimator/inbound_codec.h"
+#include "server/journal/journal.h"
+#include "server/journal/journal_reader.h"
+#include "server/journal/snapshot_file.h"
+#include "server/snapshot/state_codec.h"
+#include "slamd_proto/journal.pb.h"
+
+namespace slamd::server {
+namespace {
+
+bool Exists(const std::string& path) {
+  struct stat st;
+  return ::stat(path.c_str(), &st) == 0;
+}
+
+std::string At(const std::string& path, std::int64_t offset) {
+  return path + " at offset " + std::to_string(offset);
+}
+
+}  // namespace
+
+core::Result<RecoveryResult> Recover(const std::string& data_dir, const EstimatorParams& params,
+                                     const core::Isam2Params& isam2, bool salvage) {
+  core::Stopwatch timer;
+  RecoveryResult out;
+
+  // 1. The newest valid snapshot.
+  JournalPosition position;
+  core::Result<LoadedSnapshot> snapshot = LoadNewestSnapshot(data_dir);
+  if (snapshot.ok()) {
+    for (const std::string& s : snapshot.value().skipped) out.notes.push_back("skipped " + s);
+    core::Result<EstimatorState> state = DecodeState(snapshot.value().bytes, &position);
+    if (!state.ok()) {
+      return core::DataLoss(snapshot.value().info.path + ": " + state.status().message());
+    }
+    core::Result<std::unique_ptr<Estimator>> restored =
+        Estimator::Restore(params, isam2, state.value());
+    if (!restored.ok()) {
+      return core::DataLoss(snapshot.value().info.path + ": " + restored.status().message());
+    }
+    out.estimator = std::move(restored).value();
+    out.snapshot_path = snapshot.value().info.path;
+    out.snapshot_sequence = position.last_message_sequence;
+    out.last_sequence = position.last_message_sequence;
+  } else if (snapshot.status().code() == core::StatusCode::kNotFound) {
+    core::Result<std::unique_ptr<Estimator>> made = Estimator::Create(params, isam2);
+    if (!made.ok()) return made.status();
+    out.estimator = std::move(made).value();
+  } else {
+    return snapshot.status();
+  }
+
+  // 2. The journal.
+  const std::string path = JournalPath(data_dir);
+  if (!Exists(path)) {
+    out.seconds = timer.Seconds();
+    return out;
+  }
+  core::Result<std::unique_ptr<JournalReader>> opened =
+      JournalReader::Open(path, {.salvage = salvage});
+  if (!opened.ok()) return opened.status();
+  JournalReader& reader = *opened.value();
+  journal::JournalRecord record;
+  std::int64_t offset = 0;
+  std::vector<Inbound> collected;
+  for (;;) {
+    const JournalReadState state = reader.Next(&record, &offset);
+    if (state == JournalReadState::kCleanEnd) break;
+    if (state == JournalReadState::kTornTail) {
+      out.torn_tail_offset = reader.torn_tail_offset();
+      out.torn_tail_reason = reader.end_reason();
+      break;
+    }
+    if (state == JournalReadState::kError) {
+      return core::Status(
+          reader.error().code(),
+          reader.error().message() + (salvage ? "" : " (slamd --salvage skips corrupt records)"));
+    }
+    if (record.has_message()) {
+      const journal::InboundMessage& m = record.message();
+      if (m.sequence() <= position.last_message_sequence) continue;  // in the snapshot
+      if (m.sequence() != out.last_sequence + 1 && !salvage) {
+        return core::DataLoss(At(path, offset) + ": message sequence " +
+                              std::to_string(m.sequence()) + " after " +
+                              std::to_string(out.last_sequence) + " (a gap: records are missing)");
+      }
+      out.last_sequence = m.sequence();
+      const auto* data = reinterpret_cast<const std::uint8_t*>(m.lcm_payload().data());
+      core::Result<Inbound> in = DecodeInbound(m.message_type(), {data, m.lcm_payload().size()});
+      if (!in.ok()) {
+        if (salvage) {
+          out.notes.push_back(At(path, offset) + ": skipped: " + in.status().message());
+          continue;
+        }
+        return core::DataLoss(At(path, offset) + ": " + in.status().message());
+      }
+      in.value().journal_sequence = m.sequence();
+      collected.push_back(std::move(in).value());
+      ++out.replayed_messages;
+    } else if (offset < position.journal_offset) {
+      continue;  // a boundary or refinement the snapshot already includes
+    } else if (record.has_boundary()) {
+      const std::int64_t last = record.boundary().last_message_sequence();
+      std::vector<Inbound> batch;
+      size_t n = 0;
+      while (n < collected.size() && collected[n].journal_sequence <= last) ++n;
+      batch.assign(std::make_move_iterator(collected.begin()),
+                   std::make_move_iterator(collected.begin() + static_cast<std::ptrdiff_t>(n)));
+      collected.erase(collected.begin(), collected.begin() + static_cast<std::ptrdiff_t>(n));
+      out.estimator->Process(std::move(batch));
+      ++out.replayed_updates;
+    } else if (record.has_refinement()) {
+      out.estimator->Refine(std::numeric_limits<double>::infinity(), record.refinement().rounds());
+      ++out.replayed_refinements;
+    }
+  }
+  out.salvaged_bytes = reader.skipped_bytes();
+  if (out.torn_tail_offset >= 0) {
+    SLAMD_RETURN_IF_ERROR(TruncateTornTail(path, out.torn_tail_offset));
+  }
+  out.pending = std::move(collected);
+  out.seconds = timer.Seconds();
+  return out;
+}
+
+}  // namespace slamd::server

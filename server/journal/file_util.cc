@@ -1,0 +1,99 @@
+#include "server/journal/file_util.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+namespace slamd::server::internal {
+
+std::string ErrnoDescription(int err) {
+  const char* name = nullptr;
+  switch (err) {
+    case ENOSPC:
+      name = "ENOSPC";
+      break;
+    case EFBIG:
+      name = "EFBIG";
+      break;
+    case EDQUOT:
+      name = "EDQUOT";
+      break;
+    case EIO:
+      name = "EIO";
+      break;
+    case EROFS:
+      name = "EROFS";
+      break;
+    case EACCES:
+      name = "EACCES";
+      break;
+    case ENOENT:
+      name = "ENOENT";
+      break;
+    case EINTR:
+      name = "EINTR";
+      break;
+    default:
+      break;
+  }
+  std::string s = std::strerror(err);
+  s += name != nullptr ? std::string(" (") + name + ")" : " (errno " + std::to_string(err) + ")";
+  return s;
+}
+
+std::string DirName(const std::string& path) {
+  const auto slash = path.find_last_of('/');
+  if (slash == std::string::npos) return ".";
+  if (slash == 0) return "/";
+  return path.substr(0, slash);
+}
+
+core::Status SyncDirectory(const std::string& dir) {
+  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) {
+    return core::IoError("cannot open directory " + dir +
+                         " to sync it: " + ErrnoDescription(errno));
+  }
+  const int r = ::fsync(fd);
+  const int err = errno;
+  ::close(fd);
+  if (r != 0)
+    return core::IoError("fsync of directory " + dir + " failed: " + ErrnoDescription(err));
+  return core::Status::Ok();
+}
+
+core::Status PwriteAll(int fd, const char* data, std::size_t n, int64_t offset,
+                       const std::string& path, const char* what, std::size_t* written) {
+  std::size_t done = 0;
+  while (done < n) {
+    const ssize_t r = ::pwrite(fd, data + done, n - done, static_cast<off_t>(offset + done));
+    if (r < 0 && errno == EINTR) continue;
+    if (r <= 0) {
+      // r == 0 makes no progress; report it like an error rather than spin.
+      const int err = r < 0 ? errno : EIO;
+      if (written != nullptr) *written = done;
+      return core::IoError("write of " + std::string(what) + " to " + path + " at offset " +
+                           std::to_string(offset) + " failed after " + std::to_string(done) +
+                           " of " + std::to_string(n) + " bytes: " + ErrnoDescription(err));
+    }
+    done += static_cast<std::size_t>(r);
+  }
+  if (written != nullptr) *written = done;
+  return core::Status::Ok();
+}
+
+int64_t PreadUpTo(int fd, char* out, std::size_t n, int64_t offset) {
+  std::size_t done = 0;
+  while (done < n) {
+    const ssize_t r = ::pread(fd, out + done, n - done, static_cast<off_t>(offset + done));
+    if (r < 0 && errno == EINTR) continue;
+    if (r < 0) return -1;
+    if (r == 0) break;
+    done += static_cast<std::size_t>(r);
+  }
+  return static_cast<int64_t>(done);
+}
+
+}  // namespace slamd::server::internal

@@ -1,0 +1,31 @@
+// Small POSIX file helpers shared by the journal and snapshot files (internal).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "core/base/status.h"
+
+namespace slamd::server::internal {
+
+// "No space left on device (ENOSPC)": strerror plus the errno name for the common I/O errors.
+std::string ErrnoDescription(int err);
+
+// The directory part of a path ("." when there is none).
+std::string DirName(const std::string& path);
+
+// fsync of a directory, so a created, renamed or removed entry in it is durable.
+core::Status SyncDirectory(const std::string& dir);
+
+// Writes all n bytes at `offset` with pwrite (retrying EINTR and short writes). On failure
+// returns IoError naming `what`, the path, the offset reached and the cause; *written (if not
+// null) gets how many bytes did reach the file.
+core::Status PwriteAll(int fd, const char* data, std::size_t n, int64_t offset,
+                       const std::string& path, const char* what, std::size_t* written);
+
+// Reads up to n bytes at `offset` with pread (retrying EINTR and short reads until EOF).
+// Returns the number of bytes read (< n only at end of file), or -1 with errno set.
+int64_t PreadUpTo(int fd, char* out, std::size_t n, int64_t offset);
+
+}  // namespace slamd::server::internal

@@ -1,0 +1,61 @@
+// On-disk format of the slamd write-ahead journal (version 1). All integers little-endian.
+//
+//   file   = header record*
+//   header = magic "SLAMDJNL" (8 bytes) | uint32 version = 1 | uint32 reserved = 0     (16 bytes)
+//   record = uint32 length | uint32 masked CRC32C | payload (length bytes)
+//
+// length is the payload size in bytes, 1..kMaxRecordPayload (a larger or zero length is
+// corruption). The checksum is MaskCrc32c(CRC32C(the 4 length bytes, then the payload)): covering
+// the length means a flipped length bit is caught, and masking means a run of zero bytes (what a
+// crash can leave in an extended file) never parses as a record. The payload is a serialised
+// slamd.journal.JournalRecord (msgs/proto/journal.proto) with its `kind` set.
+// A record is *valid* at offset p when its 8 header bytes and whole payload lie inside the file,
+// the length is in range, the checksum matches and the payload parses with `kind` set.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+namespace slamd::server {
+
+inline constexpr char kJournalMagic[8] = {'S', 'L', 'A', 'M', 'D', 'J', 'N', 'L'};
+inline constexpr uint32_t kJournalVersion = 1;
+inline constexpr int64_t kJournalHeaderSize = 16;               // [bytes]
+inline constexpr int64_t kJournalRecordHeaderSize = 8;          // length + checksum [bytes]
+inline constexpr uint32_t kJournalMaxRecordPayload = 1u << 20;  // 1 MiB [bytes]
+
+namespace internal {
+
+inline void PutLe32(uint32_t v, char* out) {
+  for (int i = 0; i < 4; ++i) out[i] = static_cast<char>((v >> (8 * i)) & 0xFFu);
+}
+inline void PutLe64(uint64_t v, char* out) {
+  for (int i = 0; i < 8; ++i) out[i] = static_cast<char>((v >> (8 * i)) & 0xFFu);
+}
+inline uint32_t GetLe32(const char* p) {
+  uint32_t v = 0;
+  for (int i = 0; i < 4; ++i) v |= uint32_t{static_cast<unsigned char>(p[i])} << (8 * i);
+  return v;
+}
+inline uint64_t GetLe64(const char* p) {
+  uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v |= uint64_t{static_cast<unsigned char>(p[i])} << (8 * i);
+  return v;
+}
+
+// The 16 header bytes of a version-1 journal.
+std::string EncodeJournalHeader();
+
+// "" when the 16 bytes at `header` are a valid version-1 header, else what is wrong
+// ("bad magic ...", "unsupported version 7 (this build reads 1)").
+std::string CheckJournalHeader(const char* header);
+
+// Masked CRC32C over the 4 little-endian length bytes followed by the payload.
+uint32_t JournalRecordChecksum(const char* length_le, const char* payload, std::size_t n);
+
+// Appends the framed record (length, checksum, payload) to *out.
+void AppendJournalFrame(std::string_view payload, std::string* out);
+
+}  // namespace internal
+}  // namespace slamd::server

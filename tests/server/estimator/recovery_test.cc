@@ -1,0 +1,318 @@
+// Durability of the daemon (server/estimator/recovery.h, server/journal): what a restart
+// recovers from the data directory's journal and snapshots, driven by hand (no threads).
+#include "server/estimator/recovery.h"
+
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "server/estimator/daemon.h"
+#include "server/ingest/conversion.h"
+#include "server/journal/journal.h"
+#include "server/journal/read_journal.h"
+#include "server/journal/snapshot_file.h"
+#include "server/transport/in_process_bus.h"
+#include "server/transport/typed_subscribe.h"
+#include "slamd/loop_closure_t.hpp"
+#include "slamd/odometry_t.hpp"
+#include "slamd/prior_t.hpp"
+#include "slamd/reject_t.hpp"
+
+namespace slamd::server {
+namespace {
+
+namespace fs = std::filesystem;
+
+core::NoiseModel Noise(int dim, double s) { return core::NoiseModel::Isotropic(dim, s).value(); }
+
+class TempDir {
+ public:
+  TempDir() {
+    path_ = fs::temp_directory_path() /
+            ("slamd_recovery_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++));
+    fs::remove_all(path_);
+  }
+  ~TempDir() { fs::remove_all(path_); }
+  std::string str() const { return path_.string(); }
+
+ private:
+  static inline int counter_ = 0;
+  fs::path path_;
+};
+
+ServerParams Params(const std::string& dir) {
+  ServerParams p;
+  p.data_dir = dir;
+  p.refine.enabled = true;
+  p.refine.budget_s = 0.001;
+  p.publish.status_rate_hz = 0.0;
+  p.journal.sync = SyncPolicy::kNever;  // tests need no fsync; the policies are tested in journal/
+  p.journal.snapshot_every_updates = 0;
+  p.journal.snapshot_every_s = 0;
+  return p;
+}
+
+// A loop-y 2D trajectory as messages: prior, odometry, a loop closure every 10 poses, and a
+// duplicate now and then (rejected, but journaled: it was accepted at intake).
+void Send(Bus& bus, int from, int to) {
+  std::mt19937 rng(from);
+  std::normal_distribution<double> n(0.0, 0.05);
+  if (from == 0) {
+    slamd::prior_t prior;
+    ToLcm(PriorMeasurement{1, "r", 0, PriorKind::kPose2, core::Pose2(), Noise(3, 0.01)}, &prior);
+    ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", prior).ok());
+  }
+  for (int i = from; i < to; ++i) {
+    slamd::odometry_t odo;
+    ToLcm(OdometryMeasurement{i, "r", static_cast<std::uint64_t>(i),
+                              static_cast<std::uint64_t>(i + 1),
+                              core::Pose2(1 + n(rng), n(rng), 0.3 + n(rng)), Noise(3, 0.05)},
+          &odo);
+    ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", odo).ok());
+    if (i % 7 == 3) {
+      ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", odo).ok());  // duplicate
+    }
+    if (i >= 20 && i % 10 == 0) {
+      slamd::loop_closure_t lc;
+      ToLcm(LoopClosureMeasurement{i,
+                                   "r",
+                                   static_cast<std::uint64_t>(i + 1),
+                                   "r",
+                                   static_cast<std::uint64_t>(i - 20),
+                                   core::Pose2(0.4 + n(rng), -0.3, 1.0 + n(rng)),
+                                   Noise(3, 0.1),
+                                   {}},
+            &lc);
+      ASSERT_TRUE(Publish(bus, "SLAMD_LOOP_CLOSURE", lc).ok());
+    }
+  }
+}
+
+// Delivers everything published, in small random batches (as a live server coalesces), with
+// refinement steps in between.
+void Drive(Daemon& d, std::mt19937& rng) {
+  for (int guard = 0; guard < 10000; ++guard) {
+    const int n = d.PumpIntake(0).value();
+    if (n == 0 && d.queue_depth() == 0) break;
+    d.StepEstimator(0.0);
+    if (rng() % 3 == 0) d.StepEstimator(0.0);  // idle: a refinement step
+  }
+}
+
+// Sends poses from..to in chunks of 1..6 poses, each driven through (so updates are many and
+// of varying size, as a live server's coalescing makes them).
+void Stream(Bus& bus, Daemon& d, int from, int to, std::mt19937& rng) {
+  for (int k = from; k < to;) {
+    const int next = std::min(to, k + 1 + static_cast<int>(rng() % 6));
+    Send(bus, k, next);
+    Drive(d, rng);
+    k = next;
+  }
+}
+
+core::Values Estimate(const Daemon& d) {
+  return d.estimator_for_tests().solver().CalculateEstimate();
+}
+
+void ExpectSameValues(const core::Values& a, const core::Values& b, double tol) {
+  ASSERT_EQ(a.size(), b.size());
+  for (core::Key k : a.keys()) {
+    ASSERT_TRUE(b.Contains(k)) << core::KeyToString(k);
+    EXPECT_LE(core::LocalCoordinates(a.Get(k), b.Get(k)).lpNorm<Eigen::Infinity>(), tol)
+        << core::KeyToString(k);
+  }
+}
+
+// A restart replays the journal into exactly the same updates and refinements: the recovered
+// estimate equals the one before the restart bit for bit.
+TEST(RecoveryTest, RestartReproducesTheStateExactly) {
+  TempDir dir;
+  InProcessBus bus;
+  std::mt19937 rng(3);
+  core::Values before;
+  std::int64_t updates = 0;
+  {
+    auto d = Daemon::Create(Params(dir.str()), &bus).value();
+    Stream(bus, *d, 0, 80, rng);
+    before = Estimate(*d);
+    updates = d->snapshot()->update_sequence;
+    d->Stop();
+  }
+  auto d = Daemon::Create(Params(dir.str()), &bus).value();
+  EXPECT_EQ(d->snapshot()->update_sequence, updates);
+  ExpectSameValues(Estimate(*d), before, 0.0);
+  // And it carries on: sequence numbers continue, duplicates of old messages are refused.
+  std::vector<slamd::reject_t> rejects;
+  Subscription sub =
+      Subscribe<slamd::reject_t>(
+          bus, "SLAMD_REJECT",
+          [&](std::string_view, const slamd::reject_t& m) { rejects.push_back(m); }, nullptr)
+          .value();
+  Send(bus, 79, 80);  // 79 -> 80 again: a duplicate
+  Stream(bus, *d, 80, 90, rng);
+  EXPECT_EQ(Estimate(*d).size(), before.size() + 10);
+  int duplicates = 0;
+  for (const auto& r : rejects) duplicates += r.reason == slamd::reject_t::REASON_DUPLICATE;
+  EXPECT_GE(duplicates, 1);
+}
+
+// A crash mid-write leaves a torn record: recovery keeps every whole record before it, cuts
+// the rest, and the daemon appends after the cut.
+TEST(RecoveryTest, TornTailIsTruncatedAndEverythingBeforeItRecovered) {
+  TempDir dir;
+  InProcessBus bus;
+  std::mt19937 rng(5);
+  {
+    auto d = Daemon::Create(Params(dir.str()), &bus).value();
+    Stream(bus, *d, 0, 40, rng);
+  }
+  const std::string path = JournalPath(dir.str());
+  const auto size = static_cast<std::int64_t>(fs::file_size(path));
+  std::mt19937 cut_rng(11);
+  for (int trial = 0; trial < 10; ++trial) {
+    TempDir copy;
+    fs::create_directories(copy.str());
+    fs::copy_file(path, JournalPath(copy.str()));
+    const std::int64_t cut = 16 + static_cast<std::int64_t>(cut_rng() % (size - 16));
+    fs::resize_file(JournalPath(copy.str()), static_cast<std::uintmax_t>(cut));
+    core::Result<RecoveryResult> r = Recover(copy.str(), {}, {}, false);
+    ASSERT_TRUE(r.ok()) << r.status().ToString();
+    EXPECT_LE(r.value().torn_tail_offset, cut);
+    // The cut file now ends on a record boundary and the daemon appends after it.
+    InProcessBus bus2;
+    auto d = Daemon::Create(Params(copy.str()), &bus2).value();
+    const std::int64_t poses = d->snapshot()->num_variables;
+    d->Stop();
+    core::Result<RecoveryResult> again = Recover(copy.str(), {}, {}, false);
+    ASSERT_TRUE(again.ok());
+    EXPECT_EQ(again.value().torn_tail_offset, -1) << "trial " << trial;
+    EXPECT_EQ(again.value().estimator->snapshot()->num_variables, poses);
+  }
+}
+
+// A flipped bit in the middle stops recovery with an error naming the offset; --salvage skips
+// the damaged record and starts.
+TEST(RecoveryTest, CorruptionInTheMiddleStopsUnlessSalvaged) {
+  TempDir dir;
+  InProcessBus bus;
+  std::mt19937 rng(7);
+  {
+    auto d = Daemon::Create(Params(dir.str()), &bus).value();
+    Stream(bus, *d, 0, 40, rng);
+  }
+  // Damage an update-boundary record in the middle (a lost boundary loses no message: its
+  // messages join the next update).
+  const std::string path = JournalPath(dir.str());
+  core::Result<JournalContents> contents = ReadJournal(path);
+  ASSERT_TRUE(contents.ok());
+  std::int64_t target = -1;
+  for (size_t i = contents.value().records.size() / 2; i < contents.value().records.size(); ++i) {
+    if (contents.value().records[i].has_boundary()) {
+      target = contents.value().offsets[i] + 9;  // inside the payload
+      break;
+    }
+  }
+  ASSERT_GT(target, 0);
+  {
+    std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekg(target);
+    char c = 0;
+    f.read(&c, 1);
+    c ^= 0x10;
+    f.seekp(target);
+    f.write(&c, 1);
+  }
+  core::Result<std::unique_ptr<Daemon>> refused = Daemon::Create(Params(dir.str()), &bus);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.status().code(), core::StatusCode::kDataLoss);
+  EXPECT_NE(refused.status().message().find("--salvage"), std::string::npos)
+      << refused.status().ToString();
+  ServerParams salvage = Params(dir.str());
+  salvage.salvage = true;
+  core::Result<std::unique_ptr<Daemon>> started = Daemon::Create(salvage, &bus);
+  ASSERT_TRUE(started.ok()) << started.status().ToString();
+  EXPECT_EQ(started.value()->snapshot()->num_variables, 41);
+}
+
+// Recovery from a snapshot plus the journal after it gives what a full replay gives (both
+// settled: the snapshot re-solves at its linearisation point).
+TEST(RecoveryTest, SnapshotPlusJournalEqualsFullReplay) {
+  TempDir dir;
+  InProcessBus bus;
+  std::mt19937 rng(9);
+  ServerParams p = Params(dir.str());
+  p.journal.snapshot_every_updates = 15;
+  p.isam2.refine_threshold = 1e-10;
+  {
+    auto d = Daemon::Create(p, &bus).value();
+    Stream(bus, *d, 0, 120, rng);
+    d->Stop();
+  }
+  core::Result<std::vector<SnapshotFileInfo>> snaps = ListSnapshots(dir.str());
+  ASSERT_TRUE(snaps.ok());
+  ASSERT_FALSE(snaps.value().empty());
+  core::Result<RecoveryResult> with = Recover(dir.str(), p.estimator, p.isam2, false);
+  ASSERT_TRUE(with.ok()) << with.status().ToString();
+  EXPECT_FALSE(with.value().snapshot_path.empty())
+      << (with.value().notes.empty() ? "" : with.value().notes[0]);
+  EXPECT_GT(with.value().snapshot_sequence, 0);
+  for (const auto& s : snaps.value()) fs::remove(s.path);
+  core::Result<RecoveryResult> full = Recover(dir.str(), p.estimator, p.isam2, false);
+  ASSERT_TRUE(full.ok());
+  EXPECT_TRUE(full.value().snapshot_path.empty());
+  EXPECT_GT(full.value().replayed_messages, with.value().replayed_messages);
+  Estimator& a = *with.value().estimator;
+  Estimator& b = *full.value().estimator;
+  EXPECT_EQ(a.snapshot()->num_factors, b.snapshot()->num_factors);
+  ASSERT_TRUE(a.Refine(10.0).converged);
+  ASSERT_TRUE(b.Refine(10.0).converged);
+  ExpectSameValues(a.solver().CalculateEstimate(), b.solver().CalculateEstimate(), 1e-8);
+}
+
+// Disk full (a file-size limit): intake rejects with REASON_STORAGE_ERROR and keeps running;
+// nothing rejected is in the graph; when writing works again, intake resumes.
+TEST(RecoveryTest, DiskFullRejectsThenResumes) {
+  std::signal(SIGXFSZ, SIG_IGN);
+  TempDir dir;
+  InProcessBus bus;
+  std::mt19937 rng(13);
+  auto d = Daemon::Create(Params(dir.str()), &bus).value();
+  std::vector<slamd::reject_t> rejects;
+  Subscription sub =
+      Subscribe<slamd::reject_t>(
+          bus, "SLAMD_REJECT",
+          [&](std::string_view, const slamd::reject_t& m) { rejects.push_back(m); }, nullptr)
+          .value();
+  Send(bus, 0, 10);
+  Drive(*d, rng);
+  const std::int64_t poses = d->snapshot()->num_variables;
+  rlimit old{};
+  ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old), 0);
+  rlimit small = old;
+  small.rlim_cur = fs::file_size(JournalPath(dir.str()));
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &small), 0);
+  const size_t before = rejects.size();
+  Send(bus, 10, 15);
+  Drive(*d, rng);
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &old), 0);
+  EXPECT_EQ(d->snapshot()->num_variables, poses);  // nothing from the full disk got in
+  ASSERT_GT(rejects.size(), before);
+  for (size_t i = before; i < rejects.size(); ++i) {
+    EXPECT_EQ(rejects[i].reason, slamd::reject_t::REASON_STORAGE_ERROR);
+    EXPECT_NE(rejects[i].detail.find("journal"), std::string::npos) << rejects[i].detail;
+  }
+  Send(bus, 9, 20);  // 9->10 is a duplicate; 10..19 are new again
+  Drive(*d, rng);
+  EXPECT_EQ(d->snapshot()->num_variables, poses + 10);
+  d->Stop();
+  core::Result<RecoveryResult> r = Recover(dir.str(), {}, {}, false);
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  EXPECT_EQ(r.value().estimator->snapshot()->num_variables, poses + 10);
+}
+
+}  // namespace
+}  // namespace slamd::server
