@@ -8,6 +8,10 @@ namespace slamd::clients {
 
 // `slamctl bench DATASET`: offline timing and accuracy of the core solvers on a dataset.
 void RegisterBench(CLI::App& app);
+// `slamctl sim WORLD -o DIR`: a synthetic world (dataset + ground truth), deterministic per seed.
+void RegisterSim(CLI::App& app);
+// `slamctl plot DATASET... -o OUT.png|svg|pdf`: top-down picture of datasets (plot.cc).
+void RegisterPlot(CLI::App& app);
 
 // Exit codes shared by every subcommand.
 inline constexpr int kExitOk = 0;

@@ -8,6 +8,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "slamctl 0.1.0");
   slamd::clients::RegisterBench(app);
+  slamd::clients::RegisterSim(app);
+  slamd::clients::RegisterPlot(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

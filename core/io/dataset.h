@@ -134,4 +134,18 @@ Result<Dataset> ReadDataset(const std::string& path, const ReadOptions& options 
 // one id space between poses and landmarks; slamd does not, so colliding ids are written as is.
 Status WriteG2o(const Dataset& dataset, const std::string& path);
 
+// Writes `dataset` in the iSAM text format (2D only; iSAM files have no vertex lines, so
+// dataset.initial is not written and ReadDataset composes the initial guess from the edges,
+// starting at the identity for the lowest pose id). One line per factor in graph order, with the
+// upper-triangular square-root information R of its noise model (Ω = RᵀR), numbers in the
+// shortest form that reads back to the same double:
+//   BetweenFactor<Pose2>                -> ODOMETRY i j dx dy dθ s11 s12 s13 s22 s23 s33
+//   RelativePointFactor<Pose2, Point2>  -> LANDMARK pose lm dx dy s11 s12 s22
+// ODOMETRY is used for every pose-pose edge, loop closures included (as in iSAM's
+// manhattanOlson3500.txt), so that format detection reads the file as iSAM.
+// Errors: kInvalidArgument for a factor with no iSAM form here (3D: EDGE3's Euler-angle noise is
+// not written), for keys that are not 'x'/'l' keys without a robot id; kIoError when the file
+// cannot be written (nothing is written then).
+Status WriteIsam(const Dataset& dataset, const std::string& path);
+
 }  // namespace slamd::core

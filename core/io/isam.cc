@@ -1,7 +1,12 @@
-// The iSAM text format (Kaess' iSAM data/*.txt): ODOMETRY / EDGE2, LANDMARK, EDGE3.
-// Layouts and conventions: dataset.h.
+// The iSAM text format (Kaess' iSAM data/*.txt): ODOMETRY / EDGE2, LANDMARK, EDGE3: reading one
+// line (ReadIsamLine) and writing a 2D Dataset (WriteIsam). Layouts and conventions: dataset.h.
+#include <charconv>
 #include <cmath>
+#include <fstream>
+#include <string>
 
+#include "core/factors/between_factor.h"
+#include "core/factors/relative_point_factor.h"
 #include "core/io/reader_internal.h"
 
 namespace slamd::core::internal {
@@ -109,3 +114,68 @@ Status ReadIsamLine(const SourceLine& line, IsamNoise noise, DatasetBuilder* bui
 }
 
 }  // namespace slamd::core::internal
+
+namespace slamd::core {
+namespace {
+
+void AppendNumber(double x, std::string* out) {
+  char buf[32];
+  const auto result = std::to_chars(buf, buf + sizeof(buf), x);  // shortest exact form
+  out->append(" ").append(buf, result.ptr);
+}
+
+Status CheckIsamKey(Key key, unsigned char symbol, std::size_t index) {
+  if (KeySymbol(key) == symbol && KeyRobot(key) == 0) return Status::Ok();
+  return InvalidArgument("WriteIsam: factor " + std::to_string(index) + " has key " +
+                         KeyToString(key) + ", not a '" +
+                         std::string(1, static_cast<char>(symbol)) + "' key without a robot id");
+}
+
+// "<tag> i j <measurement> <upper triangle of R>".
+Status WriteIsamFactor(const Factor& factor, std::size_t index, std::string* out) {
+  const KeyVector& keys = factor.keys();
+  std::string line;
+  if (const auto* f = dynamic_cast<const BetweenFactor<Pose2>*>(&factor)) {
+    SLAMD_RETURN_IF_ERROR(CheckIsamKey(keys[0], 'x', index));
+    SLAMD_RETURN_IF_ERROR(CheckIsamKey(keys[1], 'x', index));
+    line = "ODOMETRY";
+    line += " " + std::to_string(KeyIndex(keys[0])) + " " + std::to_string(KeyIndex(keys[1]));
+    AppendNumber(f->measured().x(), &line);
+    AppendNumber(f->measured().y(), &line);
+    AppendNumber(f->measured().theta(), &line);
+  } else if (const auto* f = dynamic_cast<const RelativePointFactor<Pose2, Point2>*>(&factor)) {
+    SLAMD_RETURN_IF_ERROR(CheckIsamKey(keys[0], 'x', index));
+    SLAMD_RETURN_IF_ERROR(CheckIsamKey(keys[1], 'l', index));
+    line = "LANDMARK";
+    line += " " + std::to_string(KeyIndex(keys[0])) + " " + std::to_string(KeyIndex(keys[1]));
+    AppendNumber(f->measured().x(), &line);
+    AppendNumber(f->measured().y(), &line);
+  } else {
+    return InvalidArgument("WriteIsam: factor " + std::to_string(index) + " (" + factor.Name() +
+                           ") has no iSAM form");
+  }
+  const NoiseModel::Matrix& R = factor.noise_model().sqrt_information();
+  for (int r = 0; r < R.rows(); ++r) {
+    for (int c = r; c < R.cols(); ++c) AppendNumber(R(r, c), &line);
+  }
+  out->append(line).append("\n");
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status WriteIsam(const Dataset& dataset, const std::string& path) {
+  // Everything is formatted first, so that an unwritable dataset leaves no file.
+  std::string out;
+  for (std::size_t i = 0; i < dataset.graph.size(); ++i) {
+    SLAMD_RETURN_IF_ERROR(WriteIsamFactor(*dataset.graph[i], i, &out));
+  }
+  std::ofstream file(path, std::ios::binary | std::ios::trunc);
+  if (!file) return IoError("WriteIsam: cannot open '" + path + "' for writing");
+  file.write(out.data(), static_cast<std::streamsize>(out.size()));
+  file.close();
+  if (!file) return IoError("WriteIsam: writing '" + path + "' failed");
+  return Status::Ok();
+}
+
+}  // namespace slamd::core

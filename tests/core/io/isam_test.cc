@@ -3,6 +3,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <fstream>
+
 #include "core/factors/between_factor.h"
 #include "core/factors/relative_point_factor.h"
 #include "core/io/dataset.h"
@@ -130,6 +132,62 @@ TEST(Isam, Edge3CovarianceIsRejected) {
       ReadDataset(WriteTempFile("e3.txt", "EDGE3 0 1 1 0 0 0 0 0\n"), options).status();
   EXPECT_EQ(s.code(), StatusCode::kDataLoss);
   EXPECT_THAT(s.message(), ::testing::HasSubstr("square-root information"));
+}
+
+// WriteIsam → ReadDataset: the same measurements and noise (sqrt-information written as is).
+TEST(Isam, WriteIsamRoundTrip) {
+  Dataset d;
+  Eigen::Matrix3d info;
+  info << 20, 2, 1, 2, 30, 3, 1, 3, 400;
+  Eigen::Matrix2d info_l;
+  info_l << 5, 1, 1, 7;
+  d.graph.Emplace<BetweenFactor<Pose2>>(MakeKey('x', 0), MakeKey('x', 1), Pose2(1, 0.1, 0.2),
+                                        NoiseModel::FromInformation(info).value());
+  d.graph.Emplace<RelativePointFactor<Pose2, Point2>>(MakeKey('x', 1), MakeKey('l', 4),
+                                                      Point2(2.5, -1.0 / 3),
+                                                      NoiseModel::FromInformation(info_l).value());
+  d.graph.Emplace<BetweenFactor<Pose2>>(MakeKey('x', 1), MakeKey('x', 2), Pose2(0.3, -0.7, -3.1),
+                                        NoiseModel::Isotropic(3, 0.1).value());
+  d.graph.Emplace<BetweenFactor<Pose2>>(MakeKey('x', 0), MakeKey('x', 2), Pose2(1.2, -0.5, 3.0),
+                                        NoiseModel::Isotropic(3, 0.1).value());
+  const std::string path = WriteTempFile("written.txt", "");
+  ASSERT_TRUE(WriteIsam(d, path).ok());
+  Result<Dataset> read = ReadDataset(path);
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  const Dataset& back = read.value();
+  EXPECT_EQ(back.format, DatasetFormat::kIsam);
+  ASSERT_EQ(back.graph.size(), d.graph.size());
+  EXPECT_EQ(back.num_pose_edges, 3u);
+  EXPECT_EQ(back.num_landmark_observations, 1u);
+  EXPECT_EQ(back.num_loop_like, 1u);
+  for (std::size_t i = 0; i < d.graph.size(); ++i) {
+    EXPECT_EQ(back.graph[i]->keys(), d.graph[i]->keys()) << i;
+    EXPECT_TRUE(back.graph[i]->noise_model().Information().isApprox(
+        d.graph[i]->noise_model().Information(), 1e-12))
+        << i;
+    // Same measurement: the errors at the read-back initial guess agree.
+    EXPECT_LT((back.graph[i]->Error(back.initial) - d.graph[i]->Error(back.initial)).norm(), 1e-12)
+        << i;
+  }
+  EXPECT_TRUE(back.initial.At<Pose2>(MakeKey('x', 1)).Equals(Pose2(1, 0.1, 0.2), 1e-15));
+}
+
+TEST(Isam, WriteIsamRejectsWhatItCannotWrite) {
+  Dataset d;
+  d.graph.Emplace<BetweenFactor<Pose3>>(MakeKey('x', 0), MakeKey('x', 1), Pose3(),
+                                        NoiseModel::Isotropic(6, 1).value());
+  const std::string path = ::testing::TempDir() + "slamd_isam_never_written.txt";
+  Status s = WriteIsam(d, path);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("BetweenPose3"));
+  EXPECT_FALSE(std::ifstream(path).good());  // nothing written
+  Dataset robot;
+  robot.graph.Emplace<BetweenFactor<Pose2>>(MakeKey('x', 0, 'a'), MakeKey('x', 1, 'a'), Pose2(),
+                                            NoiseModel::Isotropic(3, 1).value());
+  s = WriteIsam(robot, path);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_THAT(s.message(), ::testing::HasSubstr("robot id"));
+  EXPECT_EQ(WriteIsam(Dataset{}, "/nonexistent/dir/out.txt").code(), StatusCode::kIoError);
 }
 
 }  // namespace

@@ -1,0 +1,205 @@
+// slamctl plot: a report-quality top-down picture of one or more datasets (one robot each):
+// read -> optionally optimise (batch) -> optionally marginals -> PlotScene -> Cairo file.
+#include <algorithm>
+#include <cstdio>
+#include <functional>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "clients/slamctl/commands.h"
+#include "clients/slamctl/plot_render.h"
+#include "clients/slamctl/plot_scene.h"
+#include "core/batch/batch_solver.h"
+#include "core/io/dataset.h"
+
+namespace slamd::clients {
+namespace {
+
+struct PlotOptions {
+  std::vector<std::string> datasets;
+  std::string output;
+  std::string format;             // empty: from the output's extension
+  std::string size = "1200x900";  // WxH
+  bool optimize = false;
+  bool covariances = false;
+  int ellipse_every = 0;  // 0: about 50 pose ellipses per robot
+  double sigma = 3.0;
+  double anchor_sigma = 1e-3;
+  std::string isam_noise = "sqrt-information";
+  std::string title;
+  core::BatchParams batch;
+};
+
+[[noreturn]] void Fail(int code, const std::string& message) {
+  std::fprintf(stderr, "slamctl plot: %s\n", message.c_str());
+  throw CommandExit{code};
+}
+
+// "1200x900" -> width, height; false when malformed.
+bool ParseSize(const std::string& text, int* width, int* height) {
+  int consumed = 0;
+  return std::sscanf(text.c_str(), "%dx%d%n", width, height, &consumed) == 2 &&
+         consumed == static_cast<int>(text.size());
+}
+
+struct Loaded {
+  plot::PlotRobot robot;
+  int ellipse_every = 1;  // the pose subsampling used
+};
+
+Loaded LoadRobot(const PlotOptions& opt, const std::string& path) {
+  core::ReadOptions read;
+  read.isam_noise = opt.isam_noise == "covariance" ? core::ReadOptions::IsamNoise::kCovariance
+                                                   : core::ReadOptions::IsamNoise::kSqrtInformation;
+  core::Result<core::Dataset> loaded = core::ReadDataset(path, read);
+  if (!loaded.ok()) Fail(kExitFailure, loaded.status().ToString());
+  const core::Dataset& data = *loaded;
+  const std::string name = std::filesystem::path(path).filename().string();
+  Loaded out;
+
+  // The gauge as in `slamctl bench`: a tight prior on the first pose where it is.
+  core::Values values = data.initial;
+  const auto anchored = [&](const core::Values& at) {
+    core::FactorGraph graph = data.graph;
+    if (!data.poses.empty()) {
+      const core::Status s = core::AddGaugePrior(at, data.poses.front(), opt.anchor_sigma, &graph);
+      if (!s.ok()) Fail(kExitFailure, path + ": " + s.ToString());
+    }
+    return graph;
+  };
+  if (opt.optimize) {
+    const core::BatchResult result = core::Optimize(anchored(data.initial), data.initial, opt.batch);
+    if (!result.status.ok()) Fail(kExitFailure, path + ": optimisation failed: " + result.status.ToString());
+    values = result.values;
+    std::fprintf(stderr, "slamctl plot: %s: %s\n", name.c_str(), result.summary.Brief().c_str());
+  }
+
+  plot::SceneOptions scene_options{.sigma = opt.sigma};
+  scene_options.ellipse_every = opt.ellipse_every > 0
+                                    ? opt.ellipse_every
+                                    : std::max<int>(1, static_cast<int>((data.poses.size() + 49) / 50));
+  std::unique_ptr<plot::MarginalTable> marginals;
+  if (opt.covariances) {
+    // Only the keys that get an ellipse, in the tangent at the plotted values.
+    std::vector<core::Key> keys;
+    for (std::size_t i = 0; i < data.poses.size(); i += scene_options.ellipse_every) keys.push_back(data.poses[i]);
+    if (!data.poses.empty() && keys.back() != data.poses.back()) keys.push_back(data.poses.back());
+    keys.insert(keys.end(), data.landmarks.begin(), data.landmarks.end());
+    core::Result<plot::MarginalTable> table = plot::ComputeMarginals(anchored(values), values, keys);
+    if (!table.ok()) Fail(kExitFailure, path + ": marginals failed: " + table.status().ToString());
+    marginals = std::make_unique<plot::MarginalTable>(std::move(table).value());
+  }
+  core::Result<plot::PlotRobot> robot = plot::BuildRobot(name, data, values, scene_options, marginals.get());
+  if (!robot.ok()) Fail(kExitFailure, path + ": " + robot.status().ToString());
+  out.robot = std::move(robot).value();
+  out.ellipse_every = scene_options.ellipse_every;
+  return out;
+}
+
+// 2 -> "2nd", 11 -> "11th", 23 -> "23rd".
+std::string Ordinal(int n) {
+  const int tens = n % 100, ones = n % 10;
+  const char* suffix = (tens >= 11 && tens <= 13) ? "th" : ones == 1 ? "st" : ones == 2 ? "nd" : ones == 3 ? "rd" : "th";
+  return std::to_string(n) + suffix;
+}
+
+std::string Title(const plot::PlotScene& scene) {
+  std::string title = scene.robots.size() == 1 ? scene.robots.front().name
+                                               : std::to_string(scene.robots.size()) + " robots";
+  title += ": " + std::to_string(scene.NumPoses()) + " poses";
+  if (scene.NumLandmarks() > 0) title += ", " + std::to_string(scene.NumLandmarks()) + " landmarks";
+  title += ", " + std::to_string(scene.NumLoopClosures()) + " loop closures";
+  return title;
+}
+
+void RunPlot(const PlotOptions& opt) {
+  // Argument checks first (exit 2), before any work.
+  plot::RenderOptions render;
+  if (!ParseSize(opt.size, &render.width, &render.height)) {
+    Fail(kExitUsage, "--size '" + opt.size + "': expected WIDTHxHEIGHT, e.g. 1200x900");
+  }
+  const core::Result<plot::PlotFormat> format =
+      opt.format.empty() ? plot::PlotFormatFromPath(opt.output) : plot::ParsePlotFormat(opt.format);
+  if (!format.ok()) Fail(kExitUsage, format.status().message());
+  render.format = *format;
+  const std::filesystem::path dir = std::filesystem::path(opt.output).parent_path();
+  if (!dir.empty() && !std::filesystem::is_directory(dir)) {
+    Fail(kExitUsage, "-o " + opt.output + ": directory " + dir.string() + " does not exist");
+  }
+  for (const core::Status& valid : {render.Validate(), opt.batch.Validate()}) {
+    if (!valid.ok()) Fail(kExitUsage, valid.message());
+  }
+
+  plot::PlotScene scene;
+  scene.sigma = opt.sigma;
+  std::vector<int> every;  // per robot
+  for (const std::string& path : opt.datasets) {
+    Loaded loaded = LoadRobot(opt, path);
+    scene.robots.push_back(std::move(loaded.robot));
+    every.push_back(loaded.ellipse_every);
+  }
+  scene.title = opt.title.empty() ? Title(scene) : opt.title;
+  char sigma[32];
+  std::snprintf(sigma, sizeof sigma, "%g", opt.sigma);
+  scene.subtitle = opt.optimize ? "optimised (batch, first pose anchored)" : "initial guess from the file";
+  if (opt.covariances) {
+    scene.subtitle += std::string("; ") + sigma + "\xcf\x83 ellipses of the x-y marginals";
+    if (std::adjacent_find(every.begin(), every.end(), std::not_equal_to<>()) != every.end()) {
+      scene.subtitle += " (subsampled poses)";
+    } else if (every.front() > 1) {
+      scene.subtitle += " (every " + Ordinal(every.front()) + " pose)";
+    }
+  }
+  const core::Status written = plot::RenderScene(scene, opt.output, render);
+  if (!written.ok()) Fail(kExitFailure, written.ToString());
+  std::printf("wrote %s (%dx%d): %zu poses, %zu landmarks, %zu loop closures, %zu ellipses\n",
+              opt.output.c_str(), render.width, render.height, scene.NumPoses(), scene.NumLandmarks(),
+              scene.NumLoopClosures(), scene.NumEllipses());
+}
+
+}  // namespace
+
+void RegisterPlot(CLI::App& app) {
+  auto opt = std::make_shared<PlotOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "plot", "Draw datasets top-down (trajectories, landmarks, loop closures, covariance ellipses) "
+              "to a PNG, SVG or PDF file");
+  cmd->add_option("datasets", opt->datasets,
+                  "Dataset files (g2o 2D/3D, TORO .graph, iSAM .txt); several = several robots")
+      ->required()
+      ->check(CLI::ExistingFile);
+  cmd->add_option("-o,--output", opt->output, "Picture to write: *.png, *.svg or *.pdf")->required();
+  cmd->add_option("--format", opt->format, "png, svg or pdf (default: from the output's extension)")
+      ->check(CLI::IsMember({"png", "svg", "pdf"}));
+  cmd->add_option("--size", opt->size, "WIDTHxHEIGHT in pixels (PNG) or points (SVG, PDF)")
+      ->capture_default_str();
+  cmd->add_flag("--optimize", opt->optimize,
+                "Optimise each dataset first (batch Levenberg-Marquardt from the file's initial guess, "
+                "first pose anchored)");
+  cmd->add_flag("--covariances", opt->covariances,
+                "Draw covariance ellipses of the x-y marginals at the plotted values (with the first pose "
+                "anchored; after --optimize they are the optimum's)");
+  cmd->add_option("--ellipse-every", opt->ellipse_every,
+                  "--covariances: an ellipse for every K-th pose (0: about 50 per robot)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cmd->add_option("--sigma", opt->sigma, "Ellipses at this many standard deviations")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--anchor-sigma", opt->anchor_sigma,
+                  "Sigma of the prior that anchors the first pose (metres and radians)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--isam-noise", opt->isam_noise,
+                  "How iSAM-format noise columns are read: sqrt-information or covariance")
+      ->check(CLI::IsMember({"sqrt-information", "covariance"}))
+      ->capture_default_str();
+  cmd->add_option("--title", opt->title, "Title (default: dataset name and counts)");
+  cmd->add_option("--max-iterations", opt->batch.max_iterations, "--optimize: iteration limit")
+      ->capture_default_str();
+  cmd->callback([opt] { RunPlot(*opt); });
+}
+
+}  // namespace slamd::clients

@@ -1,0 +1,131 @@
+// Runs the slamctl binary: `slamctl plot` on small datasets (2D with landmarks, 3D, two robots)
+// to PNG, SVG and PDF, and its argument errors (exit 2 with a message).
+#include <cairo.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+#include "tests/testing/datasets.h"
+
+namespace slamd::clients {
+namespace {
+
+struct CommandRun {
+  int exit_code;
+  std::string out;  // stdout and stderr
+};
+
+CommandRun Slamctl(const std::string& args) {
+  const std::string command = std::string(SLAMCTL_PATH) + " " + args + " 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  CommandRun run{-1, ""};
+  if (pipe == nullptr) return run;
+  std::array<char, 4096> buf;
+  size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), pipe)) > 0) run.out.append(buf.data(), n);
+  const int status = pclose(pipe);
+  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return run;
+}
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// Width and height of a PNG file as Cairo reads it (0, 0 if unreadable).
+std::pair<int, int> PngSize(const std::string& path) {
+  cairo_surface_t* s = cairo_image_surface_create_from_png(path.c_str());
+  std::pair<int, int> size{0, 0};
+  if (cairo_surface_status(s) == CAIRO_STATUS_SUCCESS) {
+    size = {cairo_image_surface_get_width(s), cairo_image_surface_get_height(s)};
+  }
+  cairo_surface_destroy(s);
+  return size;
+}
+
+// A 3D pose graph: a square loop of 4 poses with a loop closure, climbing in z.
+std::string Write3dDataset() {
+  std::string text;
+  const double xy[4][2] = {{0, 0}, {2, 0}, {2, 2}, {0, 2}};
+  for (int i = 0; i < 4; ++i) {
+    text += "VERTEX_SE3:QUAT " + std::to_string(i) + " " + std::to_string(xy[i][0]) + " " +
+            std::to_string(xy[i][1]) + " " + std::to_string(0.1 * i) + " 0 0 0 1\n";
+  }
+  const std::string info = " 100 0 0 0 0 0 100 0 0 0 0 100 0 0 0 400 0 0 400 0 400\n";
+  text += "EDGE_SE3:QUAT 0 1 2 0 0.1 0 0 0 1" + info;
+  text += "EDGE_SE3:QUAT 1 2 0 2 0.1 0 0 0 1" + info;
+  text += "EDGE_SE3:QUAT 2 3 -2 0 0.1 0 0 0 1" + info;
+  text += "EDGE_SE3:QUAT 3 0 0 -2 -0.3 0 0 0 1" + info;
+  return testing::WriteTempFile("square3d.g2o", text);
+}
+
+TEST(PlotTest, PngOfSmallDatasetWithCovariances) {
+  const std::string out = testing::WriteTempFile("small.png", "");
+  const CommandRun r = Slamctl("plot " + testing::TestDataPath("small_slam2d.g2o") +
+                               " --optimize --covariances --ellipse-every 1 -o " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("5 poses, 2 landmarks, 1 loop closures, 7 ellipses"), std::string::npos) << r.out;
+  EXPECT_EQ(PngSize(out), std::make_pair(1200, 900));
+}
+
+TEST(PlotTest, SvgOfRequestedSize) {
+  const std::string out = testing::WriteTempFile("small.svg", "");
+  const CommandRun r = Slamctl("plot " + testing::TestDataPath("small_slam2d.g2o") + " --size 800x500 -o " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const std::string svg = ReadAll(out);
+  const std::size_t tag = svg.find("<svg");
+  ASSERT_NE(tag, std::string::npos);
+  const std::string head = svg.substr(tag, svg.find('>', tag) - tag);
+  EXPECT_NE(head.find("width=\"800"), std::string::npos) << head;
+  EXPECT_NE(head.find("height=\"500"), std::string::npos) << head;
+}
+
+TEST(PlotTest, ThreeDimensionalAndTwoRobotsToPdf) {
+  const std::string data3d = Write3dDataset();
+  const std::string out = testing::WriteTempFile("two.pdf", "");
+  const CommandRun r = Slamctl("plot " + testing::TestDataPath("small_slam2d.g2o") + " " + data3d +
+                               " --optimize --covariances -o " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("9 poses, 2 landmarks, 2 loop closures"), std::string::npos) << r.out;
+  EXPECT_EQ(ReadAll(out).substr(0, 5), "%PDF-");
+  // --format overrides the extension.
+  const std::string forced = testing::WriteTempFile("forced.out", "");
+  const CommandRun f = Slamctl("plot " + data3d + " --format png -o " + forced);
+  ASSERT_EQ(f.exit_code, 0) << f.out;
+  EXPECT_EQ(PngSize(forced), std::make_pair(1200, 900));
+}
+
+TEST(PlotTest, ArgumentErrorsExitTwoWithAMessage) {
+  const std::string data = testing::TestDataPath("small_slam2d.g2o");
+  struct Case {
+    std::string args, message;
+  };
+  for (const Case& c : {Case{"plot " + data + " -o /tmp/slamd_plot_test.jpg", "*.png"},
+                        Case{"plot /nonexistent/file.g2o -o /tmp/slamd_plot_test.png", "/nonexistent/file.g2o"},
+                        Case{"plot " + data + " --bogus -o /tmp/slamd_plot_test.png", "--bogus"},
+                        Case{"plot " + data + " --size 12x -o /tmp/slamd_plot_test.png", "WIDTHxHEIGHT"},
+                        Case{"plot " + data + " --size 10x10 -o /tmp/slamd_plot_test.png", "out of range"},
+                        Case{"plot " + data + " --format gif -o /tmp/slamd_plot_test.png", "gif"},
+                        Case{"plot " + data + " -o /nonexistent-dir/x.png", "/nonexistent-dir does not exist"},
+                        Case{"plot " + data, "--output"}}) {
+    const CommandRun r = Slamctl(c.args);
+    EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.out;
+    EXPECT_NE(r.out.find(c.message), std::string::npos) << c.args << "\n" << r.out;
+  }
+}
+
+TEST(PlotTest, UnreadableDatasetFails) {
+  const std::string bad = testing::WriteTempFile("bad.g2o", "VERTEX_SE2 0 zero 0 0\n");
+  const CommandRun r = Slamctl("plot " + bad + " -o /tmp/slamd_plot_test_bad.png");
+  EXPECT_EQ(r.exit_code, 1) << r.out;
+  EXPECT_NE(r.out.find("bad.g2o"), std::string::npos) << r.out;
+}
+
+}  // namespace
+}  // namespace slamd::clients
