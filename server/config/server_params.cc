@@ -3,6 +3,8 @@
 #include <array>
 #include <string>
 
+#include "core/factors/robust_kernel.h"
+
 namespace slamd::server {
 namespace {
 
@@ -53,6 +55,18 @@ core::Status EstimatorParams::Validate() const {
   SLAMD_CONFIG_CHECK(estimator.anchor_sigma, <=, 1e3);
   SLAMD_CONFIG_CHECK(estimator.max_held_messages, >=, 0);
   SLAMD_CONFIG_CHECK(estimator.max_hold_updates, >=, 1);
+  const core::Result<core::RobustKernel::Kind> kind =
+      core::RobustKernel::ParseKind(loop_closure_kernel);
+  if (!kind.ok()) {
+    return core::InvalidArgument("estimator.loop_closure_kernel = \"" + loop_closure_kernel +
+                                 "\"; not one of none huber cauchy gemanmcclure dcs");
+  }
+  if (kind.value() != core::RobustKernel::Kind::kNone &&
+      !core::RobustKernel::Create(kind.value(), loop_closure_kernel_parameter).ok()) {
+    return core::InvalidArgument("estimator.loop_closure_kernel_parameter = " +
+                                 std::to_string(loop_closure_kernel_parameter) +
+                                 "; must be positive and finite");
+  }
   return core::Status::Ok();
 }
 

@@ -254,7 +254,7 @@ void Daemon::PublishReject(const Verdict& verdict, std::string_view channel, std
   ++intake_rejects_by_reason_[static_cast<int>(verdict.reason)];
   slamd::reject_t out;
   FillReject(verdict, channel, type, robot, utime, WallMicros(), &out);
-  log_->debug("reject {} from '{}': {}", type, robot, verdict.message);
+  NoteReject(type, verdict);
   const core::Status s = server::Publish(*bus_, channels_.Reject(), out);
   if (!s.ok()) log_->warn("cannot publish reject_t: {}", s.ToString());
 }
@@ -284,16 +284,7 @@ int Daemon::StepEstimator(double timeout_s) {
       log_->debug("update: {}", u.Brief());
     }
     if (!r.status.ok()) log_->warn("solver update failed: {}", r.status.ToString());
-    for (const Rejection& rej : r.rejections) {
-      // Stateful rejects are counted by the estimator; publish them through the same helper
-      // but without double counting.
-      slamd::reject_t out;
-      FillReject(rej.verdict, InboundChannel(rej.message), MessageTypeName(rej.message),
-                 MessageRobot(rej.message), MessageUtime(rej.message), WallMicros(), &out);
-      log_->debug("reject {}: {}", MessageTypeName(rej.message), rej.verdict.message);
-      const core::Status s = server::Publish(*bus_, channels_.Reject(), out);
-      if (!s.ok()) log_->warn("cannot publish reject_t: {}", s.ToString());
-    }
+    for (const Rejection& rej : r.rejections) PublishRejection(rej);
   } else if (queries.empty() && params_.refine.enabled && !estimator_->snapshot()->settled) {
     const core::Isam2::RefineResult r = estimator_->Refine(params_.refine.budget_s);
     if (!r.status.ok()) log_->warn("refine failed: {}", r.status.ToString());
@@ -320,6 +311,29 @@ int Daemon::StepEstimator(double timeout_s) {
   MaybePublishMaps(*snap);
   MaybePublishStatus(*snap);
   return n;
+}
+
+void Daemon::NoteReject(std::string_view type, const Verdict& verdict) {
+  log_->debug("reject {}: {}", type, verdict.message);
+  constexpr std::int64_t kPeriodUs = 10'000'000;
+  std::lock_guard lock(reject_log_mutex_);
+  ++rejects_unlogged_;
+  const std::int64_t now = SteadyMicros();
+  if (reject_logged_us_ != 0 && now - reject_logged_us_ < kPeriodUs) return;
+  log_->warn("{} message(s) rejected since the last warning; latest: {} ({}): {}",
+             rejects_unlogged_, type, RejectReasonName(verdict.reason), verdict.message);
+  rejects_unlogged_ = 0;
+  reject_logged_us_ = now;
+}
+
+void Daemon::PublishRejection(const Rejection& rej) {
+  // Stateful rejects are counted by the estimator (not by PublishReject's intake counters).
+  slamd::reject_t out;
+  FillReject(rej.verdict, InboundChannel(rej.message), MessageTypeName(rej.message),
+             MessageRobot(rej.message), MessageUtime(rej.message), WallMicros(), &out);
+  NoteReject(MessageTypeName(rej.message), rej.verdict);
+  const core::Status s = server::Publish(*bus_, channels_.Reject(), out);
+  if (!s.ok()) log_->warn("cannot publish reject_t: {}", s.ToString());
 }
 
 void Daemon::JournalUpdate(const std::vector<Inbound>& batch) {
@@ -545,6 +559,18 @@ void Daemon::Stop() {
   if (journal_) {
     const core::Status s = journal_->Sync();
     if (!s.ok()) log_->error("journal sync at shutdown: {}", s.ToString());
+    if (estimator_->held_messages() > 0) {
+      log_->info("{} held messages stay in the journal and wait again after a restart",
+                 estimator_->held_messages());
+    }
+  } else {
+    // Nothing would keep them: answer them now.
+    for (const Rejection& rej :
+         estimator_->RejectHeld("still waiting for a pose when slamd stopped (no data_dir)")) {
+      PublishRejection(rej);
+    }
+    std::lock_guard lock(snapshot_mutex_);
+    snapshot_ = estimator_->snapshot();
   }
   const std::shared_ptr<const EstimateSnapshot> snap = snapshot();
   PublishStatus(*snap);

@@ -83,6 +83,10 @@ class Daemon {
          std::unique_ptr<Journal> journal);
   // Journals what the estimator did (no-op without a journal).
   void JournalUpdate(const std::vector<Inbound>& batch);
+  void PublishRejection(const Rejection& rejection);  // a stateful (estimator) rejection
+  // Logs every rejection at debug level and a warning at most every 10 s (with the count since
+  // the last one), so a flood of bad input cannot flood the log.
+  void NoteReject(std::string_view type, const Verdict& verdict);
   void MaybeSnapshot();
   void JoinSnapshotWriter();
 
@@ -119,6 +123,8 @@ class Daemon {
   // Intake counters (intake thread writes, status reads).
   std::atomic<std::int64_t> received_{0}, queued_{0}, intake_rejected_{0}, decode_errors_{0};
   std::atomic<std::int64_t> journal_errors_{0};
+  std::mutex reject_log_mutex_;
+  std::int64_t rejects_unlogged_ = 0, reject_logged_us_ = 0;
   std::array<std::atomic<std::int64_t>, kNumRejectReasonCodes> intake_rejects_by_reason_{};
 
   // Estimator-thread state.

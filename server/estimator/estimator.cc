@@ -43,6 +43,13 @@ core::FactorPtr MakeBetween(Key a, Key b, const RelativePose& z, const core::Noi
   return std::make_shared<core::BetweenFactor<Pose3>>(a, b, std::get<Pose3>(z), noise, robust);
 }
 
+// params_.loop_closure_kernel as a kernel (validated by EstimatorParams::Validate).
+core::RobustKernel DefaultLoopKernel(const EstimatorParams& params) {
+  const auto kind = core::RobustKernel::ParseKind(params.loop_closure_kernel).value();
+  if (kind == core::RobustKernel::Kind::kNone) return {};
+  return core::RobustKernel::Create(kind, params.loop_closure_kernel_parameter).value();
+}
+
 std::string PoseName(const std::string& robot, std::uint64_t index) {
   return "robot '" + robot + "' pose " + std::to_string(index);
 }
@@ -85,6 +92,7 @@ core::Result<std::unique_ptr<Estimator>> Estimator::Create(const EstimatorParams
 
 Estimator::Estimator(const EstimatorParams& params, std::unique_ptr<core::Isam2> isam)
     : params_(params),
+      default_loop_kernel_(DefaultLoopKernel(params)),
       isam_(std::move(isam)),
       marginals_(std::make_unique<core::Isam2Marginals>(isam_.get())) {
   PublishSnapshot(false);
@@ -302,7 +310,9 @@ Estimator::Outcome Estimator::ApplyLoopClosure(const LoopClosureMeasurement& m, 
   }
   if (!known_b) AddPose(*b, m.pose_b, Compose(Estimate(ka, *s), m.measured, false), in, s);
   if (!known_a) AddPose(*a, m.pose_a, Compose(Estimate(kb, *s), m.measured, true), in, s);
-  AddMeasured(MakeBetween(ka, kb, m.measured, m.noise, m.robust), ka, s);
+  AddMeasured(MakeBetween(ka, kb, m.measured, m.noise,
+                          m.robust.is_none() ? default_loop_kernel_ : m.robust),
+              ka, s);
   Touch(*a, in, s);
   return Outcome::kApplied;
 }
@@ -524,6 +534,17 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
   ++counters_.updates;
   settled_ = false;
   PublishSnapshot(true);
+}
+
+std::vector<Rejection> Estimator::RejectHeld(const std::string& why) {
+  ProcessResult result;
+  for (const Held& h : held_) {
+    Reject(h.message, RejectReason::kOutOfOrderTimeout,
+           std::string(MessageTypeName(h.message)) + ": " + why, &result);
+  }
+  held_.clear();
+  PublishSnapshot(false);
+  return std::move(result.rejections);
 }
 
 core::Isam2::RefineResult Estimator::Refine(double budget_s, int max_rounds) {

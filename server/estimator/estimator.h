@@ -98,6 +98,10 @@ class Estimator {
   static core::Result<std::unique_ptr<Estimator>> Create(const EstimatorParams& params,
                                                          const core::Isam2Params& isam2);
 
+  // Rejects every held message (kOutOfOrderTimeout with `why`): at shutdown without a journal,
+  // so that no message is left unanswered. Counted like other rejections.
+  std::vector<Rejection> RejectHeld(const std::string& why);
+
   // An estimator rebuilt from a state exported by ExportState (a snapshot): the factors are
   // eliminated in one batch at the state's linearisation point, so the estimate is re-solved
   // there (equal to the exported one up to the partial back-substitution's tolerance).
@@ -197,6 +201,7 @@ class Estimator {
   void PublishSnapshot(bool bump);
 
   EstimatorParams params_;
+  core::RobustKernel default_loop_kernel_;  // params_.loop_closure_kernel
   std::unique_ptr<core::Isam2> isam_;
   RobotRegistry registry_;
   RobotState robots_[256];

@@ -1,6 +1,8 @@
 // EstimatorParams: the estimator's stateful policies (config section `estimator`).
 #pragma once
 
+#include <string>
+
 #include "core/base/status.h"
 
 namespace slamd::server {
@@ -23,6 +25,11 @@ struct EstimatorParams {
   int max_held_messages = 1000;
   // Solver updates a held message may wait before it is rejected the same way; >= 1.
   int max_hold_updates = 100;
+  // Robust kernel for loop closures that do not name one (loop_closure_t.robust_kernel ""):
+  // "none", "huber", "cauchy", "gemanmcclure" or "dcs" (core/factors/robust_kernel.h), and its
+  // parameter (> 0 unless "none"). Limits the pull of wrong loop closures.
+  std::string loop_closure_kernel = "none";
+  double loop_closure_kernel_parameter = 1.0;
 
   core::Status Validate() const;
 };

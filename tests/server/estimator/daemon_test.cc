@@ -320,5 +320,22 @@ TEST(DaemonTest, RemovedLoopClosureLeavesTheGraph) {
   EXPECT_LT(after->chi2, 1e-6);
 }
 
+// Without a journal nothing would keep held messages across a restart: Stop answers them.
+TEST(DaemonTest, StopWithoutJournalRejectsHeldMessages) {
+  InProcessBus bus;
+  auto daemon = Daemon::Create(Params(), &bus).value();
+  Client client(bus);
+  ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", Prior()).ok());
+  ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(3, 4)).ok());  // pose 3 never comes
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+  daemon->StepEstimator(0.0);
+  daemon->Stop();
+  ASSERT_TRUE(bus.HandleOnce(0).ok());
+  ASSERT_EQ(client.rejects.size(), 1u);
+  EXPECT_EQ(client.rejects[0].reason, slamd::reject_t::REASON_OUT_OF_ORDER_TIMEOUT);
+  EXPECT_EQ(client.rejects[0].channel, "SLAMD_ODOMETRY");
+  EXPECT_NE(client.rejects[0].detail.find("stopped"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace slamd::server

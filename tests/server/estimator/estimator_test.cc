@@ -316,5 +316,51 @@ TEST(EstimatorTest, MarginalsAtTheEstimate) {
   EXPECT_TRUE((cov.block<3, 3>(0, 3).isApprox(Eigen::Matrix3d::Identity() * 1e-4, 1e-12)));
 }
 
+// The configured default kernel applies to loop closures that name none: a gross outlier
+// pulls the chain far less; one that names its own kernel keeps it.
+TEST(EstimatorTest, DefaultLoopClosureKernelLimitsAnOutlier) {
+  std::vector<Inbound> chain = {Prior("r", 0, Pose2())};
+  for (int i = 0; i < 6; ++i) chain.push_back(Odo("r", i, i + 1, kStep));
+  const Inbound wrong = Loop("r", 6, "r", 0, Pose2(20, -15, 2.0));
+  EstimatorParams robust;
+  robust.loop_closure_kernel = "cauchy";
+  robust.loop_closure_kernel_parameter = 1.0;
+  EXPECT_TRUE(robust.Validate().ok());
+  auto plain = Make();
+  auto with = Make(robust);
+  for (Estimator* e : {plain.get(), with.get()}) {
+    ASSERT_TRUE(e->Process(chain).status.ok());
+    ASSERT_TRUE(e->Process({wrong}).status.ok());
+    e->Refine(1.0);  // towards the optimum (convergence is not the point here)
+  }
+  const Pose2 truth = kStep * kStep * kStep * kStep * kStep * kStep;
+  const Pose2 moved_plain = PoseOf(*plain, "r", 6);
+  const Pose2 moved_robust = PoseOf(*with, "r", 6);
+  const double pull_plain = (moved_plain.translation() - truth.translation()).norm();
+  const double pull_robust = (moved_robust.translation() - truth.translation()).norm();
+  EXPECT_GT(pull_plain, 1.0);
+  EXPECT_LT(pull_robust, 0.1 * pull_plain) << pull_robust << " vs " << pull_plain;
+
+  EstimatorParams bad = robust;
+  bad.loop_closure_kernel = "tukey";
+  EXPECT_NE(bad.Validate().message().find("estimator.loop_closure_kernel"), std::string::npos);
+  bad = robust;
+  bad.loop_closure_kernel_parameter = -1;
+  EXPECT_NE(bad.Validate().message().find("loop_closure_kernel_parameter"), std::string::npos);
+}
+
+TEST(EstimatorTest, RejectHeldAnswersEveryHeldMessage) {
+  auto e = Make();
+  ASSERT_TRUE(e->Process({Prior("r", 0, Pose2()), Odo("r", 3, 4, kStep), Odo("r", 5, 6, kStep)})
+                  .status.ok());
+  ASSERT_EQ(e->held_messages(), 2);
+  const std::vector<Rejection> r = e->RejectHeld("stopping");
+  ASSERT_EQ(r.size(), 2u);
+  EXPECT_EQ(r[0].verdict.reason, RejectReason::kOutOfOrderTimeout);
+  EXPECT_NE(r[1].verdict.message.find("stopping"), std::string::npos);
+  EXPECT_EQ(e->held_messages(), 0);
+  EXPECT_EQ(e->snapshot()->counters.rejected, 2);
+}
+
 }  // namespace
 }  // namespace slamd::server
