@@ -176,10 +176,13 @@ Estimator::Outcome Estimator::ApplyOdometry(const OdometryMeasurement& m, const 
   }
   const Key from = MakeKey('x', m.from_index, *id);
   const Key to = MakeKey('x', m.to_index, *id);
-  const bool origin = !Known(from, *s) && !robots_[*id].anchored &&
+  // A robot connected in the middle of its trajectory (a loop closure placed pose k) gets its
+  // earlier poses from the odometry into k, backwards.
+  const bool backwards = !Known(from, *s) && Known(to, *s);
+  const bool origin = !Known(from, *s) && !backwards && !robots_[*id].anchored &&
                       params_.new_robot_anchor == AnchorPolicy::kAnchorAtOrigin;
-  if (!Known(from, *s) && !origin) return Outcome::kHeld;  // ahead, or robot not anchored
-  if (!origin && !SameType(Estimate(from, *s), m.measured)) {
+  if (!Known(from, *s) && !origin && !backwards) return Outcome::kHeld;  // ahead, or unanchored
+  if (!origin && !backwards && !SameType(Estimate(from, *s), m.measured)) {
     *v = {RejectReason::kBadMeasurement,
           "odometry_t.dimension: does not match " + PoseName(m.robot, m.from_index)};
     return Outcome::kRejected;
@@ -201,8 +204,11 @@ Estimator::Outcome Estimator::ApplyOdometry(const OdometryMeasurement& m, const 
       s->factors.Add(std::make_shared<core::PriorFactor<Pose3>>(from, Pose3(), anchor));
     }
   }
-  if (!Known(to, *s))
+  if (backwards) {
+    AddPose(*id, m.from_index, Compose(Estimate(to, *s), m.measured, true), in, s);
+  } else if (!Known(to, *s)) {
     AddPose(*id, m.to_index, Compose(Estimate(from, *s), m.measured, false), in, s);
+  }
   AddMeasured(MakeBetween(from, to, m.measured, m.noise), from, s);
   Touch(*id, in, s);
   return Outcome::kApplied;

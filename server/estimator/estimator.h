@@ -4,13 +4,14 @@
 //
 // Keys: pose i of robot r = MakeKey('x', i, id(r)), landmark j of robot r = MakeKey('l', j, id(r))
 // (ids from RobotRegistry). Initial guesses: a new pose = estimate(from) ∘ odometry (or
+// estimate(to) ∘ odometry⁻¹ when only the to-pose is known: a robot connected mid-trajectory, or
 // estimate(a) ∘ z for a loop closure that connects an unanchored robot); a new landmark is placed
 // by its first observation from the observing pose's estimate; a pose prior places its pose.
 //
 // Process(batch) applies every message it can, in order, then runs ONE Isam2::Update for all of
 // them (coalescing). Per message, one of:
 //   applied   factors (and variables) added to the update;
-//   held      it needs a pose that may still come: odometry whose from-pose is not known yet
+//   held      it needs a pose that may still come: odometry neither of whose poses is known yet
 //             (pose index ahead of the next expected, or a robot not anchored under
 //             kHoldUntilConnected), a landmark observation or prior on an unknown pose. Held
 //             messages are retried whenever a pose is added (in the same batch too); a message
