@@ -8,6 +8,10 @@ namespace slamd::clients {
 
 // `slamctl bench DATASET`: offline timing and accuracy of the core solvers on a dataset.
 void RegisterBench(CLI::App& app);
+void RegisterReplay(CLI::App& app);  // `slamctl replay SOURCE...`: stream datasets / an LCM log into slamd
+void RegisterStatus(CLI::App& app);  // `slamctl status`: print one status_t
+void RegisterWatch(CLI::App& app);  // `slamctl watch`: live view of estimates and status
+void RegisterQuery(CLI::App& app);  // `slamctl query KEY...`: estimates, covariances, maps
 // `slamctl sim WORLD -o DIR`: a synthetic world (dataset + ground truth), deterministic per seed.
 void RegisterSim(CLI::App& app);
 // `slamctl plot DATASET... -o OUT.png|svg|pdf`: top-down picture of datasets (plot.cc).

@@ -8,6 +8,10 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", "slamctl 0.1.0");
   slamd::clients::RegisterBench(app);
+  slamd::clients::RegisterReplay(app);
+  slamd::clients::RegisterStatus(app);
+  slamd::clients::RegisterWatch(app);
+  slamd::clients::RegisterQuery(app);
   slamd::clients::RegisterSim(app);
   slamd::clients::RegisterPlot(app);
   try {

@@ -1,0 +1,233 @@
+// slamctl replay: the sending loop, the wait for the server to settle, and the summary.
+//
+// 1. Subscribe to ESTIMATE, REJECT and STATUS; wait up to --wait-server for a first status_t
+//    (its messages_received is the baseline: the server may have had traffic before).
+// 2. Send the items in order. Before an item that gives the server a new pose, pace:
+//    --lockstep waits until every pose sent so far is acknowledged by an estimate_t;
+//    --fast waits until fewer than --window poses of that robot are unacknowledged (UDP loses
+//    what a busy server cannot read in time, so the client must not run ahead unboundedly);
+//    --rate waits for the pose's time slot; logs (--speed) wait for the scaled log time.
+//    Incoming messages are handled while waiting, and drained between sends.
+// 3. Wait until a status_t shows everything received, nothing queued, every pose acknowledged
+//    and the estimate settled (or --settle-timeout), then print the summary.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "clients/slamctl/replay.h"
+#include "clients/slamctl/replay_tracker.h"
+#include "slamd/estimate_t.hpp"
+
+namespace slamd::clients::replay {
+namespace {
+
+constexpr const char* kCommand = "replay";
+
+double Now() {
+  using namespace std::chrono;
+  return duration<double>(steady_clock::now().time_since_epoch()).count();
+}
+
+// Progress on stderr: a bar redrawn in place on a terminal, a plain line every few seconds
+// otherwise.
+class Progress {
+ public:
+  Progress(bool enabled, std::size_t total)
+      : enabled_(enabled), tty_(StderrIsTty()), total_(total) {}
+
+  void Update(std::size_t sent, const ReplayTracker& tracker, double elapsed_s,
+              bool force = false) {
+    if (!enabled_) return;
+    const double period = tty_ ? 0.1 : 2.0;
+    if (!force && elapsed_s - last_s_ < period) return;
+    last_s_ = elapsed_s;
+    const double fraction =
+        total_ == 0 ? 1.0 : static_cast<double>(sent) / static_cast<double>(total_);
+    const long long rejected = tracker.rejected();
+    if (tty_) {
+      constexpr int kWidth = 30;
+      const int filled = static_cast<int>(fraction * kWidth);
+      std::string bar(static_cast<size_t>(filled), '#');
+      bar.resize(kWidth, ' ');
+      std::fprintf(stderr, "\r[%s] %3.0f%% %zu/%zu msgs  %lld rejected  %.1f s ", bar.c_str(),
+                   fraction * 100.0, sent, total_, rejected, elapsed_s);
+      drawn_ = true;
+    } else {
+      std::fprintf(stderr,
+                   "slamctl replay: %zu/%zu messages sent (%.0f%%), %lld rejected, %.1f s\n", sent,
+                   total_, fraction * 100.0, rejected, elapsed_s);
+    }
+    std::fflush(stderr);
+  }
+  void Finish() {
+    if (enabled_ && tty_ && drawn_) std::fputc('\n', stderr);
+  }
+
+ private:
+  bool enabled_;
+  bool tty_;
+  std::size_t total_;
+  double last_s_ = -1e9;
+  bool drawn_ = false;
+};
+
+void PrintSummary(const ReplayOptions& opt, const ReplayTracker& tracker, double wall_s,
+                  bool settled, bool answered) {
+  const LatencySummary lat = tracker.Latency();
+  const double chi2 = tracker.last_status() ? tracker.last_status()->chi2 : NAN;
+  if (opt.json) {
+    JsonWriter reasons;
+    for (const auto& [name, count] : tracker.rejected_by_reason()) {
+      reasons.Add(name, static_cast<long long>(count));
+    }
+    JsonWriter latency;
+    latency.Add("p50", lat.p50_ms)
+        .Add("p90", lat.p90_ms)
+        .Add("p99", lat.p99_ms)
+        .Add("max", lat.max_ms);
+    JsonWriter j;
+    j.Add("sent", static_cast<long long>(tracker.sent()))
+        .Add("rejected", static_cast<long long>(tracker.rejected()))
+        .Add("rejected_by_reason", reasons)
+        .Add("final_chi2", chi2)
+        .Add("wall_s", wall_s)
+        .Add("latency_ms", latency)
+        .Add("settled", settled)
+        .Add("answered", answered)
+        .Add("poses_acknowledged", lat.count)
+        .Add("server_received",
+             tracker.last_status()
+                 ? static_cast<long long>(tracker.last_status()->messages_received)
+                 : -1LL)
+        .Add("update_sequence", tracker.last_status()
+                                    ? static_cast<long long>(tracker.last_status()->update_sequence)
+                                    : -1LL);
+    std::printf("%s\n", j.str().c_str());
+    std::fflush(stdout);
+    return;
+  }
+  std::printf("sent        %lld messages in %.3f s\n", static_cast<long long>(tracker.sent()),
+              wall_s);
+  std::printf("rejected    %lld\n", static_cast<long long>(tracker.rejected()));
+  for (const auto& [name, count] : tracker.rejected_by_reason()) {
+    std::printf("  %-28s %lld\n", name.c_str(), static_cast<long long>(count));
+  }
+  for (const std::string& d : tracker.reject_details()) std::printf("  e.g. %s\n", d.c_str());
+  if (tracker.last_status()) {
+    const slamd::status_t& s = *tracker.last_status();
+    std::printf("final chi2  %.6f  (residual dimension %lld, %lld variables, %lld factors)\n",
+                s.chi2, static_cast<long long>(s.residual_dimension),
+                static_cast<long long>(s.num_variables), static_cast<long long>(s.num_factors));
+  } else {
+    std::printf("final chi2  (no status_t from the server)\n");
+  }
+  std::printf("settled     %s\n", settled ? "yes" : "no (settle timeout)");
+  std::printf(
+      "latency     send -> estimate_t over %zu poses: p50 %.2f ms  p90 %.2f ms  p99 %.2f ms  "
+      "max %.2f ms\n",
+      lat.count, lat.p50_ms, lat.p90_ms, lat.p99_ms, lat.max_ms);
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int Run(const ReplayOptions& opt, const std::vector<ReplayItem>& items,
+        const std::set<std::string>& robots) {
+  server::ChannelNames channels;
+  std::unique_ptr<LcmClient> client = ConnectOrFail(kCommand, opt.connection, &channels);
+  ReplayTracker tracker(robots);
+  auto check = [&](const core::Status& s) {
+    if (!s.ok()) CommandFail(kCommand, kExitFailure, s.ToString());
+  };
+  check(client->Subscribe<slamd::estimate_t>(channels.Estimate(), [&](const slamd::estimate_t& e) {
+    tracker.OnEstimate(e.robot, e.pose_index, Now());
+  }));
+  check(client->Subscribe<slamd::reject_t>(channels.Reject(),
+                                           [&](const slamd::reject_t& r) { tracker.OnReject(r); }));
+  check(client->Subscribe<slamd::status_t>(channels.Status(),
+                                           [&](const slamd::status_t& s) { tracker.OnStatus(s); }));
+  auto handle_until = [&](const std::function<bool()>& done, double timeout_s) {
+    core::Result<bool> r = client->HandleUntil(done, timeout_s);
+    if (!r.ok()) CommandFail(kCommand, kExitFailure, r.status().ToString());
+    return *r;
+  };
+
+  // 1. Baseline.
+  if (opt.wait_server_s > 0 &&
+      handle_until([&] { return tracker.status_count() > 0; }, opt.wait_server_s)) {
+    tracker.SetBaseline(tracker.last_status()->messages_received);
+  } else if (!opt.quiet) {
+    std::fprintf(stderr,
+                 "slamctl replay: no status_t on %s within %.1f s (is slamd running on %s?); "
+                 "sending anyway\n",
+                 channels.Status().c_str(), opt.wait_server_s, client->url().c_str());
+  }
+
+  // 2. Send.
+  Progress progress(!opt.quiet, items.size());
+  const double t0 = Now();
+  const std::int64_t log_t0 = items.empty() ? 0 : items.front().log_utime;
+  std::size_t poses_sent = 0;
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    const ReplayItem& item = items[i];
+    const bool pose = item.new_pose >= 0;
+    if (pose && opt.pacing == Pacing::kLockstep &&
+        !handle_until([&] { return tracker.AllAcked(); }, opt.ack_timeout_s)) {
+      CommandFail(kCommand, kExitFailure,
+                  "--lockstep: no estimate_t acknowledged the previous pose within " +
+                      std::to_string(opt.ack_timeout_s) + " s (before " + item.robot + ":x" +
+                      std::to_string(item.new_pose) + "; " + std::to_string(tracker.rejected()) +
+                      " rejected so far)");
+    }
+    if (pose && opt.pacing == Pacing::kFast &&
+        !handle_until([&] { return tracker.Unacked(item.robot) < static_cast<size_t>(opt.window); },
+                      opt.ack_timeout_s)) {
+      CommandFail(kCommand, kExitFailure,
+                  "--fast: the server acknowledged no pose of robot '" + item.robot + "' within " +
+                      std::to_string(opt.ack_timeout_s) + " s (" +
+                      std::to_string(tracker.Unacked(item.robot)) + " waiting; newest estimate x" +
+                      std::to_string(tracker.Acked(item.robot)) +
+                      "); a message was probably lost: UDP drops what a busy server cannot read "
+                      "in time. Lower --window, or give slamd a larger socket buffer "
+                      "(&recv_buf_size=4194304 in its --lcm-url)");
+    }
+    double target = -1;
+    if (pose && opt.pacing == Pacing::kRate)
+      target = t0 + static_cast<double>(poses_sent) / opt.rate_hz;
+    if (opt.pacing == Pacing::kSpeed)
+      target = t0 + static_cast<double>(item.log_utime - log_t0) * 1e-6 / opt.speed;
+    if (target > 0 && Now() < target)
+      handle_until([&] { return Now() >= target; }, target - Now() + 1.0);
+    check(client->PublishBytes(item.channel, item.bytes));
+    tracker.OnSent(item, Now());
+    if (pose) ++poses_sent;
+    if (!client->Drain().ok()) CommandFail(kCommand, kExitFailure, "LCM handle failed");
+    progress.Update(i + 1, tracker, Now() - t0);
+  }
+  progress.Update(items.size(), tracker, Now() - t0, true);
+  progress.Finish();
+
+  // 3. Settle.
+  const std::int64_t statuses_before = tracker.status_count();
+  const bool settled = handle_until([&] { return tracker.Settled(); }, opt.settle_timeout_s);
+  handle_until([] { return false; }, 0.05);  // late reject_t
+  const double wall_s = Now() - t0;
+  const bool answered = settled || tracker.status_count() > statuses_before;
+  if (!settled && !opt.quiet) {
+    if (!answered) {
+      std::fprintf(stderr, "slamctl replay: no status_t from the server after the last message\n");
+    } else if (!tracker.ReceivedAll()) {
+      std::fprintf(stderr, "slamctl replay: the server received %lld of %lld messages\n",
+                   static_cast<long long>(tracker.last_status()->messages_received),
+                   static_cast<long long>(tracker.sent()));
+    } else {
+      std::fprintf(stderr, "slamctl replay: not settled within %.1f s\n", opt.settle_timeout_s);
+    }
+  }
+  PrintSummary(opt, tracker, wall_s, settled, answered);
+  const bool ok = tracker.rejected() == 0 && answered && tracker.ReceivedAll();
+  return ok ? kExitOk : kExitFailure;
+}
+
+}  // namespace slamd::clients::replay
