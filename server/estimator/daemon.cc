@@ -476,7 +476,10 @@ void Daemon::MaybePublishStatus(const EstimateSnapshot& snap) {
   if (params_.publish.status_rate_hz <= 0.0) return;
   const std::int64_t now = SteadyMicros();
   const auto period = static_cast<std::int64_t>(1e6 / params_.publish.status_rate_hz);
-  if (last_status_us_ != 0 && now - last_status_us_ < period) return;
+  // Also at once when the estimate has just settled: clients wait for that.
+  const bool just_settled = snap.settled && !last_status_settled_;
+  last_status_settled_ = snap.settled;
+  if (!just_settled && last_status_us_ != 0 && now - last_status_us_ < period) return;
   last_status_us_ = now;
   PublishStatus(snap);
 }

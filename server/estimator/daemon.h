@@ -130,6 +130,7 @@ class Daemon {
   // Estimator-thread state.
   std::int64_t published_sequence_ = 0;
   std::int64_t last_status_us_ = 0;
+  bool last_status_settled_ = true;
   std::vector<double> update_us_;  // recent update latencies (ring of 1024) for status_t
   size_t update_us_next_ = 0;
   std::vector<double> publish_us_;  // recent ingest-to-publish latencies (ring of 1024)

@@ -67,6 +67,10 @@ core::Status LcmBusParams::Validate() const {
         "LcmBusParams::url is empty; give one explicitly (e.g. memq:// or "
         "udpm://239.255.76.67:7667?ttl=0)");
   }
+  if (udpm_receive_buffer_bytes < 0) {
+    return core::InvalidArgument("LcmBusParams::udpm_receive_buffer_bytes = " +
+                                 std::to_string(udpm_receive_buffer_bytes) + "; violates >= 0");
+  }
   if (queue_capacity < 1) {
     return core::InvalidArgument(
         "LcmBusParams::queue_capacity = " + std::to_string(queue_capacity) + "; violates >= 1");
@@ -78,8 +82,13 @@ core::Result<std::unique_ptr<LcmBus>> LcmBus::Create(const LcmBusParams& params)
   SLAMD_RETURN_IF_ERROR(params.Validate());
   auto impl = std::make_shared<Impl>();
   impl->url = params.url;
+  if (params.url.rfind("udpm://", 0) == 0 && params.udpm_receive_buffer_bytes > 0 &&
+      params.url.find("recv_buf_size=") == std::string::npos) {
+    impl->url += (params.url.find('?') == std::string::npos ? "?" : "&");
+    impl->url += "recv_buf_size=" + std::to_string(params.udpm_receive_buffer_bytes);
+  }
   impl->queue_capacity = params.queue_capacity;
-  impl->lcm = lcm_create(params.url.c_str());
+  impl->lcm = lcm_create(impl->url.c_str());
   if (impl->lcm == nullptr) {
     std::string message =
         "LCM could not start on '" + params.url + "' (LCM's own message is on stderr).";

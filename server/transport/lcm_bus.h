@@ -27,6 +27,11 @@ struct LcmBusParams {
   // Messages buffered per subscription before LCM drops; >= 1. 0 (LCM's "unbounded") is not
   // allowed: memory must stay bounded.
   int queue_capacity = 10000;
+  // udpm:// only: the socket receive buffer asked for when the URL names no recv_buf_size.
+  // The kernel default (~200 kB, ~160 small datagrams) overflows when a client streams faster
+  // than an update takes, and a datagram dropped there is lost without a trace. The kernel caps
+  // the request at net.core.rmem_max. >= 0; 0 = the kernel default.
+  int udpm_receive_buffer_bytes = 4 << 20;
 
   core::Status Validate() const;
 };

@@ -320,6 +320,28 @@ TEST(DaemonTest, RemovedLoopClosureLeavesTheGraph) {
   EXPECT_LT(after->chi2, 1e-6);
 }
 
+// Clients wait for "settled": a status_t goes out as soon as the estimate settles, whatever
+// the configured rate.
+TEST(DaemonTest, StatusPublishedAtOnceWhenSettled) {
+  InProcessBus bus;
+  ServerParams p = Params();
+  p.refine.enabled = true;
+  p.publish.status_rate_hz = 0.001;  // one per 1000 s otherwise
+  auto daemon = Daemon::Create(p, &bus).value();
+  Client client(bus);
+  ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", Prior()).ok());
+  for (int i = 0; i < 5; ++i) ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(i, i + 1)).ok());
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+  for (int k = 0; k < 100 && (k == 0 || !daemon->snapshot()->settled); ++k) {
+    daemon->StepEstimator(0.0);
+  }
+  ASSERT_TRUE(daemon->snapshot()->settled);
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+  ASSERT_GE(client.statuses.size(), 2u);  // the first one, and the one when it settled
+  EXPECT_FALSE(client.statuses.front().settled);
+  EXPECT_TRUE(client.statuses.back().settled);
+}
+
 // Without a journal nothing would keep held messages across a restart: Stop answers them.
 TEST(DaemonTest, StopWithoutJournalRejectsHeldMessages) {
   InProcessBus bus;

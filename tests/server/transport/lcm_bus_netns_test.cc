@@ -115,6 +115,18 @@ TEST_F(UdpmTest, RaisedQueueCapacityKeepsABurstThatLcmsDefaultWouldDrop) {
   std::printf("burst of 500 with LCM's default queue capacity 30: %d received\n", with_default);
 }
 
+TEST_F(UdpmTest, AsksForALargeReceiveBufferUnlessTheUrlNamesOne) {
+  auto bus = Make();
+  ASSERT_TRUE(bus);
+  EXPECT_EQ(bus->url(), std::string(kUrl) + "&recv_buf_size=4194304");
+  auto own = LcmBus::Create(LcmBusParams{.url = std::string(kUrl) + "&recv_buf_size=65536"});
+  ASSERT_TRUE(own.ok());
+  EXPECT_EQ(own.value()->url(), std::string(kUrl) + "&recv_buf_size=65536");
+  auto none = LcmBus::Create(LcmBusParams{.url = kUrl, .udpm_receive_buffer_bytes = 0});
+  ASSERT_TRUE(none.ok());
+  EXPECT_EQ(none.value()->url(), kUrl);
+}
+
 TEST_F(UdpmTest, WithoutAMulticastRouteCreateExplainsTheFix) {
   // Only ever inside the namespace (checked in SetUp, and again here because this edits routes):
   // remove the route, try, put it back.
