@@ -8,6 +8,8 @@
 #include <string>
 
 #include "clients/slamctl/bench.h"
+#include "clients/slamctl/robustify.h"
+#include "clients/slamctl/trajectory_error.h"
 #include "core/base/timing.h"
 
 namespace slamd::clients {
@@ -24,7 +26,7 @@ void Fail(int code, const std::string& message) {
   throw CommandExit{code};
 }
 
-core::Dataset Load(const BenchOptions& opt, double* read_s) {
+core::Dataset Load(const BenchOptions& opt, double* read_s, std::size_t* loop_closures) {
   core::ReadOptions read;
   read.isam_noise = opt.isam_noise == "covariance" ? core::ReadOptions::IsamNoise::kCovariance
                                                    : core::ReadOptions::IsamNoise::kSqrtInformation;
@@ -33,7 +35,44 @@ core::Dataset Load(const BenchOptions& opt, double* read_s) {
   core::Result<core::Dataset> loaded = core::ReadDataset(opt.dataset, read);
   if (!loaded.ok()) Fail(kExitFailure, loaded.status().ToString());
   *read_s = timer.Seconds();
-  return std::move(loaded).value();
+  core::Dataset data = std::move(loaded).value();
+  if (!opt.robust.is_none()) {
+    data.graph = RobustifyLoopClosures(data.graph, opt.robust, loop_closures);
+  } else if (loop_closures != nullptr) {
+    *loop_closures = 0;
+    for (const core::FactorPtr& f : data.graph) *loop_closures += IsLoopClosure(*f) ? 1 : 0;
+  }
+  return data;
+}
+
+void Ate(const BenchOptions& opt, const core::Values& estimate, AccuracyReport* report) {
+  if (opt.ground_truth.empty()) return;
+  core::Result<core::Values> truth = ReadGroundTruth(opt.ground_truth);
+  if (!truth.ok()) Fail(kExitFailure, "ground truth: " + truth.status().ToString());
+  core::Result<TrajectoryError> ate = AbsoluteTrajectoryError(estimate, *truth);
+  if (!ate.ok()) Fail(kExitFailure, "ground truth " + opt.ground_truth + ": " + ate.status().ToString());
+  report->has_ate = true;
+  report->ate_rmse = ate->rmse;
+  report->ate_max = ate->max;
+  report->ate_poses = ate->poses;
+}
+
+void AddAccuracy(const BenchOptions& opt, const AccuracyReport& report, JsonWriter* out) {
+  out->Add("robust", RobustSpecString(opt.robust)).Add("loop_closures", report.loop_closures);
+  if (report.has_ate) {
+    out->Add("ate_rmse", report.ate_rmse).Add("ate_max", report.ate_max).Add("ate_poses", report.ate_poses);
+  }
+}
+
+void PrintAccuracy(const BenchOptions& opt, const AccuracyReport& report) {
+  if (!opt.robust.is_none()) {
+    std::printf("robust kernel %s on the %zu loop closures\n", RobustSpecString(opt.robust).c_str(),
+                report.loop_closures);
+  }
+  if (report.has_ate) {
+    std::printf("ATE vs %s: rmse %.6g m, max %.6g m over %zu poses\n", opt.ground_truth.c_str(),
+                report.ate_rmse, report.ate_max, report.ate_poses);
+  }
 }
 
 }  // namespace bench
@@ -80,6 +119,20 @@ void RegisterBench(CLI::App& app) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->add_option("-o,--output", opt->output, "Write the optimised graph as a g2o file");
+  auto robust_spec = std::make_shared<std::string>("none");
+  cmd->add_option("--robust", *robust_spec,
+                  "Robust kernel KERNEL[:PARAM] on the loop closures (pose-pose between factors "
+                  "that are not odometry, i.e. not |i - j| = 1 on one robot), both solvers. KERNEL: "
+                  "none, huber (k, default 3), cauchy (k, default 3), gemanmcclure (k, default 3), "
+                  "dcs (Phi, default 9); k is a whitened residual norm, Phi a squared one "
+                  "(core/factors/robust_kernel.h)")
+      ->capture_default_str();
+  cmd->add_option("--ground-truth", opt->ground_truth,
+                  "Report the absolute trajectory error (ate_rmse, ate_max in m, after the best "
+                  "rigid alignment) of the final estimate against this file: a g2o file with VERTEX "
+                  "lines (slamctl sim's *_groundtruth.g2o) or noise-free measurements composed "
+                  "from the first pose (iSAM's *_groundtruth.txt)")
+      ->check(CLI::ExistingFile);
   cmd->add_option("--max-iterations", opt->batch.max_iterations)->capture_default_str();
   cmd->add_option("--relative-tolerance", opt->batch.relative_tolerance)->capture_default_str();
   cmd->add_option("--absolute-tolerance", opt->batch.absolute_tolerance)->capture_default_str();
@@ -124,7 +177,10 @@ void RegisterBench(CLI::App& app) {
                   "isam2: after the last step, refine for up to this many seconds")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  cmd->callback([opt, relin_threshold] {
+  cmd->callback([opt, relin_threshold, robust_spec] {
+    core::Result<core::RobustKernel> robust = ParseRobustSpec(*robust_spec);
+    if (!robust.ok()) Fail(kExitUsage, "--robust: " + robust.status().message());
+    opt->robust = *robust;
     if (relin_threshold->has_value()) {  // one value for both; Validate() checks it
       opt->isam2.relinearization.rotation_threshold = **relin_threshold;
       opt->isam2.relinearization.translation_threshold = **relin_threshold;

@@ -4,7 +4,9 @@
 #include <string>
 
 #include "clients/slamctl/commands.h"
+#include "clients/slamctl/json_writer.h"
 #include "core/batch/batch_params.h"
+#include "core/factors/robust_kernel.h"
 #include "core/io/dataset.h"
 #include "core/isam/isam2_params.h"
 
@@ -21,6 +23,8 @@ struct BenchOptions {
   double anchor_sigma = 1e-3;
   int init_chunk = 100;
   std::string output;
+  core::RobustKernel robust;  // --robust: applied to the loop closures (robustify.h)
+  std::string ground_truth;   // --ground-truth FILE: report the ATE against it
   core::BatchParams batch;
   // isam2
   core::Isam2Params isam2;
@@ -36,7 +40,23 @@ double PeakRssMb();
 // Prints "slamctl bench: <message>" to stderr and ends the command with `code`.
 [[noreturn]] void Fail(int code, const std::string& message);
 // Reads the dataset as the options say; fails the command on error.
-core::Dataset Load(const BenchOptions& opt, double* read_s);
+// Reads the dataset as the options say; fails the command on error. With --robust, its loop
+// closures carry the kernel. *loop_closures (when given) receives their count (robustify.h).
+core::Dataset Load(const BenchOptions& opt, double* read_s, std::size_t* loop_closures = nullptr);
+
+// --robust and --ground-truth output. Ate() reads the ground truth and measures `estimate`
+// against it (fails the command on error); no-op without --ground-truth.
+struct AccuracyReport {
+  std::size_t loop_closures = 0;  // loop closures in the dataset (the kernel's targets)
+  bool has_ate = false;
+  double ate_rmse = 0.0, ate_max = 0.0;  // metres
+  std::size_t ate_poses = 0;
+};
+void Ate(const BenchOptions& opt, const core::Values& estimate, AccuracyReport* report);
+// Adds "robust" (KERNEL:PARAM or none), "loop_closures" and (with a ground truth) "ate_rmse", "ate_max",
+// "ate_poses" to `out`; PrintAccuracy prints the same as one or two human lines.
+void AddAccuracy(const BenchOptions& opt, const AccuracyReport& report, JsonWriter* out);
+void PrintAccuracy(const BenchOptions& opt, const AccuracyReport& report);
 
 void RunBatch(const BenchOptions& opt);
 void RunIsam2(const BenchOptions& opt);

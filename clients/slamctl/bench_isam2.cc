@@ -30,7 +30,8 @@ double Percentile(std::vector<double> v, double q) {
 
 void RunIsam2(const BenchOptions& opt) {
   double read_s = 0.0;
-  const core::Dataset data = Load(opt, &read_s);
+  AccuracyReport accuracy;
+  const core::Dataset data = Load(opt, &read_s, &accuracy.loop_closures);
   if (data.poses.empty()) Fail(kExitFailure, opt.dataset + ": no poses");
   const std::vector<core::DatasetStep> steps = core::MakeIncrementalSteps(data);
   core::Result<std::unique_ptr<core::Isam2>> created = core::Isam2::Create(opt.isam2);
@@ -121,6 +122,8 @@ void RunIsam2(const BenchOptions& opt) {
     batch_chi2 = b.summary.final_chi2;
   }
 
+  Ate(opt, isam.CalculateEstimate(), &accuracy);
+
   // Step-time growth: p50 over two windows (steps 500-1000 and the last 500).
   const auto window = [&](std::size_t a, std::size_t b) {
     if (b > step_ms.size() || a >= b) return 0.0;
@@ -152,6 +155,7 @@ void RunIsam2(const BenchOptions& opt) {
         .Add("worst_step", worst_step)
         .Add("peak_rss_mb", PeakRssMb());
     if (opt.compare_batch) out.Add("batch_chi2", batch_chi2);
+    AddAccuracy(opt, accuracy, &out);
     if (opt.marginals != "none") {
       JsonWriter mm;
       mm.Add("p50", Percentile(marginal_ms, 0.5))
@@ -175,6 +179,7 @@ void RunIsam2(const BenchOptions& opt) {
                   opt.marginals.c_str(), Percentile(marginal_ms, 0.5), Percentile(marginal_ms, 0.99),
                   marginals_final_all_ms);
     }
+    PrintAccuracy(opt, accuracy);
     std::printf("slowest step %s\n", worst_step.c_str());
     std::printf("relinearized %lld variables, re-eliminated %lld; peak RSS %.1f MB\n", relinearized,
                 reeliminated, PeakRssMb());
