@@ -16,6 +16,7 @@ void RegisterQuery(CLI::App& app);  // `slamctl query KEY...`: estimates, covari
 void RegisterSim(CLI::App& app);
 // `slamctl plot DATASET... -o OUT.png|svg|pdf`: top-down picture of datasets (plot.cc).
 void RegisterPlot(CLI::App& app);
+void RegisterJournal(CLI::App& app);  // `slamctl journal inspect|export|bench`: journal offline
 
 // Exit codes shared by every subcommand.
 inline constexpr int kExitOk = 0;

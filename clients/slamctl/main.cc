@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   slamd::clients::RegisterQuery(app);
   slamd::clients::RegisterSim(app);
   slamd::clients::RegisterPlot(app);
+  slamd::clients::RegisterJournal(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

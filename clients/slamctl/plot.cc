@@ -1,5 +1,6 @@
 // slamctl plot: a report-quality top-down picture of one or more datasets (one robot each):
 // read -> optionally optimise (batch) -> optionally marginals -> PlotScene -> Cairo file.
+// With --live, the running slamd's map instead: query_t -> map_t pages -> PlotScene (plot_live.h).
 #include <algorithm>
 #include <cstdio>
 #include <functional>
@@ -8,7 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "clients/slamctl/client_common.h"
 #include "clients/slamctl/commands.h"
+#include "clients/slamctl/plot_live.h"
 #include "clients/slamctl/plot_render.h"
 #include "clients/slamctl/plot_scene.h"
 #include "core/batch/batch_solver.h"
@@ -30,6 +33,9 @@ struct PlotOptions {
   std::string isam_noise = "sqrt-information";
   std::string title;
   core::BatchParams batch;
+  bool live = false;        // --live: the running server's map instead of datasets
+  double timeout_s = 10.0;  // --live: longest wait for the whole answer [s]
+  ConnectionOptions connection;
 };
 
 [[noreturn]] void Fail(int code, const std::string& message) {
@@ -114,8 +120,59 @@ std::string Title(const plot::PlotScene& scene) {
   return title;
 }
 
+// --live: one query for every robot's map (with marginals for --covariances), then the scene.
+void RunPlotLive(const PlotOptions& opt, const plot::RenderOptions& render) {
+  server::ChannelNames channels;
+  std::unique_ptr<LcmClient> client = ConnectOrFail("plot", opt.connection, &channels);
+  const core::Result<plot::MapPageCollector> answer =
+      plot::FetchLiveMap(*client, channels, opt.covariances, opt.timeout_s);
+  if (!answer.ok()) {
+    Fail(kExitFailure, answer.status().message() + " (is slamd running on " + client->url() + "?)");
+  }
+  if (answer->reply().status == slamd::query_reply_t::STATUS_PARTIAL) {
+    std::fprintf(stderr, "slamctl plot: warning: %s\n", answer->reply().error.c_str());
+  }
+  core::Result<plot::LiveScene> live = plot::BuildLiveScene(
+      answer->pages(), {.ellipse_every = opt.ellipse_every, .sigma = opt.sigma});
+  if (!live.ok()) Fail(kExitFailure, "map from slamd: " + live.status().message());
+  plot::PlotScene& scene = live->scene;
+
+  std::string title = "slamd live map: ";
+  if (scene.robots.size() != 1) title += std::to_string(scene.robots.size()) + " robots, ";
+  title += std::to_string(scene.NumPoses()) + " poses";
+  if (scene.NumLandmarks() > 0) title += ", " + std::to_string(scene.NumLandmarks()) + " landmarks";
+  title += " (update " + std::to_string(live->update_sequence) + ")";
+  scene.title = opt.title.empty() ? title : opt.title;
+  scene.subtitle = "the server's current estimate; loop closures not shown";
+  if (opt.covariances) {
+    char sigma[32];
+    std::snprintf(sigma, sizeof sigma, "%g", opt.sigma);
+    scene.subtitle += std::string("; ") + sigma + "\xcf\x83 ellipses of the x-y marginals";
+    const std::vector<int>& every = live->ellipse_every;
+    if (std::adjacent_find(every.begin(), every.end(), std::not_equal_to<>()) != every.end()) {
+      scene.subtitle += " (subsampled poses)";
+    } else if (!every.empty() && every.front() > 1) {
+      scene.subtitle += " (every " + Ordinal(every.front()) + " pose)";
+    }
+    if (live->missing_covariances > 0) {
+      scene.subtitle += "; " + std::to_string(live->missing_covariances) +
+                        " without (marginals not ready in time)";
+    }
+  }
+  const core::Status written = plot::RenderScene(scene, opt.output, render);
+  if (!written.ok()) Fail(kExitFailure, written.ToString());
+  std::printf("wrote %s (%dx%d): %zu robots, %zu poses, %zu landmarks, %zu ellipses, update %lld\n",
+              opt.output.c_str(), render.width, render.height, scene.robots.size(),
+              scene.NumPoses(), scene.NumLandmarks(), scene.NumEllipses(),
+              static_cast<long long>(live->update_sequence));
+}
+
 void RunPlot(const PlotOptions& opt) {
   // Argument checks first (exit 2), before any work.
+  if (opt.live && !opt.datasets.empty()) {
+    Fail(kExitUsage, "--live plots the running server's map: give no dataset files with it");
+  }
+  if (!opt.live && opt.datasets.empty()) Fail(kExitUsage, "give dataset files to plot, or --live");
   plot::RenderOptions render;
   if (!ParseSize(opt.size, &render.width, &render.height)) {
     Fail(kExitUsage, "--size '" + opt.size + "': expected WIDTHxHEIGHT, e.g. 1200x900");
@@ -130,6 +187,10 @@ void RunPlot(const PlotOptions& opt) {
   }
   for (const core::Status& valid : {render.Validate(), opt.batch.Validate()}) {
     if (!valid.ok()) Fail(kExitUsage, valid.message());
+  }
+  if (opt.live) {
+    RunPlotLive(opt, render);
+    return;
   }
 
   plot::PlotScene scene;
@@ -164,11 +225,10 @@ void RunPlot(const PlotOptions& opt) {
 void RegisterPlot(CLI::App& app) {
   auto opt = std::make_shared<PlotOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "plot", "Draw datasets top-down (trajectories, landmarks, loop closures, covariance ellipses) "
-              "to a PNG, SVG or PDF file");
+      "plot", "Draw datasets, or with --live the running slamd's map, top-down (trajectories, "
+              "landmarks, loop closures, covariance ellipses) to a PNG, SVG or PDF file");
   cmd->add_option("datasets", opt->datasets,
                   "Dataset files (g2o 2D/3D, TORO .graph, iSAM .txt); several = several robots")
-      ->required()
       ->check(CLI::ExistingFile);
   cmd->add_option("-o,--output", opt->output, "Picture to write: *.png, *.svg or *.pdf")->required();
   cmd->add_option("--format", opt->format, "png, svg or pdf (default: from the output's extension)")
@@ -197,8 +257,26 @@ void RegisterPlot(CLI::App& app) {
       ->check(CLI::IsMember({"sqrt-information", "covariance"}))
       ->capture_default_str();
   cmd->add_option("--title", opt->title, "Title (default: dataset name and counts)");
-  cmd->add_option("--max-iterations", opt->batch.max_iterations, "--optimize: iteration limit")
-      ->capture_default_str();
+  CLI::Option* max_iterations =
+      cmd->add_option("--max-iterations", opt->batch.max_iterations, "--optimize: iteration limit")
+          ->capture_default_str();
+  CLI::Option* live = cmd->add_flag(
+      "--live", opt->live,
+      "Plot the running slamd's map instead of datasets: every robot's poses and "
+      "landmarks as the server estimates them now (with --covariances, its marginals). "
+      "Loop closures are not drawn (map_t does not carry them); 3D maps are "
+      "projected top-down");
+  cmd->add_option("--timeout", opt->timeout_s, "--live: longest wait for the whole map [s]")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str()
+      ->needs(live);
+  AddConnectionOptions(cmd, &opt->connection);
+  cmd->get_option("--lcm-url")->needs(live);
+  cmd->get_option("--channel-prefix")->needs(live);
+  for (const char* offline : {"--optimize", "--anchor-sigma", "--isam-noise"}) {
+    live->excludes(cmd->get_option(offline));
+  }
+  live->excludes(max_iterations);
   cmd->callback([opt] { RunPlot(*opt); });
 }
 

@@ -68,7 +68,7 @@ struct ServerParams {
     // [ms]; 1..60000.
     int sync_interval_ms = 50;
     // A snapshot after this many solver updates (0 = not by count) ... >= 0.
-    int snapshot_every_updates = 2000;
+    int snapshot_every_updates = 500;
     // ... or this many seconds since the last one, if anything changed (0 = not by time) [s];
     // 0..1e6.
     double snapshot_every_s = 300.0;

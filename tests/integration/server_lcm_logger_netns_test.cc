@@ -1,0 +1,94 @@
+// lcm-logger (LCM's own recorder) records a session with the real slamd — the example publisher
+// (clients/examples) as the robot — and every event of the log decodes as the type its channel
+// carries: the server's output (estimate_t, status_t) and the robot's input. Runs inside a
+// private network namespace (ctest label netns; udpm with ttl=0).
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <lcm/lcm-cpp.hpp>
+#include <map>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "slamd/estimate_t.hpp"
+#include "slamd/loop_closure_t.hpp"
+#include "slamd/odometry_t.hpp"
+#include "slamd/prior_t.hpp"
+#include "slamd/status_t.hpp"
+
+namespace {
+
+constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
+
+pid_t Spawn(const std::vector<std::string>& args) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    std::vector<char*> argv;
+    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    execvp(argv[0], argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+int Wait(pid_t pid) {
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+template <typename Msg>
+bool Decodes(const lcm::LogEvent& e) {
+  Msg m;
+  return m.decode(e.data, 0, e.datalen) == e.datalen;
+}
+
+TEST(ServerLcmLoggerTest, LoggerRecordsTheSessionAndEveryEventDecodes) {
+  const std::string log = std::filesystem::temp_directory_path() /
+                          ("slamd_lcm_logger_" + std::to_string(getpid()) + ".lcmlog");
+  std::filesystem::remove(log);
+  const pid_t slamd = Spawn({SLAMD_PATH, "--lcm-url", kUrl, "--log-level", "warn"});
+  const pid_t logger = Spawn({"lcm-logger", "--quiet", std::string("--lcm-url=") + kUrl, log});
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const pid_t robot = Spawn({SLAMD_EXAMPLE_PUBLISHER_PATH, kUrl});
+  ASSERT_EQ(Wait(robot), 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // a status_t or two
+  kill(slamd, SIGTERM);
+  EXPECT_EQ(Wait(slamd), 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  kill(logger, SIGINT);
+  Wait(logger);
+
+  lcm::LogFile file(log, "r");
+  ASSERT_TRUE(file.good()) << log;
+  std::map<std::string, int> events, decoded;
+  for (const lcm::LogEvent* e = file.readNextEvent(); e != nullptr; e = file.readNextEvent()) {
+    if (e->channel.rfind("SLAMD_", 0) != 0) continue;  // LCM's own LCM_SELF_TEST
+    ++events[e->channel];
+    bool ok = false;
+    if (e->channel == "SLAMD_ESTIMATE") ok = Decodes<slamd::estimate_t>(*e);
+    if (e->channel == "SLAMD_STATUS") ok = Decodes<slamd::status_t>(*e);
+    if (e->channel == "SLAMD_ODOMETRY") ok = Decodes<slamd::odometry_t>(*e);
+    if (e->channel == "SLAMD_PRIOR") ok = Decodes<slamd::prior_t>(*e);
+    if (e->channel == "SLAMD_LOOP_CLOSURE") ok = Decodes<slamd::loop_closure_t>(*e);
+    decoded[e->channel] += ok;
+  }
+  std::filesystem::remove(log);
+  EXPECT_EQ(events["SLAMD_ODOMETRY"], 20);
+  EXPECT_EQ(events["SLAMD_PRIOR"], 1);
+  EXPECT_EQ(events["SLAMD_LOOP_CLOSURE"], 1);
+  EXPECT_GE(events["SLAMD_ESTIMATE"], 21);  // one per pose, one after the loop closure
+  EXPECT_GE(events["SLAMD_STATUS"], 1);
+  EXPECT_EQ(events.count("SLAMD_REJECT"), 0u);
+  for (const auto& [channel, n] : events) {
+    EXPECT_EQ(decoded[channel], n) << channel << ": not every event decodes";
+  }
+}
+
+}  // namespace
