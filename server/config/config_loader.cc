@@ -101,6 +101,7 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   if (e.has_anchor_sigma()) p->estimator.anchor_sigma = e.anchor_sigma();
   if (e.has_max_held_messages()) p->estimator.max_held_messages = e.max_held_messages();
   if (e.has_max_hold_updates()) p->estimator.max_hold_updates = e.max_hold_updates();
+  if (e.has_chi2_interval_s()) p->estimator.chi2_interval_s = e.chi2_interval_s();
   if (e.has_loop_closure_kernel()) p->estimator.loop_closure_kernel = e.loop_closure_kernel();
   if (e.has_loop_closure_kernel_parameter()) {
     p->estimator.loop_closure_kernel_parameter = e.loop_closure_kernel_parameter();
@@ -205,6 +206,8 @@ std::string DefaultConfigText() {
       << "  # waiting for a pose (out of order, unanchored)\n"
       << "  max_hold_updates: " << d.estimator.max_hold_updates
       << "  # updates a held message may wait, >= 1\n"
+      << "  chi2_interval_s: " << Num(d.estimator.chi2_interval_s)
+      << "  # status chi2 at most this often while updating, and when settled [s]\n"
       << "  loop_closure_kernel: " << Quote(d.estimator.loop_closure_kernel)
       << "  # default for loop closures naming none: none huber cauchy gemanmcclure dcs\n"
       << "  loop_closure_kernel_parameter: " << Num(d.estimator.loop_closure_kernel_parameter)

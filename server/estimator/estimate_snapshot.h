@@ -39,6 +39,9 @@ struct EstimateSnapshot {
   // Bumped by every Isam2 update and every refinement that changed the estimate.
   std::int64_t update_sequence = 0;
   double chi2 = 0.0;
+  // The update_sequence chi2 was computed at (it lags behind by at most
+  // EstimatorParams::chi2_interval_s, and never once the estimate has settled).
+  std::int64_t chi2_sequence = 0;
   std::int64_t residual_dimension = 0;
   std::int64_t num_variables = 0;
   std::int64_t num_factors = 0;

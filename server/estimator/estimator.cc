@@ -1,5 +1,6 @@
 #include "server/estimator/estimator.h"
 
+#include <chrono>
 #include <cmath>
 #include <utility>
 
@@ -676,10 +677,19 @@ void Estimator::PublishSnapshot(bool bump) {
   snap->residual_dimension = residual_dimension_;
   snap->held_messages = static_cast<int>(held_.size());
   snap->settled = settled_;
-  if (bump || !snapshot_) {
+  // chi2 is O(factors): after every update it would dominate a long run's update time. It is
+  // recomputed at most every chi2_interval_s, and whenever the estimate settles.
+  const auto now = std::chrono::steady_clock::now();
+  const bool due =
+      std::chrono::duration<double>(now - chi2_time_).count() >= params_.chi2_interval_s;
+  const bool stale = !snapshot_ || snapshot_->chi2_sequence != sequence_;
+  if (!snapshot_ || (stale && (due || settled_))) {
     snap->chi2 = isam_->Chi2();
+    snap->chi2_sequence = sequence_;
+    chi2_time_ = now;
   } else {
     snap->chi2 = snapshot_->chi2;
+    snap->chi2_sequence = snapshot_->chi2_sequence;
   }
   for (std::uint8_t id : registry_.ids()) {
     RobotState& r = robots_[id];

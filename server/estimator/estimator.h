@@ -38,6 +38,7 @@
 // rounding (tested to 1e-9).
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <deque>
 #include <limits>
@@ -215,6 +216,7 @@ class Estimator {
   std::int64_t residual_dimension_ = 0;
   bool settled_ = true;
   std::shared_ptr<const EstimateSnapshot> snapshot_;
+  std::chrono::steady_clock::time_point chi2_time_;  // when snapshot chi2 was last computed
 };
 
 }  // namespace slamd::server

@@ -28,6 +28,9 @@ struct EstimatorParams {
   // Robust kernel for loop closures that do not name one (loop_closure_t.robust_kernel ""):
   // "none", "huber", "cauchy", "gemanmcclure" or "dcs" (core/factors/robust_kernel.h), and its
   // parameter (> 0 unless "none"). Limits the pull of wrong loop closures.
+  // status_t's chi2 (a pass over every factor) is recomputed at most this often while updates
+  // stream in, and always once the estimate settles [s]; 0 = after every update. >= 0.
+  double chi2_interval_s = 0.5;
   std::string loop_closure_kernel = "none";
   double loop_closure_kernel_parameter = 1.0;
 

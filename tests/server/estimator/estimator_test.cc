@@ -30,7 +30,8 @@ Inbound Landmark(const std::string& robot, std::uint64_t pose, std::uint64_t id,
           0};
 }
 
-std::unique_ptr<Estimator> Make(EstimatorParams p = {}, int skip = 1) {
+// chi2 after every update (the tests compare it), unless a test says otherwise.
+std::unique_ptr<Estimator> Make(EstimatorParams p = {.chi2_interval_s = 0.0}, int skip = 1) {
   core::Isam2Params isam2;
   isam2.relinearization.skip = skip;
   return Estimator::Create(p, isam2).value();
@@ -347,6 +348,23 @@ TEST(EstimatorTest, DefaultLoopClosureKernelLimitsAnOutlier) {
   bad = robust;
   bad.loop_closure_kernel_parameter = -1;
   EXPECT_NE(bad.Validate().message().find("loop_closure_kernel_parameter"), std::string::npos);
+}
+
+// chi2 is O(factors): recomputed at most every chi2_interval_s while updates stream in, and
+// once the estimate settles.
+TEST(EstimatorTest, Chi2LagsWhileUpdatingAndIsCurrentWhenSettled) {
+  auto e = Make({.chi2_interval_s = 1e6});
+  ASSERT_TRUE(e->Process({Prior("r", 0, Pose2()), Odo("r", 0, 1, kStep)}).status.ok());
+  // The estimator's first snapshot (empty graph, sequence 0) computed it; not due again yet.
+  EXPECT_EQ(e->snapshot()->chi2_sequence, 0);
+  for (int i = 1; i < 6; ++i) ASSERT_TRUE(e->Process({Odo("r", i, i + 1, kStep)}).status.ok());
+  ASSERT_TRUE(e->Process({Loop("r", 6, "r", 0, Pose2(0.5, 0.5, 0.5))}).status.ok());
+  EXPECT_EQ(e->snapshot()->chi2, 0.0);
+  EXPECT_EQ(e->snapshot()->chi2_sequence, 0);
+  ASSERT_TRUE(e->Refine(5.0).converged);
+  EXPECT_EQ(e->snapshot()->chi2_sequence, e->snapshot()->update_sequence);
+  EXPECT_NEAR(e->snapshot()->chi2, e->solver().Chi2(), 1e-12);
+  EXPECT_GT(e->snapshot()->chi2, 1e-3);
 }
 
 TEST(EstimatorTest, RejectHeldAnswersEveryHeldMessage) {
