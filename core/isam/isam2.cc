@@ -16,7 +16,8 @@ Isam2::Isam2(const Isam2Params& params)
 
 Isam2Result Isam2::Update(const FactorGraph& new_factors, const Values& new_values,
                           const Isam2UpdateOptions& options) {
-  return UpdateWith(new_factors, new_values, options, params_.relinearization);
+  return UpdateWith(new_factors, new_values, options, params_.relinearization,
+                    params_.wildfire_threshold);
 }
 
 Isam2::RefineResult Isam2::Refine(double budget_s, int max_rounds) {
@@ -26,8 +27,8 @@ Isam2::RefineResult Isam2::Refine(double budget_s, int max_rounds) {
                                           .translation_threshold = params_.refine_threshold,
                                           .skip = 1};
   while (out.rounds < max_rounds && timer.Seconds() < budget_s) {
-    const Isam2Result r =
-        UpdateWith({}, {}, {.force_relinearize = true, .force_full_solve = true}, fine);
+    const Isam2Result r = UpdateWith({}, {}, {.force_relinearize = true}, fine,
+                                     kRefineWildfire * params_.refine_threshold);
     --num_updates_;  // refinement rounds are not updates (the skip and batch counters ignore them)
     ++out.rounds;
     out.status = r.status;
@@ -44,7 +45,8 @@ Isam2::RefineResult Isam2::Refine(double budget_s, int max_rounds) {
 
 Isam2Result Isam2::UpdateWith(const FactorGraph& new_factors, const Values& new_values,
                               const Isam2UpdateOptions& options,
-                              const Isam2Params::Relinearization& relinearization) {
+                              const Isam2Params::Relinearization& relinearization,
+                              double wildfire_threshold) {
   Stopwatch total, phase;
   Isam2Result result;
   // 0. Validate everything before changing anything.
@@ -70,12 +72,11 @@ Isam2Result Isam2::UpdateWith(const FactorGraph& new_factors, const Values& new_
   // 3. Fluid relinearisation (Alg. 6): every `skip` updates, relinearise the variables whose δ
   // exceeds the threshold, and every factor on them; the batch step relinearises everything.
   ++num_updates_;
-  const bool batch = options.force_full ||
-                     (params_.batch_every > 0 && num_updates_ % params_.batch_every == 0);
+  const bool batch =
+      options.force_full || (params_.batch_every > 0 && num_updates_ % params_.batch_every == 0);
   result.batch_step = batch;
-  if (result.status.ok() &&
-      (batch || options.force_relinearize || relinearization_backlog_ ||
-       num_updates_ % relinearization.skip == 0)) {
+  if (result.status.ok() && (batch || options.force_relinearize || relinearization_backlog_ ||
+                             num_updates_ % relinearization.skip == 0)) {
     std::vector<int> relin;
     // Capped by max_variables: what is left over is taken at the next update, not `skip` later.
     relinearization_backlog_ = SelectRelinearization(options, batch, relinearization, &relin);
@@ -104,7 +105,8 @@ Isam2Result Isam2::UpdateWith(const FactorGraph& new_factors, const Values& new_
   }
 
   // 8. Partial back-substitution (Alg. 7, "wildfire") from the new cliques down.
-  result.solved_cliques = BackSubstitute(new_cliques, options.force_full_solve || batch);
+  result.solved_cliques =
+      BackSubstitute(new_cliques, options.force_full_solve || batch, wildfire_threshold);
   result.seconds.solve = phase.Lap();
   result.seconds.total = total.Seconds();
   return result;

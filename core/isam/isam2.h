@@ -40,6 +40,9 @@ namespace slamd::core {
 
 class Isam2 {
  public:
+  // Refine's wildfire threshold relative to refine_threshold (see Refine).
+  static constexpr double kRefineWildfire = 0.1;
+
   // kInvalidArgument (naming the field) when params are invalid.
   static Result<std::unique_ptr<Isam2>> Create(const Isam2Params& params = {});
 
@@ -50,10 +53,13 @@ class Isam2 {
 
   // Idle-time refinement ("settling"): repeatedly relinearises every variable whose update δ
   // exceeds Isam2Params::refine_threshold (far below the fluid-relinearisation thresholds) and
-  // re-solves fully, until no variable moves that much (converged) or `budget_s` seconds have
-  // passed, so that the estimate approaches the batch optimum of the factors seen so far. Each
-  // round is a full Gauss-Newton step through the tree; a round that would raise chi2 is still
-  // taken (there is no line search yet). The server calls this whenever its queue is empty.
+  // re-solves, until no variable moves that much (converged) or `budget_s` seconds have passed,
+  // so that the estimate approaches the batch optimum of the factors seen so far. Each round is a
+  // Gauss-Newton step through the tree; its back-substitution is partial with a threshold of
+  // kRefineWildfire x refine_threshold (a full solve would make every round O(variables), which on
+  // a large, nearly converged map costs far more than the few cliques that still move). A round
+  // that would raise chi2 is still taken (there is no line search yet). The server calls this
+  // when no message has come for a while (refine.idle_s).
   struct RefineResult {
     Status status;
     int rounds = 0;
@@ -83,10 +89,11 @@ class Isam2 {
  private:
   explicit Isam2(const Isam2Params& params);
 
-  // Update() with the relinearisation thresholds given (Refine uses tiny ones).
+  // Update() with the relinearisation and wildfire thresholds given (Refine uses tiny ones).
   Isam2Result UpdateWith(const FactorGraph& new_factors, const Values& new_values,
                          const Isam2UpdateOptions& options,
-                         const Isam2Params::Relinearization& relinearization);
+                         const Isam2Params::Relinearization& relinearization,
+                         double wildfire_threshold);
 
   // Step helpers (isam2_steps.cc); inputs by const&, outputs by pointer. Every helper that
   // changes state records how to undo it in undo_.
@@ -106,17 +113,17 @@ class Isam2 {
   // then re-attaches the orphans. `last` (ids) are constrained to the end of the ordering.
   Status EliminateTop(const std::vector<int>& vars, const std::vector<int>& last,
                       std::vector<int>* new_cliques, Isam2Result* result);
-  int BackSubstitute(const std::vector<int>& new_cliques, bool full);
+  int BackSubstitute(const std::vector<int>& new_cliques, bool full, double wildfire_threshold);
   Status LinearizeFactor(int index);
   // Restores the state before the current update (after a numerical failure).
   void Rollback();
 
   // What one update changed, so that a numerical failure can restore the state before it.
   struct Undo {
-    int num_vars = 0;     // variables and factors beyond these counts are new
+    int num_vars = 0;  // variables and factors beyond these counts are new
     int num_factors = 0;
     std::vector<std::pair<int, FactorPtr>> removed_factors;
-    std::vector<std::pair<int, Variable>> theta;               // relinearised variables' old θ
+    std::vector<std::pair<int, Variable>> theta;  // relinearised variables' old θ
     std::vector<double> delta;  // ... and their old δ, concatenated in the order of `theta`
     std::vector<int> relinearized_factors;  // re-linearised at the restored θ on rollback
     bool top_removed = false;  // the tree's top was detached (removed_frontals_, orphans_)

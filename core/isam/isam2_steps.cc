@@ -111,7 +111,13 @@ Status Isam2::AddFactors(const FactorGraph& new_factors, std::vector<int>* indic
     const int index = static_cast<int>(factors_.size());
     factors_.push_back(f);
     linearized_.emplace_back();
-    SLAMD_RETURN_IF_ERROR(LinearizeFactor(index));
+    if (Status s = LinearizeFactor(index); !s.ok()) {
+      // Not in the variable index yet: drop it here, so that Rollback removes from the index
+      // only the factors that were added to it.
+      factors_.pop_back();
+      linearized_.pop_back();
+      return s;
+    }
     const Status added = variable_index_.AddFactor(index, linearized_[index].vars());
     SLAMD_CHECK(added.ok()) << added.ToString();
     indices->push_back(index);
@@ -146,8 +152,8 @@ bool Isam2::SelectRelinearization(const Isam2UpdateOptions& options, bool all,
     double ratio = 0.0;
     const VariableType type = theta_.TypeAt(v);
     for (int k = 0; k < dims_[v]; ++k) {
-      const bool rotation = (type == VariableType::kPose2 && k == 2) ||
-                            (type == VariableType::kPose3 && k >= 3);
+      const bool rotation =
+          (type == VariableType::kPose2 && k == 2) || (type == VariableType::kPose3 && k >= 3);
       ratio = std::max(ratio, std::abs(d[k]) / (rotation ? rot : trans));
     }
     if (all || ratio > 1.0) over.emplace_back(ratio, v);
@@ -305,12 +311,13 @@ Status Isam2::EliminateTop(const std::vector<int>& vars, const std::vector<int>&
   return Status::Ok();
 }
 
-int Isam2::BackSubstitute(const std::vector<int>& new_cliques, bool full) {
+int Isam2::BackSubstitute(const std::vector<int>& new_cliques, bool full,
+                          double wildfire_threshold) {
   if (full) {
     core::BackSubstitute(tree_, offsets_, &delta_);
     return tree_.NumCliques();
   }
-  return WildfireBackSubstitute(tree_, new_cliques, params_.wildfire_threshold, offsets_, &delta_,
+  return WildfireBackSubstitute(tree_, new_cliques, wildfire_threshold, offsets_, &delta_,
                                 &wildfire_);
 }
 
@@ -319,7 +326,8 @@ void Isam2::Rollback() {
   // identical to what they were; cheaper than keeping copies on every update).
   for (auto& [v, old] : undo_.theta) theta_.MutableVariableAt(v) = std::move(old);
   for (int f : undo_.relinearized_factors) {
-    if (f < undo_.num_factors) SLAMD_CHECK(LinearizeFactor(f).ok()) << "re-linearising factor " << f;
+    if (f < undo_.num_factors)
+      SLAMD_CHECK(LinearizeFactor(f).ok()) << "re-linearising factor " << f;
   }
   std::size_t at = 0;
   for (const auto& [v, unused] : undo_.theta) {

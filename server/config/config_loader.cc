@@ -71,6 +71,7 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   const proto::RefineConfig& r = config.refine();
   if (r.has_enabled()) p->refine.enabled = r.enabled();
   if (r.has_budget_s()) p->refine.budget_s = r.budget_s();
+  if (r.has_idle_s()) p->refine.idle_s = r.idle_s();
   const proto::Isam2Config& i = config.isam2();
   const proto::Isam2Config::Relinearization& rl = i.relinearization();
   if (rl.has_rotation_threshold())
@@ -180,6 +181,8 @@ std::string DefaultConfigText() {
       << "  enabled: " << (d.refine.enabled ? "true" : "false")
       << "  # Isam2::Refine while no message is queued\n"
       << "  budget_s: " << Num(d.refine.budget_s) << "  # per call [s], (0, 10]\n"
+      << "  idle_s: " << Num(d.refine.idle_s)
+      << "  # only after this long without a message [s], 0..10\n"
       << "}\n\n"
       << "isam2 {\n"
       << "  relinearization {\n"

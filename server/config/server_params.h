@@ -57,6 +57,9 @@ struct ServerParams {
     bool enabled = true;
     // Time budget of one Refine call [s]; (0, 10].
     double budget_s = 0.005;
+    // ... and only once no message has come for this long [s]: a refinement round touches the
+    // whole map's changed part and would delay the next message of a steady stream; 0..10.
+    double idle_s = 0.02;
   };
   Refine refine = {};
 

@@ -272,6 +272,7 @@ int Daemon::StepEstimator(double timeout_s) {
       batch.push_back(std::move(in));
     }
   }
+  if (n > 0) last_input_us_ = SteadyMicros();
   std::shared_ptr<const EstimateSnapshot> snap;
   if (!batch.empty()) {
     for (const Inbound& in : batch) {
@@ -285,7 +286,7 @@ int Daemon::StepEstimator(double timeout_s) {
     }
     if (!r.status.ok()) log_->warn("solver update failed: {}", r.status.ToString());
     for (const Rejection& rej : r.rejections) PublishRejection(rej);
-  } else if (queries.empty() && params_.refine.enabled && !estimator_->snapshot()->settled) {
+  } else if (queries.empty() && RefineDue() && IdleMicros() >= params_.refine.idle_s * 1e6) {
     const core::Isam2::RefineResult r = estimator_->Refine(params_.refine.budget_s);
     if (!r.status.ok()) log_->warn("refine failed: {}", r.status.ToString());
     if (journal_ && r.rounds > 0) {
@@ -533,13 +534,22 @@ void Daemon::EstimatorLoop() {
   // Waits at most 50 ms for messages so status keeps going when idle; not at all while a
   // refinement is still due, so the map converges between messages.
   while (!stop_estimator_) {
-    const bool refine_due = params_.refine.enabled && !estimator_->snapshot()->settled;
-    StepEstimator(refine_due ? 0.0 : 0.05);
+    double wait_s = 0.05;
+    if (RefineDue()) {
+      wait_s = std::clamp(params_.refine.idle_s - IdleMicros() * 1e-6, 0.0, wait_s);
+    }
+    StepEstimator(wait_s);
   }
   // Intake has stopped and the queue is closed: finish what is queued.
   while (StepEstimator(0.0) > 0) {
   }
 }
+
+bool Daemon::RefineDue() const {
+  return params_.refine.enabled && !estimator_->snapshot()->settled;
+}
+
+std::int64_t Daemon::IdleMicros() const { return SteadyMicros() - last_input_us_; }
 
 void Daemon::Start() {
   if (intake_thread_.joinable() || stopped_) return;

@@ -6,8 +6,9 @@
 //                     at once; nothing is dropped silently)
 //   estimator thread: queue.PopAll -> Estimator::Process (ONE Isam2 update for everything
 //                     queued) -> reject_t for stateful rejections, estimate_t for each robot whose
-//                     newest pose moved, status_t at publish.status_rate_hz; when the queue is
-//                     empty and refine.enabled, Isam2::Refine(refine.budget_s) until settled.
+//                     newest pose moved, status_t at publish.status_rate_hz; when no message has
+//                     come for refine.idle_s and refine.enabled, Isam2::Refine(refine.budget_s)
+//                     until settled.
 //
 // Inbound channels: ODOMETRY, LANDMARK, LOOP_CLOSURE, PRIOR, REMOVE_FACTOR (all through the
 // queue into Estimator::Process) and QUERY (through the same queue, so a query sees everything
@@ -107,6 +108,8 @@ class Daemon {
   // Publishes the map_t pages of `robot` ("*" = all); returns how many.
   int PublishMaps(const std::string& robot, bool marginals, std::int64_t request_id,
                   std::int64_t update_sequence, bool* partial);
+  bool RefineDue() const;           // refinement enabled and the estimate not settled
+  std::int64_t IdleMicros() const;  // since the estimator last popped a message [µs]
   void IntakeLoop();
   void EstimatorLoop();
 
@@ -136,6 +139,7 @@ class Daemon {
   std::vector<double> publish_us_;  // recent ingest-to-publish latencies (ring of 1024)
   size_t publish_us_next_ = 0;
   std::int64_t last_map_us_ = 0, last_map_sequence_ = -1;
+  std::int64_t last_input_us_ = 0;       // steady clock
   std::int64_t processed_sequence_ = 0;  // last journal sequence handed to the estimator
   std::int64_t snapshot_update_sequence_ = 0, snapshot_us_ = 0;
   std::thread snapshot_thread_;

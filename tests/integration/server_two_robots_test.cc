@@ -29,6 +29,7 @@ TEST(ServerTwoRobotsTest, HeldRobotJoinsAndBothConvergeToTheJointBatchOptimum) {
   ServerParams params;
   params.publish.status_rate_hz = 0.0;
   params.isam2.refine_threshold = 1e-10;
+  params.refine.idle_s = 0.0;  // manual drive: refine whenever the queue is empty
   InProcessBus bus;
   auto daemon = Daemon::Create(params, &bus).value();
   std::vector<slamd::reject_t> rejects;

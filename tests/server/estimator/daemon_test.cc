@@ -327,6 +327,7 @@ TEST(DaemonTest, StatusPublishedAtOnceWhenSettled) {
   InProcessBus bus;
   ServerParams p = Params();
   p.refine.enabled = true;
+  p.refine.idle_s = 0.0;
   p.publish.status_rate_hz = 0.001;  // one per 1000 s otherwise
   auto daemon = Daemon::Create(p, &bus).value();
   Client client(bus);

@@ -49,6 +49,7 @@ ServerParams Params(const std::string& dir) {
   p.data_dir = dir;
   p.refine.enabled = true;
   p.refine.budget_s = 0.001;
+  p.refine.idle_s = 0.0;  // manual drive: refine whenever the queue is empty
   p.publish.status_rate_hz = 0.0;
   p.journal.sync = SyncPolicy::kNever;  // tests need no fsync; the policies are tested in journal/
   p.journal.snapshot_every_updates = 0;
