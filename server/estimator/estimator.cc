@@ -583,7 +583,6 @@ EstimatorState Estimator::ExportState() const {
     }
   }
   state.linearization_point = isam_->linearization_point();
-  state.estimate = isam_->CalculateEstimate();
   for (const auto& [id, f] : applied_) {
     SLAMD_CHECK(position[f.factor] >= 0) << "applied measurement on a removed factor";
     state.applied.push_back({std::get<0>(id), std::get<1>(id), std::get<2>(id), std::get<3>(id),

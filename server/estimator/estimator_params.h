@@ -30,7 +30,7 @@ struct EstimatorParams {
   // parameter (> 0 unless "none"). Limits the pull of wrong loop closures.
   // status_t's chi2 (a pass over every factor) is recomputed at most this often while updates
   // stream in, and always once the estimate settles [s]; 0 = after every update. >= 0.
-  double chi2_interval_s = 0.5;
+  double chi2_interval_s = 1.0;
   std::string loop_closure_kernel = "none";
   double loop_closure_kernel_parameter = 1.0;
 

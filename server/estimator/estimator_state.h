@@ -18,8 +18,7 @@ namespace slamd::server {
 struct EstimatorState {
   std::int64_t update_sequence = 0;
   std::vector<core::FactorPtr> factors = {};  // the current factors, in solver index order
-  core::Values linearization_point;
-  core::Values estimate;  // θ ⊕ δ; informational (a restore re-solves at θ)
+  core::Values linearization_point;  // θ (a restore re-solves δ there)
 
   // A retractable measurement (remove_factor_t) and its factor's position in `factors`.
   struct Applied {

@@ -217,7 +217,6 @@ std::string EncodeState(const EstimatorState& state, const JournalPosition& posi
   out.mutable_factors()->Reserve(static_cast<int>(state.factors.size()));
   for (const core::FactorPtr& f : state.factors) WriteFactor(*f, out.add_factors());
   WriteValues(state.linearization_point, out.mutable_linearization_point());
-  WriteValues(state.estimate, out.mutable_estimate());
   for (const EstimatorState::Applied& a : state.applied) {
     pb::AppliedMeasurement* m = out.add_applied();
     m->set_type(a.type);
@@ -278,7 +277,6 @@ core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition
   }
   SLAMD_RETURN_IF_ERROR(
       ReadValues(in.linearization_point(), "linearization point", &state.linearization_point));
-  SLAMD_RETURN_IF_ERROR(ReadValues(in.estimate(), "estimate", &state.estimate));
   for (const pb::AppliedMeasurement& m : in.applied()) {
     state.applied.push_back({static_cast<char>(m.type()), m.key_a(), m.key_b(), m.kind(),
                              m.factor(), m.first_key(), m.dim()});

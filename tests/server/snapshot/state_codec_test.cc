@@ -79,8 +79,8 @@ TEST(StateCodecTest, RoundTripRestoresAnEquivalentEstimator) {
     EXPECT_STREQ(d.factors[i]->Name(), state.factors[i]->Name());
     EXPECT_EQ(d.factors[i]->keys(), state.factors[i]->keys());
     EXPECT_EQ(d.factors[i]->robust_kernel().kind(), state.factors[i]->robust_kernel().kind());
-    const auto e0 = state.factors[i]->Error(state.estimate);
-    const auto e1 = d.factors[i]->Error(state.estimate);
+    const auto e0 = state.factors[i]->Error(state.linearization_point);
+    const auto e1 = d.factors[i]->Error(state.linearization_point);
     EXPECT_LT((e0 - e1).norm(), 1e-15) << d.factors[i]->Name();
     const auto& R0 = state.factors[i]->noise_model().sqrt_information();
     const auto& R1 = d.factors[i]->noise_model().sqrt_information();
