@@ -54,12 +54,14 @@
 #include "slamd/reject_t.hpp"
 #include "slamd/status_t.hpp"
 #include "tests/testing/datasets.h"
+#include "tests/testing/processes.h"
 
 namespace slamd::server {
 namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
+using testing::OnlyLoopback;
 
 // A larger receive buffer: re-sent bursts come back as bursts of reject_t.
 constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=2097152";
@@ -77,19 +79,6 @@ constexpr const char* kConfig =
     "publish { status_rate_hz: 20 estimate_covariance: false }\n"
     "journal { sync: ALWAYS snapshot_every_updates: 300 snapshot_every_s: 0 }\n"
     "log_level: \"info\"\n";
-
-bool OnlyLoopback() {
-  std::ifstream in("/proc/self/net/dev");
-  std::set<std::string> names;
-  std::string line;
-  for (int i = 0; std::getline(in, line); ++i) {
-    const size_t colon = line.find(':');
-    if (i < 2 || colon == std::string::npos) continue;
-    const size_t start = line.find_first_not_of(' ');
-    names.insert(line.substr(start, colon - start));
-  }
-  return names == std::set<std::string>{"lo"};
-}
 
 class TempDir {
  public:
@@ -413,8 +402,7 @@ ServerParams ConfigParams(const std::string& config_path) {
 }
 
 TEST(ServerCrashNetnsTest, KilledServerRecoversToTheUninterruptedResult) {
-  ASSERT_TRUE(OnlyLoopback()) << "refusing to multicast outside a private network namespace; "
-                                 "run through scripts/netns-run (ctest -L netns)";
+  ASSERT_TRUE(OnlyLoopback()) << testing::kNotInNetns;
   const std::string path = testing::SharedDatasetPath("manhattan.g2o");
   SLAMD_SKIP_IF_NO_SHARED_DATASET(path);
   const std::vector<core::DatasetStep> steps =
@@ -517,7 +505,7 @@ TEST(ServerCrashNetnsTest, KilledServerRecoversToTheUninterruptedResult) {
 // kill -9 during a burst, then the journal cut inside its last record (a torn write): the
 // restart truncates the tail, and re-sending the burst restores each measurement exactly once.
 TEST(ServerCrashNetnsTest, TornJournalTailAfterKillDuringBurst) {
-  ASSERT_TRUE(OnlyLoopback()) << "refusing to multicast outside a private network namespace";
+  ASSERT_TRUE(OnlyLoopback()) << testing::kNotInNetns;
   const std::string path = testing::SharedDatasetPath("manhattan.g2o");
   SLAMD_SKIP_IF_NO_SHARED_DATASET(path);
   const std::vector<core::DatasetStep> steps =

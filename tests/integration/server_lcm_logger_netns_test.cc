@@ -4,7 +4,6 @@
 // private network namespace (ctest label netns; udpm with ttl=0).
 #include <gtest/gtest.h>
 #include <signal.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -20,28 +19,14 @@
 #include "slamd/odometry_t.hpp"
 #include "slamd/prior_t.hpp"
 #include "slamd/status_t.hpp"
+#include "tests/testing/processes.h"
 
 namespace {
 
+using slamd::testing::Spawn;
+using slamd::testing::WaitExit;
+
 constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
-
-pid_t Spawn(const std::vector<std::string>& args) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    std::vector<char*> argv;
-    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    execvp(argv[0], argv.data());
-    _exit(127);
-  }
-  return pid;
-}
-
-int Wait(pid_t pid) {
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-}
 
 template <typename Msg>
 bool Decodes(const lcm::LogEvent& e) {
@@ -57,13 +42,13 @@ TEST(ServerLcmLoggerTest, LoggerRecordsTheSessionAndEveryEventDecodes) {
   const pid_t logger = Spawn({"lcm-logger", "--quiet", std::string("--lcm-url=") + kUrl, log});
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
   const pid_t robot = Spawn({SLAMD_EXAMPLE_PUBLISHER_PATH, kUrl});
-  ASSERT_EQ(Wait(robot), 0);
+  ASSERT_EQ(WaitExit(robot), 0);
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // a status_t or two
   kill(slamd, SIGTERM);
-  EXPECT_EQ(Wait(slamd), 0);
+  EXPECT_EQ(WaitExit(slamd), 0);
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   kill(logger, SIGINT);
-  Wait(logger);
+  WaitExit(logger);
 
   lcm::LogFile file(log, "r");
   ASSERT_TRUE(file.good()) << log;

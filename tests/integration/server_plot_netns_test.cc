@@ -10,18 +10,13 @@
 //  3. argument errors (exit 2): datasets with --live, --lcm-url without --live.
 #include <cairo/cairo.h>
 #include <dlfcn.h>
-#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
-#include <fstream>
 #include <memory>
-#include <set>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -30,44 +25,14 @@
 #include "server/transport/typed_subscribe.h"
 #include "slamd/status_t.hpp"
 #include "tests/testing/datasets.h"
+#include "tests/testing/processes.h"
 
 namespace slamd::server {
 namespace {
 
+using testing::CommandRun;
+
 constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
-
-bool OnlyLoopback() {
-  std::ifstream in("/proc/self/net/dev");
-  std::set<std::string> names;
-  std::string line;
-  for (int i = 0; std::getline(in, line); ++i) {
-    const size_t colon = line.find(':');
-    if (i < 2 || colon == std::string::npos) continue;
-    const size_t start = line.find_first_not_of(' ');
-    names.insert(line.substr(start, colon - start));
-  }
-  return names == std::set<std::string>{"lo"};
-}
-
-// fork/exec with stdout and stderr into `output_path` (when not empty).
-pid_t Spawn(const std::vector<std::string>& args, const std::string& output_path) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    if (!output_path.empty()) {
-      const int fd = open(output_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      if (fd >= 0) {
-        dup2(fd, STDOUT_FILENO);
-        dup2(fd, STDERR_FILENO);
-      }
-    }
-    std::vector<char*> argv;
-    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    execv(argv[0], argv.data());
-    _exit(127);
-  }
-  return pid;
-}
 
 // A running slamd, listening once its first status_t is seen; stopped with SIGTERM (exit 0).
 class Slamd {
@@ -81,7 +46,7 @@ class Slamd {
                            **bus, "SLAMD_STATUS",
                            [&](std::string_view, const slamd::status_t&) { ++statuses; }, nullptr)
                            .value();
-    pid_ = Spawn({SLAMD_PATH, "--config", config, "--lcm-url", kUrl}, "");
+    pid_ = testing::Spawn({SLAMD_PATH, "--config", config, "--lcm-url", kUrl});
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
     while (statuses == 0 && std::chrono::steady_clock::now() < deadline) {
       if (!(*bus)->HandleOnce(20).ok()) break;
@@ -91,9 +56,7 @@ class Slamd {
   ~Slamd() {
     if (pid_ <= 0) return;
     kill(pid_, SIGTERM);
-    int status = 0;
-    waitpid(pid_, &status, 0);
-    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "slamd did not stop cleanly";
+    EXPECT_EQ(testing::WaitExit(pid_), 0) << "slamd did not stop cleanly";
   }
   bool listening = false;
 
@@ -101,36 +64,10 @@ class Slamd {
   pid_t pid_ = -1;
 };
 
-struct CommandRun {
-  int exit_code = -1;
-  std::string out;  // stdout and stderr
-};
-
+// Runs slamctl with `args`; stdout and stderr captured.
 CommandRun Slamctl(std::vector<std::string> args, double timeout_s = 40) {
-  const std::string out_path =
-      ::testing::TempDir() + "slamctl_plot_out_" + std::to_string(getpid());
   args.insert(args.begin(), SLAMCTL_PATH);
-  const pid_t pid = Spawn(args, out_path);
-  CommandRun run;
-  int status = 0;
-  const auto deadline = std::chrono::steady_clock::now() +
-                        std::chrono::milliseconds(static_cast<int>(timeout_s * 1e3));
-  while (waitpid(pid, &status, WNOHANG) != pid) {
-    if (std::chrono::steady_clock::now() > deadline) {
-      kill(pid, SIGKILL);
-      waitpid(pid, &status, 0);
-      ADD_FAILURE() << "slamctl timed out";
-      return run;
-    }
-    usleep(5000);
-  }
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream in(out_path);
-  std::stringstream text;
-  text << in.rdbuf();
-  run.out = text.str();
-  std::remove(out_path.c_str());
-  return run;
+  return testing::RunCommand(args, testing::Streams::kStdoutAndStderr, timeout_s);
 }
 
 // What the test reads from a PNG: its size and how many pixels are strongly coloured (the
@@ -189,8 +126,7 @@ PngInfo ReadPng(const std::string& path) {
 }
 
 TEST(ServerPlotNetnsTest, PlotsTheLiveMapOfAReplay) {
-  ASSERT_TRUE(OnlyLoopback()) << "refusing to multicast outside a private network namespace; "
-                                 "run through scripts/netns-run (ctest -L netns)";
+  ASSERT_TRUE(testing::OnlyLoopback()) << testing::kNotInNetns;
   const std::string config = testing::WriteTempFile(
       "slamd_plot.textproto", "publish { status_rate_hz: 20 }\nlog_level: \"warn\"\n");
   const std::string intel = std::string(SLAMD_TEST_DATA) + "/../../scripts/data/intel.g2o";

@@ -9,20 +9,15 @@
 //     and the same result;
 //  3. two robots with inter-robot closures (--inter-robot): the joint optimum;
 //  4. a fresh slamd, `slamctl replay input_M3500_g2o.g2o --fast`: nothing lost or rejected.
-#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <lcm/lcm-cpp.hpp>
 #include <regex>
-#include <set>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -31,25 +26,15 @@
 #include "server/transport/typed_subscribe.h"
 #include "slamd/status_t.hpp"
 #include "tests/testing/datasets.h"
+#include "tests/testing/processes.h"
 
 namespace slamd::server {
 namespace {
 
+using testing::CommandRun;
+
 constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
 constexpr double kIntelOptimum = 45.0047;
-
-bool OnlyLoopback() {
-  std::ifstream in("/proc/self/net/dev");
-  std::set<std::string> names;
-  std::string line;
-  for (int i = 0; std::getline(in, line); ++i) {
-    const size_t colon = line.find(':');
-    if (i < 2 || colon == std::string::npos) continue;
-    const size_t start = line.find_first_not_of(' ');
-    names.insert(line.substr(start, colon - start));
-  }
-  return names == std::set<std::string>{"lo"};
-}
 
 struct Recorded {
   std::string channel;
@@ -97,22 +82,6 @@ class Observer {
   lcm::LogFile* log_ = nullptr;
 };
 
-pid_t Spawn(const std::vector<std::string>& args, const std::string& stdout_path) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    if (!stdout_path.empty()) {
-      const int fd = open(stdout_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      if (fd >= 0) dup2(fd, STDOUT_FILENO);
-    }
-    std::vector<char*> argv;
-    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    execv(argv[0], argv.data());
-    _exit(127);
-  }
-  return pid;
-}
-
 // A running slamd; stopped with SIGTERM (it must exit 0).
 class Slamd {
  public:
@@ -120,9 +89,8 @@ class Slamd {
     // A 2 MB socket receive buffer (LCM's recv_buf_size; the kernel's default ~210 kB holds only
     // ~160 datagrams, fewer than --fast's default window of 100 poses can put in flight when
     // slamd's intake thread is starved of CPU on a loaded machine). Same group and port as kUrl.
-    pid_ = Spawn(
-        {SLAMD_PATH, "--config", config, "--lcm-url", std::string(kUrl) + "&recv_buf_size=2097152"},
-        "");
+    pid_ = testing::Spawn({SLAMD_PATH, "--config", config, "--lcm-url",
+                           std::string(kUrl) + "&recv_buf_size=2097152"});
     const int before = observer->statuses;
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
     while (observer->statuses == before && std::chrono::steady_clock::now() < deadline) {
@@ -132,9 +100,7 @@ class Slamd {
   }
   ~Slamd() {
     kill(pid_, SIGTERM);
-    int status = 0;
-    waitpid(pid_, &status, 0);
-    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "slamd did not stop cleanly";
+    EXPECT_EQ(testing::WaitExit(pid_), 0) << "slamd did not stop cleanly";
   }
   bool listening = false;
 
@@ -142,38 +108,12 @@ class Slamd {
   pid_t pid_;
 };
 
-struct CommandRun {
-  int exit_code = -1;
-  std::string out;
-};
-
 // Runs slamctl with `args` while pumping the observer; stdout captured.
 CommandRun Slamctl(Observer* observer, std::vector<std::string> args, double timeout_s = 40) {
-  const std::string out_path = ::testing::TempDir() + "slamctl_out_" + std::to_string(getpid());
   args.insert(args.begin(), SLAMCTL_PATH);
-  const pid_t pid = Spawn(args, out_path);
-  CommandRun run;
-  int status = 0;
-  const auto deadline = std::chrono::steady_clock::now() +
-                        std::chrono::milliseconds(static_cast<int>(timeout_s * 1e3));
-  for (;;) {
-    observer->Pump(5);
-    const pid_t done = waitpid(pid, &status, WNOHANG);
-    if (done == pid) break;
-    if (std::chrono::steady_clock::now() > deadline) {
-      kill(pid, SIGKILL);
-      waitpid(pid, &status, 0);
-      ADD_FAILURE() << "slamctl timed out";
-      return run;
-    }
-  }
+  const CommandRun run = testing::RunCommand(args, testing::Streams::kStdout, timeout_s,
+                                             [observer] { observer->Pump(5); });
   for (int i = 0; i < 20; ++i) observer->Pump(1);  // what is still in flight
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream in(out_path);
-  std::stringstream text;
-  text << in.rdbuf();
-  run.out = text.str();
-  std::remove(out_path.c_str());
   return run;
 }
 
@@ -192,8 +132,7 @@ std::size_t DatasetMessageCount(const std::string& path) {
 }
 
 TEST(ServerReplayNetnsTest, DatasetLogAndFastReplays) {
-  ASSERT_TRUE(OnlyLoopback()) << "refusing to multicast outside a private network namespace; "
-                                 "run through scripts/netns-run (ctest -L netns)";
+  ASSERT_TRUE(testing::OnlyLoopback()) << testing::kNotInNetns;
   const std::string config = testing::WriteTempFile(
       "slamd_replay.textproto", "publish { status_rate_hz: 20 }\nlog_level: \"warn\"\n");
   const std::string intel = std::string(SLAMD_TEST_DATA) + "/../../scripts/data/intel.g2o";

@@ -4,13 +4,10 @@
 // pose and the reject_t, then sends SIGTERM: slamd must exit 0.
 #include <gtest/gtest.h>
 #include <signal.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cmath>
-#include <fstream>
-#include <set>
 #include <string>
 
 #include "server/ingest/conversion.h"
@@ -22,28 +19,19 @@
 #include "slamd/reject_t.hpp"
 #include "slamd/status_t.hpp"
 #include "tests/testing/datasets.h"
+#include "tests/testing/processes.h"
 
 namespace slamd::server {
 namespace {
 
+using testing::OnlyLoopback;
+using testing::Spawn;
+using testing::WaitExit;
+
 constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
 
-bool OnlyLoopback() {
-  std::ifstream in("/proc/self/net/dev");
-  std::set<std::string> names;
-  std::string line;
-  for (int i = 0; std::getline(in, line); ++i) {
-    const size_t colon = line.find(':');
-    if (i < 2 || colon == std::string::npos) continue;
-    const size_t start = line.find_first_not_of(' ');
-    names.insert(line.substr(start, colon - start));
-  }
-  return names == std::set<std::string>{"lo"};
-}
-
 TEST(ServerUdpmNetnsTest, StreamsEstimatesRejectsAndStopsOnSigterm) {
-  ASSERT_TRUE(OnlyLoopback()) << "refusing to multicast outside a private network namespace; "
-                                 "run through scripts/netns-run (ctest -L netns)";
+  ASSERT_TRUE(OnlyLoopback()) << testing::kNotInNetns;
   const std::string config = testing::WriteTempFile(
       "slamd_udpm_netns_test.textproto",
       "refine { enabled: false }\npublish { status_rate_hz: 10 }\nlog_level: \"warn\"\n");
@@ -61,13 +49,9 @@ TEST(ServerUdpmNetnsTest, StreamsEstimatesRejectsAndStopsOnSigterm) {
           [&](std::string_view, const slamd::reject_t& m) { rejects.push_back(m); }, nullptr)
           .value();
 
-  const pid_t pid = fork();
+  const pid_t pid =
+      Spawn({SLAMD_PATH, "--config", config, "--lcm-url", kUrl, "--channel-prefix", "UT_"});
   ASSERT_GE(pid, 0);
-  if (pid == 0) {
-    execl(SLAMD_PATH, SLAMD_PATH, "--config", config.c_str(), "--lcm-url", kUrl, "--channel-prefix",
-          "UT_", static_cast<char*>(nullptr));
-    _exit(127);
-  }
   // slamd subscribes before its threads start, so its first status_t means it is listening.
   bool listening = false;
   Subscription s3 =
@@ -103,10 +87,7 @@ TEST(ServerUdpmNetnsTest, StreamsEstimatesRejectsAndStopsOnSigterm) {
     ASSERT_TRUE(bus->HandleOnce(50).ok());
   }
   kill(pid, SIGTERM);
-  int status = 0;
-  ASSERT_EQ(waitpid(pid, &status, 0), pid);
-  ASSERT_TRUE(WIFEXITED(status));
-  EXPECT_EQ(WEXITSTATUS(status), 0);
+  EXPECT_EQ(WaitExit(pid), 0);
 
   ASSERT_FALSE(estimates.empty());
   const slamd::estimate_t& last = estimates.back();

@@ -1,39 +1,22 @@
 // Runs the slamctl binary: `slamctl bench` on a small dataset, and its argument errors.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <array>
-#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
 
+#include "tests/clients/slamctl/slamctl_runner.h"
 #include "tests/testing/datasets.h"
 
 namespace slamd::clients {
 namespace {
 
-struct CommandRun {
-  int exit_code;
-  std::string out;  // stdout and stderr
-};
-
-CommandRun Slamctl(const std::string& args) {
-  const std::string command = std::string(SLAMCTL_PATH) + " " + args + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  CommandRun run{-1, ""};
-  if (pipe == nullptr) return run;
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), pipe)) > 0) run.out.append(buf.data(), n);
-  const int status = pclose(pipe);
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return run;
-}
+using testing::RunSlamctl;
+using testing::SlamctlRun;
 
 TEST(BenchTest, JsonHasTheDocumentedFields) {
-  const CommandRun r = Slamctl("bench " + testing::TestDataPath("small_slam2d.g2o") + " --json");
+  const SlamctlRun r = RunSlamctl("bench " + testing::TestDataPath("small_slam2d.g2o") + " --json");
   ASSERT_EQ(r.exit_code, 0) << r.out;
   for (const char* field : {"\"dataset\"", "\"poses\"", "\"landmarks\"", "\"factors\"", "\"solver\": \"batch\"",
                             "\"iterations\"", "\"initial_chi2\"", "\"final_chi2\"", "\"total_s\"",
@@ -45,8 +28,9 @@ TEST(BenchTest, JsonHasTheDocumentedFields) {
 
 TEST(BenchTest, Isam2JsonHasStepPercentilesAndSettles) {
   const std::string csv = testing::WriteTempFile("steps.csv", "");
-  const CommandRun r = Slamctl("bench " + testing::TestDataPath("small_slam2d.g2o") +
-                               " --solver isam2 --json --compare-batch --settle 1 --step-times " + csv);
+  const SlamctlRun r =
+      RunSlamctl("bench " + testing::TestDataPath("small_slam2d.g2o") +
+                 " --solver isam2 --json --compare-batch --settle 1 --step-times " + csv);
   ASSERT_EQ(r.exit_code, 0) << r.out;
   for (const char* field : {"\"solver\": \"isam2\"", "\"step_ms\": {\"p50\"", "\"p90\"", "\"p99\"",
                             "\"max\"", "\"final_chi2\"", "\"chi2_before_settle\"", "\"batch_chi2\"",
@@ -60,16 +44,16 @@ TEST(BenchTest, Isam2JsonHasStepPercentilesAndSettles) {
   int lines = 0;
   for (std::string line; std::getline(in, line);) ++lines;
   EXPECT_GT(lines, 1);
-  const CommandRun bad = Slamctl("bench " + testing::TestDataPath("small_slam2d.g2o") +
-                                 " --solver isam2 --relinearize-skip 0");
+  const SlamctlRun bad = RunSlamctl("bench " + testing::TestDataPath("small_slam2d.g2o") +
+                                    " --solver isam2 --relinearize-skip 0");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.out.find("relinearization.skip"), std::string::npos) << bad.out;
 }
 
 TEST(BenchTest, Isam2MarginalsAreTimed) {
   for (const char* mode : {"latest", "all"}) {
-    const CommandRun r = Slamctl("bench " + testing::TestDataPath("small_slam2d.g2o") +
-                                 " --solver isam2 --json --marginals " + mode);
+    const SlamctlRun r = RunSlamctl("bench " + testing::TestDataPath("small_slam2d.g2o") +
+                                    " --solver isam2 --json --marginals " + mode);
     ASSERT_EQ(r.exit_code, 0) << r.out;
     EXPECT_NE(r.out.find(std::string("\"marginals\": \"") + mode + "\""), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("\"marginal_ms\": {\"p50\""), std::string::npos) << r.out;
@@ -79,33 +63,34 @@ TEST(BenchTest, Isam2MarginalsAreTimed) {
 
 TEST(BenchTest, HumanSummaryAndOutputFile) {
   const std::string out = testing::WriteTempFile("solved.g2o", "");
-  const CommandRun r = Slamctl("bench " + testing::TestDataPath("small_slam2d.g2o") + " -o " + out);
+  const SlamctlRun r =
+      RunSlamctl("bench " + testing::TestDataPath("small_slam2d.g2o") + " -o " + out);
   ASSERT_EQ(r.exit_code, 0) << r.out;
   EXPECT_NE(r.out.find("chi2"), std::string::npos);
-  const CommandRun again = Slamctl("bench " + out + " --json");
+  const SlamctlRun again = RunSlamctl("bench " + out + " --json");
   EXPECT_EQ(again.exit_code, 0) << again.out;
 }
 
 TEST(BenchTest, ArgumentErrorsExitTwoWithAMessage) {
-  CommandRun r = Slamctl("bench /no/such/file.g2o");
+  SlamctlRun r = RunSlamctl("bench /no/such/file.g2o");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.out.find("/no/such/file.g2o"), std::string::npos) << r.out;
-  r = Slamctl("bench " + testing::TestDataPath("small_slam2d.g2o") + " --solver magic");
+  r = RunSlamctl("bench " + testing::TestDataPath("small_slam2d.g2o") + " --solver magic");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.out.find("magic"), std::string::npos) << r.out;
-  r = Slamctl("bench " + testing::TestDataPath("small_slam2d.g2o") + " --max-iterations 0");
+  r = RunSlamctl("bench " + testing::TestDataPath("small_slam2d.g2o") + " --max-iterations 0");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.out.find("max_iterations"), std::string::npos) << r.out;
-  r = Slamctl("frobnicate");
+  r = RunSlamctl("frobnicate");
   EXPECT_EQ(r.exit_code, 2);
-  r = Slamctl("bench --help");
+  r = RunSlamctl("bench --help");
   EXPECT_EQ(r.exit_code, 0);
   EXPECT_NE(r.out.find("--init"), std::string::npos);
 }
 
 TEST(BenchTest, CorruptDatasetFailsWithFileAndLine) {
   const std::string bad = testing::WriteTempFile("bad.g2o", "VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 oops\n");
-  const CommandRun r = Slamctl("bench " + bad);
+  const SlamctlRun r = RunSlamctl("bench " + bad);
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.out.find(":2:"), std::string::npos) << r.out;
 }
@@ -121,19 +106,19 @@ double JsonNumber(const std::string& json, const std::string& key) {
 TEST(BenchTest, RobustKernelAndGroundTruthAte) {
   const std::string dir = (std::filesystem::temp_directory_path() /
                            ("slamctl_bench_robust_" + std::to_string(getpid()))).string();
-  CommandRun r = Slamctl("sim manhattan --seed 3 --steps 300 --outliers 0.3 -o " + dir);
+  SlamctlRun r = RunSlamctl("sim manhattan --seed 3 --steps 300 --outliers 0.3 -o " + dir);
   ASSERT_EQ(r.exit_code, 0) << r.out;
   const std::string world = dir + "/world.g2o", truth = " --ground-truth " + dir + "/world_groundtruth.g2o";
   double ate_none[2], ate_cauchy[2];
   const char* solvers[] = {"batch", "isam2"};
   for (int s = 0; s < 2; ++s) {
     const std::string base = "bench " + world + " --json --solver " + solvers[s] + truth;
-    r = Slamctl(base);
+    r = RunSlamctl(base);
     ASSERT_EQ(r.exit_code, 0) << r.out;
     ate_none[s] = JsonNumber(r.out, "ate_rmse");
     EXPECT_NE(r.out.find("\"robust\": \"none\""), std::string::npos) << r.out;
     const double loops = JsonNumber(r.out, "loop_closures");  // counted with or without a kernel
-    r = Slamctl(base + " --robust cauchy:3");
+    r = RunSlamctl(base + " --robust cauchy:3");
     ASSERT_EQ(r.exit_code, 0) << r.out;
     for (const char* field : {"\"robust\": \"cauchy:3\"", "\"loop_closures\"", "\"ate_rmse\"",
                               "\"ate_max\"", "\"ate_poses\": 300"}) {
@@ -146,17 +131,17 @@ TEST(BenchTest, RobustKernelAndGroundTruthAte) {
     EXPECT_GT(ate_cauchy[s], 0.0);
     EXPECT_GT(ate_none[s], 5.0 * ate_cauchy[s]) << solvers[s];
   }
-  r = Slamctl("bench " + world + " --robust dcs" + truth);  // human summary
+  r = RunSlamctl("bench " + world + " --robust dcs" + truth);  // human summary
   ASSERT_EQ(r.exit_code, 0) << r.out;
   EXPECT_NE(r.out.find("robust kernel dcs:9 on the "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("ATE vs "), std::string::npos) << r.out;
   for (const char* bad : {"--robust tukey", "--robust huber:-1", "--robust none:2", "--ground-truth /no/such/truth.g2o"}) {
-    r = Slamctl("bench " + world + " " + bad);
+    r = RunSlamctl("bench " + world + " " + bad);
     EXPECT_EQ(r.exit_code, 2) << bad << ": " << r.out;
   }
   // A ground truth sharing no pose with the dataset is an error of the run, not of the arguments.
   const std::string other = testing::WriteTempFile("other_truth.g2o", "VERTEX_SE2 5000 0 0 0\n");
-  r = Slamctl("bench " + world + " --ground-truth " + other);
+  r = RunSlamctl("bench " + world + " --ground-truth " + other);
   EXPECT_EQ(r.exit_code, 1) << r.out;
   EXPECT_NE(r.out.find("share no pose"), std::string::npos) << r.out;
   std::error_code ec;

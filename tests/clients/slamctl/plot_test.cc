@@ -2,36 +2,19 @@
 // to PNG, SVG and PDF, and its argument errors (exit 2 with a message).
 #include <cairo.h>
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
-#include <array>
-#include <cstdio>
 #include <fstream>
 #include <iterator>
 #include <string>
 
+#include "tests/clients/slamctl/slamctl_runner.h"
 #include "tests/testing/datasets.h"
 
 namespace slamd::clients {
 namespace {
 
-struct CommandRun {
-  int exit_code;
-  std::string out;  // stdout and stderr
-};
-
-CommandRun Slamctl(const std::string& args) {
-  const std::string command = std::string(SLAMCTL_PATH) + " " + args + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  CommandRun run{-1, ""};
-  if (pipe == nullptr) return run;
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), pipe)) > 0) run.out.append(buf.data(), n);
-  const int status = pclose(pipe);
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return run;
-}
+using testing::RunSlamctl;
+using testing::SlamctlRun;
 
 std::string ReadAll(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -67,8 +50,8 @@ std::string Write3dDataset() {
 
 TEST(PlotTest, PngOfSmallDatasetWithCovariances) {
   const std::string out = testing::WriteTempFile("small.png", "");
-  const CommandRun r = Slamctl("plot " + testing::TestDataPath("small_slam2d.g2o") +
-                               " --optimize --covariances --ellipse-every 1 -o " + out);
+  const SlamctlRun r = RunSlamctl("plot " + testing::TestDataPath("small_slam2d.g2o") +
+                                  " --optimize --covariances --ellipse-every 1 -o " + out);
   ASSERT_EQ(r.exit_code, 0) << r.out;
   EXPECT_NE(r.out.find("5 poses, 2 landmarks, 1 loop closures, 7 ellipses"), std::string::npos) << r.out;
   EXPECT_EQ(PngSize(out), std::make_pair(1200, 900));
@@ -76,7 +59,8 @@ TEST(PlotTest, PngOfSmallDatasetWithCovariances) {
 
 TEST(PlotTest, SvgOfRequestedSize) {
   const std::string out = testing::WriteTempFile("small.svg", "");
-  const CommandRun r = Slamctl("plot " + testing::TestDataPath("small_slam2d.g2o") + " --size 800x500 -o " + out);
+  const SlamctlRun r =
+      RunSlamctl("plot " + testing::TestDataPath("small_slam2d.g2o") + " --size 800x500 -o " + out);
   ASSERT_EQ(r.exit_code, 0) << r.out;
   const std::string svg = ReadAll(out);
   const std::size_t tag = svg.find("<svg");
@@ -89,14 +73,14 @@ TEST(PlotTest, SvgOfRequestedSize) {
 TEST(PlotTest, ThreeDimensionalAndTwoRobotsToPdf) {
   const std::string data3d = Write3dDataset();
   const std::string out = testing::WriteTempFile("two.pdf", "");
-  const CommandRun r = Slamctl("plot " + testing::TestDataPath("small_slam2d.g2o") + " " + data3d +
-                               " --optimize --covariances -o " + out);
+  const SlamctlRun r = RunSlamctl("plot " + testing::TestDataPath("small_slam2d.g2o") + " " +
+                                  data3d + " --optimize --covariances -o " + out);
   ASSERT_EQ(r.exit_code, 0) << r.out;
   EXPECT_NE(r.out.find("9 poses, 2 landmarks, 2 loop closures"), std::string::npos) << r.out;
   EXPECT_EQ(ReadAll(out).substr(0, 5), "%PDF-");
   // --format overrides the extension.
   const std::string forced = testing::WriteTempFile("forced.out", "");
-  const CommandRun f = Slamctl("plot " + data3d + " --format png -o " + forced);
+  const SlamctlRun f = RunSlamctl("plot " + data3d + " --format png -o " + forced);
   ASSERT_EQ(f.exit_code, 0) << f.out;
   EXPECT_EQ(PngSize(forced), std::make_pair(1200, 900));
 }
@@ -114,7 +98,7 @@ TEST(PlotTest, ArgumentErrorsExitTwoWithAMessage) {
                         Case{"plot " + data + " --format gif -o /tmp/slamd_plot_test.png", "gif"},
                         Case{"plot " + data + " -o /nonexistent-dir/x.png", "/nonexistent-dir does not exist"},
                         Case{"plot " + data, "--output"}}) {
-    const CommandRun r = Slamctl(c.args);
+    const SlamctlRun r = RunSlamctl(c.args);
     EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.out;
     EXPECT_NE(r.out.find(c.message), std::string::npos) << c.args << "\n" << r.out;
   }
@@ -122,7 +106,7 @@ TEST(PlotTest, ArgumentErrorsExitTwoWithAMessage) {
 
 TEST(PlotTest, UnreadableDatasetFails) {
   const std::string bad = testing::WriteTempFile("bad.g2o", "VERTEX_SE2 0 zero 0 0\n");
-  const CommandRun r = Slamctl("plot " + bad + " -o /tmp/slamd_plot_test_bad.png");
+  const SlamctlRun r = RunSlamctl("plot " + bad + " -o /tmp/slamd_plot_test_bad.png");
   EXPECT_EQ(r.exit_code, 1) << r.out;
   EXPECT_NE(r.out.find("bad.g2o"), std::string::npos) << r.out;
 }

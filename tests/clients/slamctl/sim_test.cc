@@ -1,41 +1,24 @@
 // Runs the slamctl binary: `slamctl sim` writes deterministic worlds, and its argument errors
 // exit 2 with a message naming the option.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <array>
 #include <atomic>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 
 #include "core/io/dataset.h"
+#include "tests/clients/slamctl/slamctl_runner.h"
 
 namespace slamd::clients {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct CommandRun {
-  int exit_code;
-  std::string out;  // stdout and stderr
-};
-
-CommandRun Slamctl(const std::string& args) {
-  const std::string command = std::string(SLAMCTL_PATH) + " " + args + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  CommandRun run{-1, ""};
-  if (pipe == nullptr) return run;
-  std::array<char, 4096> buf;
-  size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), pipe)) > 0) run.out.append(buf.data(), n);
-  const int status = pclose(pipe);
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return run;
-}
+using testing::RunSlamctl;
+using testing::SlamctlRun;
 
 // A path for a directory the command creates; removed at the end of the scope.
 class TempDir {
@@ -66,11 +49,11 @@ std::string ReadAll(const std::string& path) {
 TEST(SimTest, SameSeedSameFiles) {
   TempDir a, b, c;
   const std::string args = "sim landmarks --steps 120 --outliers 0.2 --loop-probability 0.8";
-  const CommandRun ra = Slamctl(args + " --seed 5 -o " + a.path());
+  const SlamctlRun ra = RunSlamctl(args + " --seed 5 -o " + a.path());
   ASSERT_EQ(ra.exit_code, 0) << ra.out;
   EXPECT_NE(ra.out.find("landmarks: 1 robot(s) x 120 poses"), std::string::npos) << ra.out;
-  ASSERT_EQ(Slamctl(args + " --seed 5 -o " + b.path()).exit_code, 0);
-  ASSERT_EQ(Slamctl(args + " --seed 6 -o " + c.path()).exit_code, 0);
+  ASSERT_EQ(RunSlamctl(args + " --seed 5 -o " + b.path()).exit_code, 0);
+  ASSERT_EQ(RunSlamctl(args + " --seed 6 -o " + c.path()).exit_code, 0);
   for (const char* f : {"world.g2o", "world.isam", "world_groundtruth.g2o",
                         "world_bearing_range.txt", "outliers.txt"}) {
     ASSERT_TRUE(fs::exists(a.File(f))) << f;
@@ -85,8 +68,8 @@ TEST(SimTest, SameSeedSameFiles) {
 TEST(SimTest, EveryWorldAndSeveralRobots) {
   for (const char* world : {"manhattan", "sphere", "helix"}) {
     TempDir dir;
-    const CommandRun r =
-        Slamctl(std::string("sim ") + world + " --steps 64 --robots 2 -o " + dir.path());
+    const SlamctlRun r =
+        RunSlamctl(std::string("sim ") + world + " --steps 64 --robots 2 -o " + dir.path());
     ASSERT_EQ(r.exit_code, 0) << r.out;
     for (const char* f : {"robot0.g2o", "robot1.g2o", "robot0_groundtruth.g2o",
                           "robot1_groundtruth.g2o", "inter_robot.txt", "outliers.txt"}) {
@@ -96,8 +79,8 @@ TEST(SimTest, EveryWorldAndSeveralRobots) {
   }
   // An existing directory is fine (files are overwritten).
   TempDir dir;
-  ASSERT_EQ(Slamctl("sim manhattan --steps 10 -o " + dir.path()).exit_code, 0);
-  EXPECT_EQ(Slamctl("sim manhattan --steps 10 -o " + dir.path()).exit_code, 0);
+  ASSERT_EQ(RunSlamctl("sim manhattan --steps 10 -o " + dir.path()).exit_code, 0);
+  EXPECT_EQ(RunSlamctl("sim manhattan --steps 10 -o " + dir.path()).exit_code, 0);
 }
 
 TEST(SimTest, BadArgumentsExit2NamingTheOption) {
@@ -119,7 +102,7 @@ TEST(SimTest, BadArgumentsExit2NamingTheOption) {
       {"sim landmarks --sigma-point inf", "--sigma-point"},
   };
   for (const auto& c : cases) {
-    const CommandRun r = Slamctl(c.args + " -o " + dir.path());
+    const SlamctlRun r = RunSlamctl(c.args + " -o " + dir.path());
     EXPECT_EQ(r.exit_code, 2) << c.args << ": " << r.out;
     EXPECT_NE(r.out.find(c.expected), std::string::npos) << c.args << ": " << r.out;
   }
@@ -127,14 +110,14 @@ TEST(SimTest, BadArgumentsExit2NamingTheOption) {
   // -o naming a file.
   const std::string file = ::testing::TempDir() + "slamd_simcli_file_" + std::to_string(getpid());
   std::ofstream(file) << "x";
-  const CommandRun r = Slamctl("sim manhattan -o " + file);
+  const SlamctlRun r = RunSlamctl("sim manhattan -o " + file);
   EXPECT_EQ(r.exit_code, 2) << r.out;
   EXPECT_NE(r.out.find("not a directory"), std::string::npos) << r.out;
   fs::remove(file);
 }
 
 TEST(SimTest, HelpExplainsEveryOption) {
-  const CommandRun r = Slamctl("sim --help");
+  const SlamctlRun r = RunSlamctl("sim --help");
   EXPECT_EQ(r.exit_code, 0) << r.out;
   for (const char* option : {"--seed",         "--steps",       "--robots",
                              "--sigma-xy",     "--sigma-theta", "--loop-probability",
