@@ -523,11 +523,22 @@ TEST(ServerCrashNetnsTest, TornJournalTailAfterKillDuringBurst) {
   client.Attach(&c);
   ASSERT_NO_FATAL_FAILURE(Start(config, client, &c));
   for (int k = 0; k < kBurst; ++k) ASSERT_NO_FATAL_FAILURE(client.Send(c, messages[k]));
-  std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  // Kill as soon as slamd has journaled something (a loaded machine may take a while to start).
+  const std::string journal_path = JournalPath(c.data_dir);
+  const auto has_message = [&] {
+    const core::Result<JournalContents> r = ReadJournal(journal_path);
+    if (!r.ok()) return false;
+    for (const auto& record : r.value().records) {
+      if (record.has_message()) return true;
+    }
+    return false;
+  };
+  for (int waited_ms = 0; waited_ms < 5000 && !has_message(); ++waited_ms) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
   ASSERT_NO_FATAL_FAILURE(Kill(&c, SIGKILL));
 
   // Cut the journal inside its last message record.
-  const std::string journal_path = JournalPath(c.data_dir);
   core::Result<JournalContents> before = ReadJournal(journal_path);
   ASSERT_TRUE(before.ok()) << before.status().ToString();
   const JournalContents& j = before.value();
