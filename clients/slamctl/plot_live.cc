@@ -208,8 +208,11 @@ core::Result<LiveScene> BuildLiveScene(const std::vector<slamd::map_t>& pages,
     first = false;
   }
 
-  // 2. One PlotRobot per robot.
-  for (const auto& [name, robot] : robots) {
+  // 2. One PlotRobot per robot. (No structured binding: the lambda below captures the name,
+  // which clang 14 does not allow for a binding.)
+  for (const auto& named : robots) {
+    const std::string& name = named.first;
+    const auto& robot = named.second;
     const bool is3d = robot.dimension == slamd::map_t::DIMENSION_3D;
     core::Result<std::vector<Entry>> poses = SortedEntries(robot, true, name);
     if (!poses.ok()) return poses.status();

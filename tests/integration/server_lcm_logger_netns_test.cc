@@ -38,9 +38,23 @@ TEST(ServerLcmLoggerTest, LoggerRecordsTheSessionAndEveryEventDecodes) {
   const std::string log = std::filesystem::temp_directory_path() /
                           ("slamd_lcm_logger_" + std::to_string(getpid()) + ".lcmlog");
   std::filesystem::remove(log);
-  const pid_t slamd = Spawn({SLAMD_PATH, "--lcm-url", kUrl, "--log-level", "warn"});
   const pid_t logger = Spawn({"lcm-logger", "--quiet", std::string("--lcm-url=") + kUrl, log});
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const pid_t slamd = Spawn({SLAMD_PATH, "--lcm-url", kUrl, "--log-level", "warn"});
+  // Both up before the robot talks: the logger has created its file and slamd's first
+  // status_t has gone out (on a loaded machine either can take a while).
+  {
+    lcm::LCM lcm(kUrl);
+    bool status = false;
+    lcm.subscribeFunction(
+        "SLAMD_STATUS",
+        +[](const lcm::ReceiveBuffer*, const std::string&, bool* seen) { *seen = true; },
+        &status);
+    for (int waited_ms = 0; waited_ms < 10000 && !(status && std::filesystem::exists(log));
+         waited_ms += 50) {
+      lcm.handleTimeout(50);
+    }
+    ASSERT_TRUE(status && std::filesystem::exists(log)) << "slamd or lcm-logger did not start";
+  }
   const pid_t robot = Spawn({SLAMD_EXAMPLE_PUBLISHER_PATH, kUrl});
   ASSERT_EQ(WaitExit(robot), 0);
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // a status_t or two

@@ -373,7 +373,6 @@ TEST_P(MalformedTest, NamesFileAndLine) {
   EXPECT_THAT(d.status().message(), HasSubstr(c.phrase));
 }
 
-constexpr char kOk2d[] = "VERTEX_SE2 0 0 0 0\n";
 INSTANTIATE_TEST_SUITE_P(
     Errors, MalformedTest,
     ::testing::Values(
