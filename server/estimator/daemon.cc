@@ -464,7 +464,10 @@ void Daemon::PublishEstimates(const EstimateSnapshot& snap) {
     out.num_covariance = static_cast<std::int32_t>(out.covariance.size());
     out.measurement_utime = r.measurement_utime;
     out.latency_us = r.received_us > 0 ? now_steady - r.received_us : 0;
-    if (r.received_us > 0) {
+    // Ingest-to-publish latency counts the first publish after new data only: a re-publish
+    // after a refinement moved the pose would count the idle time since the last message.
+    if (r.received_us > 0 && r.received_us != latency_recorded_us_[r.id]) {
+      latency_recorded_us_[r.id] = r.received_us;
       Record(&publish_us_, &publish_us_next_, static_cast<double>(out.latency_us));
     }
     const core::Status s = server::Publish(*bus_, channels_.Estimate(), out);

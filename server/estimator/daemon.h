@@ -137,6 +137,7 @@ class Daemon {
   std::vector<double> update_us_;  // recent update latencies (ring of 1024) for status_t
   size_t update_us_next_ = 0;
   std::vector<double> publish_us_;  // recent ingest-to-publish latencies (ring of 1024)
+  std::array<std::int64_t, 256> latency_recorded_us_{};  // per robot id: receipt time recorded
   size_t publish_us_next_ = 0;
   std::int64_t last_map_us_ = 0, last_map_sequence_ = -1;
   std::int64_t last_input_us_ = 0;       // steady clock
