@@ -100,6 +100,17 @@ Verdict CheckFinite(std::string_view field, std::span<const double> values) {
   return {};
 }
 
+Verdict CheckMagnitude(std::string_view field, std::span<const double> values, double max_abs) {
+  for (size_t i = 0; i < values.size(); ++i) {
+    if (std::abs(values[i]) > max_abs) {
+      return Reject(RejectReason::kBadMeasurement,
+                    std::string(field) + "[" + std::to_string(i) + "]",
+                    Num(values[i]) + " is beyond " + Num(max_abs) + " (Limits::max_abs_value)");
+    }
+  }
+  return {};
+}
+
 Verdict CheckUnitQuaternion(std::string_view field, double w, double x, double y, double z,
                             double tolerance) {
   const double norm = std::sqrt(w * w + x * x + y * y + z * z);

@@ -46,6 +46,8 @@ Verdict CheckCount(std::string_view count_field, std::int32_t count, size_t actu
 
 // Every element finite; names the first that is not ("odometry_t.values[2]: not finite (nan)").
 Verdict CheckFinite(std::string_view field, std::span<const double> values);
+// Every |element| <= max_abs (kBadMeasurement naming the first that is not).
+Verdict CheckMagnitude(std::string_view field, std::span<const double> values, double max_abs);
 
 // | |(w, x, y, z)| - 1 | <= tolerance. `field` names the four entries.
 Verdict CheckUnitQuaternion(std::string_view field, double w, double x, double y, double z,

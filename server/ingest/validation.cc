@@ -17,6 +17,7 @@ using internal::CheckCount;
 using internal::CheckCovariance;
 using internal::CheckFinite;
 using internal::CheckIndex;
+using internal::CheckMagnitude;
 using internal::CheckName;
 using internal::CheckRobustKernel;
 using internal::CheckUnitQuaternion;
@@ -61,6 +62,7 @@ Verdict CheckMeasurement(const Msg& msg, const MeasurementFields& f, const Layou
                                       layout.cov_dim * layout.cov_dim, layout.what));
   SLAMD_RETURN_IF_REJECTED(CheckFinite(f.values, msg.values));
   SLAMD_RETURN_IF_REJECTED(CheckFinite(f.covariance, msg.covariance));
+  SLAMD_RETURN_IF_REJECTED(CheckMagnitude(f.values, msg.values, limits.max_abs_value));
   SLAMD_RETURN_IF_REJECTED(extra());
   if (layout.has_quaternion) {
     const auto& v = msg.values;
@@ -139,6 +141,9 @@ core::Status Limits::Validate() const {
   }
   if (!(symmetry_tolerance >= 0.0 && symmetry_tolerance <= 1e-3)) {
     return violates("symmetry_tolerance", std::to_string(symmetry_tolerance), "in [0, 1e-3]");
+  }
+  if (!(max_abs_value > 0.0)) {
+    return violates("max_abs_value", std::to_string(max_abs_value), "> 0");
   }
   return core::Status::Ok();
 }

@@ -54,6 +54,9 @@ struct Limits {
   double quaternion_norm_tolerance = 1e-4;
   // Accepted max|C - Cᵀ| / max|C| for covariances; in [0, 1e-3].
   double symmetry_tolerance = 1e-6;
+  // Largest accepted |value| of a measurement (metres, radians): beyond it a value is not a
+  // physical measurement but garbage that would wreck the solver's conditioning; > 0.
+  double max_abs_value = 1e7;
 
   core::Status Validate() const;
 };

@@ -108,6 +108,9 @@ std::vector<Case> OdometryCases() {
           "InfCovariance", g3, [](M& m) { m.covariance[7] = kInf; }, R::kNotFinite,
           "odometry_t.covariance[7]"),
       Make<M>(
+          "HugeTranslation", g2, [](M& m) { m.values[0] = -2e7; }, R::kBadMeasurement,
+          "odometry_t.values[0]: -2e+07 is beyond 1e+07"),
+      Make<M>(
           "SelfLoop", g2, [](M& m) { m.to_index = m.from_index; }, R::kSelfLoop,
           "odometry_t.to_index"),
       Make<M>(
@@ -168,6 +171,9 @@ std::vector<Case> LandmarkCases() {
       Make<M>(
           "NegativeRange", br, [](M& m) { m.values[1] = -1.0; }, R::kBadMeasurement,
           "landmark_observation_t.values[1]: range -1 m is negative"),
+      Make<M>(
+          "AbsurdRange", br, [](M& m) { m.values[1] = 8.03e283; }, R::kBadMeasurement,
+          "landmark_observation_t.values[1]: 8.03e+283 is beyond 1e+07"),
       Make<M>("CovarianceAsymmetric", p3, Asymmetric<M>, R::kCovarianceNotSymmetric,
               "landmark_observation_t.covariance"),
       Make<M>("CovarianceIndefinite", br, Indefinite<M>, R::kCovarianceNotPositiveDefinite,
