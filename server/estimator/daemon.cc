@@ -137,9 +137,11 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
   std::unique_ptr<Daemon> daemon(new Daemon(params, bus, std::move(estimator), std::move(journal)));
   if (!pending.empty()) {
     // Accepted and journaled before the restart but never processed: first, as one update.
+    // Their senders never heard back: their rejections go out now.
     daemon->processed_sequence_ = pending.back().journal_sequence;
-    daemon->estimator_->Process(pending);
+    const ProcessResult r = daemon->estimator_->Process(pending);
     daemon->JournalUpdate(pending);
+    for (const Rejection& rej : r.rejections) daemon->PublishRejection(rej);
   } else if (daemon->journal_) {
     daemon->processed_sequence_ = daemon->journal_->last_sequence();
   }

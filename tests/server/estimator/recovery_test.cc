@@ -161,6 +161,47 @@ TEST(RecoveryTest, RestartReproducesTheStateExactly) {
   EXPECT_GE(duplicates, 1);
 }
 
+// Messages journaled but never processed (a crash between intake and the update) are processed
+// when slamd starts again, and their rejections are published then.
+TEST(RecoveryTest, AcceptedButUnprocessedMessagesAreProcessedAtStart) {
+  TempDir dir;
+  fs::create_directories(dir.str());
+  {
+    auto journal = Journal::Open(dir.str(), {.sync_policy = SyncPolicy::kNever}, 0).value();
+    const auto append = [&](const char* channel, const auto& msg) {
+      std::vector<std::uint8_t> bytes(static_cast<size_t>(msg.getEncodedSize()));
+      msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+      ASSERT_TRUE(journal->AppendMessage(channel, msg.getTypeName(), bytes, 0).ok());
+    };
+    slamd::prior_t prior;
+    ToLcm(PriorMeasurement{1, "r", 0, PriorKind::kPose2, core::Pose2(), Noise(3, 0.01)}, &prior);
+    append("SLAMD_PRIOR", prior);
+    slamd::odometry_t odo;
+    ToLcm(OdometryMeasurement{2, "r", 0, 1, core::Pose2(1, 0, 0), Noise(3, 0.1)}, &odo);
+    append("SLAMD_ODOMETRY", odo);
+    append("SLAMD_ODOMETRY", odo);  // a duplicate: rejected when processed
+  }
+  InProcessBus bus;
+  std::vector<slamd::reject_t> rejects;
+  Subscription sub =
+      Subscribe<slamd::reject_t>(
+          bus, "SLAMD_REJECT",
+          [&](std::string_view, const slamd::reject_t& m) { rejects.push_back(m); }, nullptr)
+          .value();
+  auto d = Daemon::Create(Params(dir.str()), &bus).value();
+  ASSERT_TRUE(bus.HandleOnce(0).ok());
+  EXPECT_EQ(d->snapshot()->num_variables, 2);
+  ASSERT_EQ(rejects.size(), 1u);
+  EXPECT_EQ(rejects[0].reason, slamd::reject_t::REASON_DUPLICATE);
+  d->Stop();
+  // The start journaled their update: a second restart replays it, nothing is pending.
+  core::Result<RecoveryResult> again = Recover(dir.str(), {}, {}, false);
+  ASSERT_TRUE(again.ok());
+  EXPECT_TRUE(again.value().pending.empty());
+  EXPECT_EQ(again.value().replayed_updates, 1);
+  EXPECT_EQ(again.value().estimator->snapshot()->num_variables, 2);
+}
+
 // A crash mid-write leaves a torn record: recovery keeps every whole record before it, cuts
 // the rest, and the daemon appends after the cut.
 TEST(RecoveryTest, TornTailIsTruncatedAndEverythingBeforeItRecovered) {
