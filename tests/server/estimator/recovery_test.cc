@@ -115,6 +115,14 @@ void Stream(Bus& bus, Daemon& d, int from, int to, std::mt19937& rng) {
   }
 }
 
+// A data directory holding the journal of `poses` poses streamed through a daemon.
+void RecordSession(const TempDir& dir, int poses, unsigned seed) {
+  InProcessBus bus;
+  std::mt19937 rng(seed);
+  auto d = Daemon::Create(Params(dir.str()), &bus).value();
+  Stream(bus, *d, 0, poses, rng);
+}
+
 core::Values Estimate(const Daemon& d) {
   return d.estimator_for_tests().solver().CalculateEstimate();
 }
@@ -206,12 +214,7 @@ TEST(RecoveryTest, AcceptedButUnprocessedMessagesAreProcessedAtStart) {
 // the rest, and the daemon appends after the cut.
 TEST(RecoveryTest, TornTailIsTruncatedAndEverythingBeforeItRecovered) {
   TempDir dir;
-  InProcessBus bus;
-  std::mt19937 rng(5);
-  {
-    auto d = Daemon::Create(Params(dir.str()), &bus).value();
-    Stream(bus, *d, 0, 40, rng);
-  }
+  RecordSession(dir, 40, 5);
   const std::string path = JournalPath(dir.str());
   const auto size = static_cast<std::int64_t>(fs::file_size(path));
   std::mt19937 cut_rng(11);
@@ -240,12 +243,8 @@ TEST(RecoveryTest, TornTailIsTruncatedAndEverythingBeforeItRecovered) {
 // the damaged record and starts.
 TEST(RecoveryTest, CorruptionInTheMiddleStopsUnlessSalvaged) {
   TempDir dir;
+  RecordSession(dir, 40, 7);
   InProcessBus bus;
-  std::mt19937 rng(7);
-  {
-    auto d = Daemon::Create(Params(dir.str()), &bus).value();
-    Stream(bus, *d, 0, 40, rng);
-  }
   // Damage an update-boundary record in the middle (a lost boundary loses no message: its
   // messages join the next update).
   const std::string path = JournalPath(dir.str());
