@@ -3,8 +3,8 @@
 // With --live, the running slamd's map instead: query_t -> map_t pages -> PlotScene (plot_live.h).
 #include <algorithm>
 #include <cstdio>
-#include <functional>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -16,6 +16,9 @@
 #include "clients/slamctl/plot_scene.h"
 #include "core/batch/batch_solver.h"
 #include "core/io/dataset.h"
+#include "server/estimator/estimator_state.h"
+#include "server/journal/snapshot_file.h"
+#include "server/snapshot/state_codec.h"
 
 namespace slamd::clients {
 namespace {
@@ -33,6 +36,7 @@ struct PlotOptions {
   std::string isam_noise = "sqrt-information";
   std::string title;
   core::BatchParams batch;
+  std::string snapshot;     // --snapshot: a slamd snapshot file instead of datasets
   bool live = false;        // --live: the running server's map instead of datasets
   double timeout_s = 10.0;  // --live: longest wait for the whole answer [s]
   ConnectionOptions connection;
@@ -55,14 +59,53 @@ struct Loaded {
   int ellipse_every = 1;  // the pose subsampling used
 };
 
-Loaded LoadRobot(const PlotOptions& opt, const std::string& path) {
+core::Dataset ReadRobot(const PlotOptions& opt, const std::string& path) {
   core::ReadOptions read;
   read.isam_noise = opt.isam_noise == "covariance" ? core::ReadOptions::IsamNoise::kCovariance
                                                    : core::ReadOptions::IsamNoise::kSqrtInformation;
   core::Result<core::Dataset> loaded = core::ReadDataset(path, read);
   if (!loaded.ok()) Fail(kExitFailure, loaded.status().ToString());
-  const core::Dataset& data = *loaded;
-  const std::string name = std::filesystem::path(path).filename().string();
+  return std::move(loaded).value();
+}
+
+// A slamd snapshot file (DATA_DIR/snapshot-*.snp) as one dataset per robot: its poses and
+// landmarks at the snapshot's linearisation point and the factors among them (inter-robot
+// loop closures are left out: each robot is drawn from its own graph).
+std::vector<std::pair<std::string, core::Dataset>> SnapshotRobots(const std::string& path) {
+  core::Result<std::string> bytes = server::ReadSnapshotFile(path);
+  if (!bytes.ok()) Fail(kExitFailure, bytes.status().ToString());
+  server::JournalPosition position;
+  core::Result<server::EstimatorState> state = server::DecodeState(*bytes, &position);
+  if (!state.ok()) Fail(kExitFailure, path + ": " + state.status().ToString());
+  std::vector<std::pair<std::string, core::Dataset>> robots;
+  for (const server::EstimatorState::Robot& r : state->robots) {
+    core::Dataset d;
+    d.path = path;
+    const core::Values& theta = state->linearization_point;
+    for (core::Key k : theta.keys()) {
+      if (core::KeyRobot(k) != r.id) continue;
+      (core::KeySymbol(k) == 'x' ? d.poses : d.landmarks).push_back(k);
+    }
+    if (d.poses.empty()) continue;
+    std::sort(d.poses.begin(), d.poses.end());
+    std::sort(d.landmarks.begin(), d.landmarks.end());
+    for (const std::vector<core::Key>* keys : {&d.poses, &d.landmarks}) {
+      for (core::Key k : *keys) (void)d.initial.Insert(k, theta.Get(k));
+    }
+    d.is_3d = std::holds_alternative<core::Pose3>(theta.Get(d.poses.front()));
+    for (const core::FactorPtr& f : state->factors) {
+      const bool own = std::all_of(f->keys().begin(), f->keys().end(),
+                                   [&](core::Key k) { return core::KeyRobot(k) == r.id; });
+      if (own) d.graph.Add(f);
+    }
+    robots.emplace_back(r.name, std::move(d));
+  }
+  if (robots.empty()) Fail(kExitFailure, path + ": the snapshot holds no robot with poses");
+  return robots;
+}
+
+Loaded LoadRobot(const PlotOptions& opt, const std::string& name, const core::Dataset& data) {
+  const std::string& path = data.path;
   Loaded out;
 
   // The gauge as in `slamctl bench`: a tight prior on the first pose where it is.
@@ -76,28 +119,33 @@ Loaded LoadRobot(const PlotOptions& opt, const std::string& path) {
     return graph;
   };
   if (opt.optimize) {
-    const core::BatchResult result = core::Optimize(anchored(data.initial), data.initial, opt.batch);
-    if (!result.status.ok()) Fail(kExitFailure, path + ": optimisation failed: " + result.status.ToString());
+    const core::BatchResult result =
+        core::Optimize(anchored(data.initial), data.initial, opt.batch);
+    if (!result.status.ok())
+      Fail(kExitFailure, path + ": optimisation failed: " + result.status.ToString());
     values = result.values;
     std::fprintf(stderr, "slamctl plot: %s: %s\n", name.c_str(), result.summary.Brief().c_str());
   }
 
   plot::SceneOptions scene_options{.sigma = opt.sigma};
-  scene_options.ellipse_every = opt.ellipse_every > 0
-                                    ? opt.ellipse_every
-                                    : std::max<int>(1, static_cast<int>((data.poses.size() + 49) / 50));
+  scene_options.ellipse_every =
+      opt.ellipse_every > 0 ? opt.ellipse_every
+                            : std::max<int>(1, static_cast<int>((data.poses.size() + 49) / 50));
   std::unique_ptr<plot::MarginalTable> marginals;
   if (opt.covariances) {
     // Only the keys that get an ellipse, in the tangent at the plotted values.
     std::vector<core::Key> keys;
-    for (std::size_t i = 0; i < data.poses.size(); i += scene_options.ellipse_every) keys.push_back(data.poses[i]);
+    for (std::size_t i = 0; i < data.poses.size(); i += scene_options.ellipse_every)
+      keys.push_back(data.poses[i]);
     if (!data.poses.empty() && keys.back() != data.poses.back()) keys.push_back(data.poses.back());
     keys.insert(keys.end(), data.landmarks.begin(), data.landmarks.end());
-    core::Result<plot::MarginalTable> table = plot::ComputeMarginals(anchored(values), values, keys);
+    core::Result<plot::MarginalTable> table =
+        plot::ComputeMarginals(anchored(values), values, keys);
     if (!table.ok()) Fail(kExitFailure, path + ": marginals failed: " + table.status().ToString());
     marginals = std::make_unique<plot::MarginalTable>(std::move(table).value());
   }
-  core::Result<plot::PlotRobot> robot = plot::BuildRobot(name, data, values, scene_options, marginals.get());
+  core::Result<plot::PlotRobot> robot =
+      plot::BuildRobot(name, data, values, scene_options, marginals.get());
   if (!robot.ok()) Fail(kExitFailure, path + ": " + robot.status().ToString());
   out.robot = std::move(robot).value();
   out.ellipse_every = scene_options.ellipse_every;
@@ -107,7 +155,11 @@ Loaded LoadRobot(const PlotOptions& opt, const std::string& path) {
 // 2 -> "2nd", 11 -> "11th", 23 -> "23rd".
 std::string Ordinal(int n) {
   const int tens = n % 100, ones = n % 10;
-  const char* suffix = (tens >= 11 && tens <= 13) ? "th" : ones == 1 ? "st" : ones == 2 ? "nd" : ones == 3 ? "rd" : "th";
+  const char* suffix = (tens >= 11 && tens <= 13) ? "th"
+                       : ones == 1                ? "st"
+                       : ones == 2                ? "nd"
+                       : ones == 3                ? "rd"
+                                                  : "th";
   return std::to_string(n) + suffix;
 }
 
@@ -172,7 +224,12 @@ void RunPlot(const PlotOptions& opt) {
   if (opt.live && !opt.datasets.empty()) {
     Fail(kExitUsage, "--live plots the running server's map: give no dataset files with it");
   }
-  if (!opt.live && opt.datasets.empty()) Fail(kExitUsage, "give dataset files to plot, or --live");
+  if (!opt.snapshot.empty() && (opt.live || !opt.datasets.empty())) {
+    Fail(kExitUsage, "--snapshot plots a snapshot file: give no dataset files or --live with it");
+  }
+  if (!opt.live && opt.datasets.empty() && opt.snapshot.empty()) {
+    Fail(kExitUsage, "give dataset files to plot, --snapshot FILE, or --live");
+  }
   plot::RenderOptions render;
   if (!ParseSize(opt.size, &render.width, &render.height)) {
     Fail(kExitUsage, "--size '" + opt.size + "': expected WIDTHxHEIGHT, e.g. 1200x900");
@@ -196,15 +253,22 @@ void RunPlot(const PlotOptions& opt) {
   plot::PlotScene scene;
   scene.sigma = opt.sigma;
   std::vector<int> every;  // per robot
+  std::vector<std::pair<std::string, core::Dataset>> robots;
+  if (!opt.snapshot.empty()) robots = SnapshotRobots(opt.snapshot);
   for (const std::string& path : opt.datasets) {
-    Loaded loaded = LoadRobot(opt, path);
+    robots.emplace_back(std::filesystem::path(path).filename().string(), ReadRobot(opt, path));
+  }
+  for (const auto& [name, data] : robots) {
+    Loaded loaded = LoadRobot(opt, name, data);
     scene.robots.push_back(std::move(loaded.robot));
     every.push_back(loaded.ellipse_every);
   }
   scene.title = opt.title.empty() ? Title(scene) : opt.title;
   char sigma[32];
   std::snprintf(sigma, sizeof sigma, "%g", opt.sigma);
-  scene.subtitle = opt.optimize ? "optimised (batch, first pose anchored)" : "initial guess from the file";
+  scene.subtitle = opt.optimize            ? "optimised (batch, first pose anchored)"
+                   : !opt.snapshot.empty() ? "the snapshot's linearisation point"
+                                           : "initial guess from the file";
   if (opt.covariances) {
     scene.subtitle += std::string("; ") + sigma + "\xcf\x83 ellipses of the x-y marginals";
     if (std::adjacent_find(every.begin(), every.end(), std::not_equal_to<>()) != every.end()) {
@@ -216,8 +280,8 @@ void RunPlot(const PlotOptions& opt) {
   const core::Status written = plot::RenderScene(scene, opt.output, render);
   if (!written.ok()) Fail(kExitFailure, written.ToString());
   std::printf("wrote %s (%dx%d): %zu poses, %zu landmarks, %zu loop closures, %zu ellipses\n",
-              opt.output.c_str(), render.width, render.height, scene.NumPoses(), scene.NumLandmarks(),
-              scene.NumLoopClosures(), scene.NumEllipses());
+              opt.output.c_str(), render.width, render.height, scene.NumPoses(),
+              scene.NumLandmarks(), scene.NumLoopClosures(), scene.NumEllipses());
 }
 
 }  // namespace
@@ -225,22 +289,26 @@ void RunPlot(const PlotOptions& opt) {
 void RegisterPlot(CLI::App& app) {
   auto opt = std::make_shared<PlotOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "plot", "Draw datasets, or with --live the running slamd's map, top-down (trajectories, "
-              "landmarks, loop closures, covariance ellipses) to a PNG, SVG or PDF file");
+      "plot",
+      "Draw datasets, or with --live the running slamd's map, top-down (trajectories, "
+      "landmarks, loop closures, covariance ellipses) to a PNG, SVG or PDF file");
   cmd->add_option("datasets", opt->datasets,
                   "Dataset files (g2o 2D/3D, TORO .graph, iSAM .txt); several = several robots")
       ->check(CLI::ExistingFile);
-  cmd->add_option("-o,--output", opt->output, "Picture to write: *.png, *.svg or *.pdf")->required();
+  cmd->add_option("-o,--output", opt->output, "Picture to write: *.png, *.svg or *.pdf")
+      ->required();
   cmd->add_option("--format", opt->format, "png, svg or pdf (default: from the output's extension)")
       ->check(CLI::IsMember({"png", "svg", "pdf"}));
   cmd->add_option("--size", opt->size, "WIDTHxHEIGHT in pixels (PNG) or points (SVG, PDF)")
       ->capture_default_str();
-  cmd->add_flag("--optimize", opt->optimize,
-                "Optimise each dataset first (batch Levenberg-Marquardt from the file's initial guess, "
-                "first pose anchored)");
-  cmd->add_flag("--covariances", opt->covariances,
-                "Draw covariance ellipses of the x-y marginals at the plotted values (with the first pose "
-                "anchored; after --optimize they are the optimum's)");
+  cmd->add_flag(
+      "--optimize", opt->optimize,
+      "Optimise each dataset first (batch Levenberg-Marquardt from the file's initial guess, "
+      "first pose anchored)");
+  cmd->add_flag(
+      "--covariances", opt->covariances,
+      "Draw covariance ellipses of the x-y marginals at the plotted values (with the first pose "
+      "anchored; after --optimize they are the optimum's)");
   cmd->add_option("--ellipse-every", opt->ellipse_every,
                   "--covariances: an ellipse for every K-th pose (0: about 50 per robot)")
       ->check(CLI::NonNegativeNumber)
@@ -260,6 +328,10 @@ void RegisterPlot(CLI::App& app) {
   CLI::Option* max_iterations =
       cmd->add_option("--max-iterations", opt->batch.max_iterations, "--optimize: iteration limit")
           ->capture_default_str();
+  cmd->add_option("--snapshot", opt->snapshot,
+                  "Plot a slamd snapshot file (DATA_DIR/snapshot-*.snp) instead of datasets: one "
+                  "robot per robot in it, at the snapshot's linearisation point")
+      ->check(CLI::ExistingFile);
   CLI::Option* live = cmd->add_flag(
       "--live", opt->live,
       "Plot the running slamd's map instead of datasets: every robot's poses and "

@@ -3,10 +3,15 @@
 #include <cairo.h>
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
 
+#include "server/estimator/estimator.h"
+#include "server/estimator/estimator_state.h"
+#include "server/journal/snapshot_file.h"
+#include "server/snapshot/state_codec.h"
 #include "tests/clients/slamctl/slamctl_runner.h"
 #include "tests/testing/datasets.h"
 
@@ -53,7 +58,8 @@ TEST(PlotTest, PngOfSmallDatasetWithCovariances) {
   const SlamctlRun r = RunSlamctl("plot " + testing::TestDataPath("small_slam2d.g2o") +
                                   " --optimize --covariances --ellipse-every 1 -o " + out);
   ASSERT_EQ(r.exit_code, 0) << r.out;
-  EXPECT_NE(r.out.find("5 poses, 2 landmarks, 1 loop closures, 7 ellipses"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("5 poses, 2 landmarks, 1 loop closures, 7 ellipses"), std::string::npos)
+      << r.out;
   EXPECT_EQ(PngSize(out), std::make_pair(1200, 900));
 }
 
@@ -90,18 +96,54 @@ TEST(PlotTest, ArgumentErrorsExitTwoWithAMessage) {
   struct Case {
     std::string args, message;
   };
-  for (const Case& c : {Case{"plot " + data + " -o /tmp/slamd_plot_test.jpg", "*.png"},
-                        Case{"plot /nonexistent/file.g2o -o /tmp/slamd_plot_test.png", "/nonexistent/file.g2o"},
-                        Case{"plot " + data + " --bogus -o /tmp/slamd_plot_test.png", "--bogus"},
-                        Case{"plot " + data + " --size 12x -o /tmp/slamd_plot_test.png", "WIDTHxHEIGHT"},
-                        Case{"plot " + data + " --size 10x10 -o /tmp/slamd_plot_test.png", "out of range"},
-                        Case{"plot " + data + " --format gif -o /tmp/slamd_plot_test.png", "gif"},
-                        Case{"plot " + data + " -o /nonexistent-dir/x.png", "/nonexistent-dir does not exist"},
-                        Case{"plot " + data, "--output"}}) {
+  for (const Case& c :
+       {Case{"plot " + data + " -o /tmp/slamd_plot_test.jpg", "*.png"},
+        Case{"plot /nonexistent/file.g2o -o /tmp/slamd_plot_test.png", "/nonexistent/file.g2o"},
+        Case{"plot " + data + " --bogus -o /tmp/slamd_plot_test.png", "--bogus"},
+        Case{"plot " + data + " --size 12x -o /tmp/slamd_plot_test.png", "WIDTHxHEIGHT"},
+        Case{"plot " + data + " --size 10x10 -o /tmp/slamd_plot_test.png", "out of range"},
+        Case{"plot " + data + " --format gif -o /tmp/slamd_plot_test.png", "gif"},
+        Case{"plot " + data + " -o /nonexistent-dir/x.png", "/nonexistent-dir does not exist"},
+        Case{"plot " + data, "--output"}}) {
     const SlamctlRun r = RunSlamctl(c.args);
     EXPECT_EQ(r.exit_code, 2) << c.args << "\n" << r.out;
     EXPECT_NE(r.out.find(c.message), std::string::npos) << c.args << "\n" << r.out;
   }
+}
+
+// A slamd snapshot (written as the daemon writes one) plots one robot per robot in it.
+TEST(PlotTest, SnapshotFilePlotsEveryRobot) {
+  auto estimator = server::Estimator::Create({}, {}).value();
+  std::vector<server::Inbound> msgs;
+  for (const char* robot : {"a", "b"}) {
+    const core::NoiseModel noise = core::NoiseModel::Isotropic(3, 0.1).value();
+    msgs.push_back({server::PriorMeasurement{1, robot, 0, server::PriorKind::kPose2,
+                                             core::Pose2(robot[0] == 'a' ? 0 : 5, 0, 0), noise},
+                    0});
+    for (std::uint64_t i = 0; i < 8; ++i) {
+      msgs.push_back(
+          {server::OdometryMeasurement{2, robot, i, i + 1, core::Pose2(1, 0, 0.5), noise}, 0});
+    }
+  }
+  ASSERT_TRUE(estimator->Process(msgs).status.ok());
+  const std::string dir =
+      std::filesystem::path(testing::WriteTempFile("snapshot_dir_marker", "")).parent_path() /
+      "slamd_plot_snapshot";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const core::Result<std::string> file = server::WriteSnapshotFile(
+      dir, 1, server::EncodeState(estimator->ExportState(), {.last_message_sequence = 19}));
+  ASSERT_TRUE(file.ok()) << file.status().ToString();
+  const std::string out = testing::WriteTempFile("snapshot.png", "");
+  const SlamctlRun r = RunSlamctl("plot --snapshot " + *file + " --covariances -o " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("18 poses, 0 landmarks"), std::string::npos) << r.out;
+  EXPECT_EQ(PngSize(out), std::make_pair(1200, 900));
+  const SlamctlRun both = RunSlamctl("plot --snapshot " + *file + " " +
+                                     testing::TestDataPath("small_slam2d.g2o") + " -o " + out);
+  EXPECT_EQ(both.exit_code, 2) << both.out;
+  EXPECT_NE(both.out.find("--snapshot"), std::string::npos) << both.out;
+  std::filesystem::remove_all(dir);
 }
 
 TEST(PlotTest, UnreadableDatasetFails) {
