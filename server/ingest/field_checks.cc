@@ -152,6 +152,11 @@ Verdict CheckCovariance(std::string_view field, std::span<const double> row_majo
                       Num(limits.max_condition_number) + "; eigenvalues " + Num(lo) + " .. " +
                       Num(hi) + ")");
   }
+  if (lo < limits.min_variance) {
+    return Reject(RejectReason::kCovarianceIllConditioned, field,
+                  "smallest eigenvalue " + Num(lo) + " below " + Num(limits.min_variance) +
+                      " (Limits::min_variance: a standard deviation under 1e-8 m or rad)");
+  }
 
   // 3. The noise model, built (and checked once more) by core.
   if (noise != nullptr) {

@@ -142,6 +142,9 @@ core::Status Limits::Validate() const {
   if (!(symmetry_tolerance >= 0.0 && symmetry_tolerance <= 1e-3)) {
     return violates("symmetry_tolerance", std::to_string(symmetry_tolerance), "in [0, 1e-3]");
   }
+  if (!(min_variance > 0.0)) {
+    return violates("min_variance", std::to_string(min_variance), "> 0");
+  }
   if (!(max_abs_value > 0.0)) {
     return violates("max_abs_value", std::to_string(max_abs_value), "> 0");
   }

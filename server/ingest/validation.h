@@ -57,6 +57,9 @@ struct Limits {
   // Largest accepted |value| of a measurement (metres, radians): beyond it a value is not a
   // physical measurement but garbage that would wreck the solver's conditioning; > 0.
   double max_abs_value = 1e7;
+  // Smallest accepted covariance eigenvalue (a standard deviation of 1e-8 m or rad): beyond it
+  // the information (1e16) swamps the double precision of the solver; > 0.
+  double min_variance = 1e-16;
 
   core::Status Validate() const;
 };

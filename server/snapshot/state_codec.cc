@@ -1,6 +1,7 @@
 #include "server/snapshot/state_codec.h"
 
 #include <Eigen/Core>
+#include <cmath>
 
 #include "core/factors/bearing_range_factor.h"
 #include "core/factors/between_factor.h"
@@ -41,6 +42,8 @@ void Append(const Point3& p, Field* out) {
 }
 
 constexpr int kValueCount[] = {4, 12, 2, 3};  // Pose2, Pose3, Point2, Point3
+constexpr double kMaxSqrtInformation = 1e8;
+constexpr double kMaxAbsValue = 1e7;
 
 // Reads a value of `type` from v[0..kValueCount); the caller checked the count.
 core::Variable ReadValue(core::VariableType type, const double* v) {
@@ -67,11 +70,22 @@ void WriteVariable(const core::Variable& value, pb::Variable* out) {
   std::visit([&](const auto& v) { Append(v, out->mutable_values()); }, value);
 }
 
+// Values within what validated messages can produce (server/ingest Limits::max_abs_value).
+bool Plausible(const double* v, int n) {
+  for (int i = 0; i < n; ++i) {
+    if (!(std::abs(v[i]) <= kMaxAbsValue)) return false;
+  }
+  return true;
+}
+
 core::Result<core::Variable> ReadVariable(const pb::Variable& in, const std::string& what) {
   const int type = static_cast<int>(in.type());
   if (type < 0 || type > 3 || in.values_size() != kValueCount[type]) {
     return core::DataLoss("snapshot: " + what + ": variable of type " + std::to_string(type) +
                           " with " + std::to_string(in.values_size()) + " values");
+  }
+  if (!Plausible(in.values().data(), in.values_size())) {
+    return core::DataLoss("snapshot: " + what + ": a value is not finite or beyond 1e7");
   }
   return ReadValue(static_cast<core::VariableType>(type), in.values().data());
 }
@@ -156,9 +170,18 @@ core::Result<core::FactorPtr> ReadFactor(const pb::Factor& in, int index) {
       in.sqrt_information_size() != shape.dim * shape.dim) {
     return core::DataLoss("snapshot: " + what + ": wrong number of keys, values or R entries");
   }
+  if (!Plausible(in.measured().data(), in.measured_size())) {
+    return core::DataLoss("snapshot: " + what + ": a measured value is not finite or beyond 1e7");
+  }
   Eigen::MatrixXd R(shape.dim, shape.dim);
   for (int r = 0; r < shape.dim; ++r) {
     for (int c = 0; c < shape.dim; ++c) R(r, c) = in.sqrt_information(r * shape.dim + c);
+  }
+  // A square-root information entry beyond 1e8 (a standard deviation below 1e-8 m or rad) is
+  // not something slamd writes from validated messages; a file that holds one is damaged, and
+  // eliminating it would lose all precision.
+  if (!(R.cwiseAbs().maxCoeff() <= kMaxSqrtInformation)) {
+    return core::DataLoss("snapshot: " + what + ": square-root information entry beyond 1e8");
   }
   core::Result<core::NoiseModel> noise = core::NoiseModel::FromSqrtInformation(R);
   if (!noise.ok()) return core::DataLoss("snapshot: " + what + ": " + noise.status().message());

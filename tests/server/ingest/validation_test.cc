@@ -111,6 +111,12 @@ std::vector<Case> OdometryCases() {
           "HugeTranslation", g2, [](M& m) { m.values[0] = -2e7; }, R::kBadMeasurement,
           "odometry_t.values[0]: -2e+07 is beyond 1e+07"),
       Make<M>(
+          "TinyCovariance", g2,
+          [](M& m) {
+            for (double& c : m.covariance) c *= 1e-20;
+          },
+          R::kCovarianceIllConditioned, "odometry_t.covariance: smallest eigenvalue"),
+      Make<M>(
           "SelfLoop", g2, [](M& m) { m.to_index = m.from_index; }, R::kSelfLoop,
           "odometry_t.to_index"),
       Make<M>(
