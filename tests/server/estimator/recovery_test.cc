@@ -115,6 +115,14 @@ void Stream(Bus& bus, Daemon& d, int from, int to, std::mt19937& rng) {
   }
 }
 
+// Every reject_t the daemon publishes, appended to *out.
+Subscription CollectRejects(Bus& bus, std::vector<slamd::reject_t>* out) {
+  return Subscribe<slamd::reject_t>(
+             bus, "SLAMD_REJECT",
+             [out](std::string_view, const slamd::reject_t& m) { out->push_back(m); }, nullptr)
+      .value();
+}
+
 // A data directory holding the journal of `poses` poses streamed through a daemon.
 void RecordSession(const TempDir& dir, int poses, unsigned seed) {
   InProcessBus bus;
@@ -156,11 +164,7 @@ TEST(RecoveryTest, RestartReproducesTheStateExactly) {
   ExpectSameValues(Estimate(*d), before, 0.0);
   // And it carries on: sequence numbers continue, duplicates of old messages are refused.
   std::vector<slamd::reject_t> rejects;
-  Subscription sub =
-      Subscribe<slamd::reject_t>(
-          bus, "SLAMD_REJECT",
-          [&](std::string_view, const slamd::reject_t& m) { rejects.push_back(m); }, nullptr)
-          .value();
+  Subscription sub = CollectRejects(bus, &rejects);
   Send(bus, 79, 80);  // 79 -> 80 again: a duplicate
   Stream(bus, *d, 80, 90, rng);
   EXPECT_EQ(Estimate(*d).size(), before.size() + 10);
@@ -191,11 +195,7 @@ TEST(RecoveryTest, AcceptedButUnprocessedMessagesAreProcessedAtStart) {
   }
   InProcessBus bus;
   std::vector<slamd::reject_t> rejects;
-  Subscription sub =
-      Subscribe<slamd::reject_t>(
-          bus, "SLAMD_REJECT",
-          [&](std::string_view, const slamd::reject_t& m) { rejects.push_back(m); }, nullptr)
-          .value();
+  Subscription sub = CollectRejects(bus, &rejects);
   auto d = Daemon::Create(Params(dir.str()), &bus).value();
   ASSERT_TRUE(bus.HandleOnce(0).ok());
   EXPECT_EQ(d->snapshot()->num_variables, 2);
@@ -323,11 +323,7 @@ TEST(RecoveryTest, DiskFullRejectsThenResumes) {
   std::mt19937 rng(13);
   auto d = Daemon::Create(Params(dir.str()), &bus).value();
   std::vector<slamd::reject_t> rejects;
-  Subscription sub =
-      Subscribe<slamd::reject_t>(
-          bus, "SLAMD_REJECT",
-          [&](std::string_view, const slamd::reject_t& m) { rejects.push_back(m); }, nullptr)
-          .value();
+  Subscription sub = CollectRejects(bus, &rejects);
   Send(bus, 0, 10);
   Drive(*d, rng);
   const std::int64_t poses = d->snapshot()->num_variables;
