@@ -6,11 +6,13 @@
 // the same directory. The client streams manhattan in lock-step
 // (waits for each pose's estimate_t) to both; half of the kills land while a step is being sent
 // to B, the others after a random delay. After a kill it reads B's journal to learn which of
-// the last step's messages were journaled, restarts B and re-sends that whole step: exactly the
-// journaled ones must come back as reject_t REASON_DUPLICATE (nothing doubled), the others are
-// applied (nothing lost). At the end both settle (refine on, refine_threshold 1e-10), are stopped
-// with SIGTERM, and both data directories are recovered in-process (server/estimator/recovery.h):
-// after refinement to convergence the estimates agree to 1e-9 and the factor sets are identical.
+// the messages not yet acknowledged (the current step and the one before: lock-step waits only
+// for a pose's estimate, which can come before that step's loop closures are journaled) were
+// journaled, restarts B and re-sends both steps whole: exactly the journaled ones must come back
+// as reject_t REASON_DUPLICATE (nothing doubled), the others are applied (nothing lost). At the
+// end both settle (refine on, refine_threshold 1e-10), are stopped with SIGTERM, and both data
+// directories are recovered in-process (server/estimator/recovery.h): after refinement to
+// convergence the estimates agree to 1e-9 and the factor sets are identical.
 // A second test kills slamd during a burst, cuts the journal inside its last record (what a
 // crash inside write() leaves) and checks that the restart truncates the torn tail and that
 // re-sending the burst restores every measurement exactly once.
@@ -337,7 +339,20 @@ FactorSet Factors(const std::vector<core::FactorPtr>& factors, const core::Value
 
 // a and b hold the same factors: same identities, none twice, values within 1e-9 relative.
 void ExpectSameFactors(const FactorSet& a, const FactorSet& b) {
-  ASSERT_EQ(a.size(), b.size()) << "factor counts differ";
+  if (a.size() != b.size()) {
+    std::set<std::string> ia, ib;
+    for (const auto& [id, v] : a) ia.insert(id);
+    for (const auto& [id, v] : b) ib.insert(id);
+    std::string only_a, only_b;
+    for (const std::string& id : ia) {
+      if (!ib.count(id)) only_a += " [" + id + "]";
+    }
+    for (const std::string& id : ib) {
+      if (!ia.count(id)) only_b += " [" + id + "]";
+    }
+    FAIL() << "factor counts differ: " << a.size() << " vs " << b.size() << "; only in the first:"
+           << only_a << "; only in the second:" << only_b;
+  }
   std::set<std::string> ids;
   for (const auto& [id, v] : a) EXPECT_TRUE(ids.insert(id).second) << "doubled factor " << id;
   int differ = 0;
@@ -450,18 +465,26 @@ TEST(ServerCrashNetnsTest, KilledServerRecoversToTheUninterruptedResult) {
       ASSERT_NO_FATAL_FAILURE(Kill(&b, SIGKILL));
       ++kills;
       client.Drain(20);
+      // Unacknowledged: step k, and step k-1 as well, since the estimate of pose k-1 that
+      // released it can come before its loop closures are journaled (they follow its odometry).
+      // Steps before k-1 are journaled: the odometry into pose k-1 came after them.
+      const int journaled_prev = Journaled(b.data_dir, b.prefix, messages[k - 1]);
       const int journaled = Journaled(b.data_dir, b.prefix, messages[k]);
       ASSERT_NO_FATAL_FAILURE(Start(config, client, &b));
-      // Resume: step k again, whole (its estimate may or may not have come; either way some of
-      // its messages may be journaled and others lost with the process).
-      const int dups_before = b.dups[k];
+      // Resume: steps k-1 and k again, whole. Exactly the journaled ones must come back as
+      // duplicates (nothing doubled), the others are applied (nothing lost).
+      const int dups_prev_before = b.dups[k - 1], dups_before = b.dups[k];
+      ASSERT_NO_FATAL_FAILURE(client.Send(b, messages[k - 1]));
       ASSERT_NO_FATAL_FAILURE(client.Send(b, messages[k]));
       ASSERT_TRUE(client.Barrier(&b)) << "no query reply from the restarted slamd at step " << k;
+      EXPECT_EQ(b.dups[k - 1] - dups_prev_before, journaled_prev)
+          << "step " << k - 1 << " re-sent after the kill at step " << k;
       EXPECT_EQ(b.dups[k] - dups_before, journaled)
           << "step " << k << ": re-sent messages that were journaled must be duplicates, the "
           << "others must be applied";
-      resent_duplicates += journaled;
-      resent_applied += static_cast<int>(messages[k].size()) - journaled;
+      const int resent = static_cast<int>(messages[k - 1].size() + messages[k].size());
+      resent_duplicates += journaled_prev + journaled;
+      resent_applied += resent - journaled_prev - journaled;
     } else {
       ASSERT_NO_FATAL_FAILURE(client.Send(b, messages[k]));
       ASSERT_TRUE(client.PumpUntil([&] { return b.estimated.count(pose) > 0; }, 20.0))
