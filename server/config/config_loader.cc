@@ -68,6 +68,7 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   if (pub.has_map_covariance()) p->publish.map_covariance = pub.map_covariance();
   if (pub.has_estimate_covariance()) p->publish.estimate_covariance = pub.estimate_covariance();
   if (pub.has_query_budget_s()) p->publish.query_budget_s = pub.query_budget_s();
+  if (pub.has_latency_window()) p->publish.latency_window = pub.latency_window();
   const proto::RefineConfig& r = config.refine();
   if (r.has_enabled()) p->refine.enabled = r.enabled();
   if (r.has_budget_s()) p->refine.budget_s = r.budget_s();
@@ -176,6 +177,8 @@ std::string DefaultConfigText() {
       << "  # estimate_t carries the newest pose's covariance\n"
       << "  query_budget_s: " << Num(d.publish.query_budget_s)
       << "  # time for a query's marginals, then STATUS_PARTIAL [s], (0, 10]\n"
+      << "  latency_window: " << d.publish.latency_window
+      << "  # status_t latency percentiles over the last N samples, 16..1048576\n"
       << "}\n\n"
       << "refine {\n"
       << "  enabled: " << (d.refine.enabled ? "true" : "false")

@@ -88,6 +88,8 @@ core::Status ServerParams::Validate() const {
   SLAMD_CONFIG_CHECK(publish.map_rate_hz, <=, 100.0);
   SLAMD_CONFIG_CHECK(publish.query_budget_s, >, 0.0);
   SLAMD_CONFIG_CHECK(publish.query_budget_s, <=, 10.0);
+  SLAMD_CONFIG_CHECK(publish.latency_window, >=, 16);
+  SLAMD_CONFIG_CHECK(publish.latency_window, <=, 1048576);
   SLAMD_CONFIG_CHECK(refine.budget_s, >, 0.0);
   SLAMD_CONFIG_CHECK(refine.budget_s, <=, 10.0);
   SLAMD_CONFIG_CHECK(refine.idle_s, >=, 0.0);

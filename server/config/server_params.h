@@ -49,6 +49,9 @@ struct ServerParams {
     // Time a query may spend on marginals before the rest are left out
     // (query_reply_t.STATUS_PARTIAL) [s]; (0, 10].
     double query_budget_s = 0.1;
+    // status_t's latency percentiles cover the last this many updates (and published
+    // estimates); 16..1048576. Larger windows describe a whole benchmark run.
+    int latency_window = 1024;
   };
   Publish publish = {};
 

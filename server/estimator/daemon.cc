@@ -31,8 +31,6 @@
 namespace slamd::server {
 namespace {
 
-constexpr size_t kLatencyWindow = 1024;
-
 const std::string& RobotOf(const slamd::odometry_t& m) { return m.robot; }
 const std::string& RobotOf(const slamd::landmark_observation_t& m) { return m.robot; }
 const std::string& RobotOf(const slamd::loop_closure_t& m) { return m.robot_a; }
@@ -40,11 +38,12 @@ const std::string& RobotOf(const slamd::prior_t& m) { return m.robot; }
 const std::string& RobotOf(const slamd::remove_factor_t& m) { return m.robot_a; }
 const std::string& RobotOf(const slamd::query_t& m) { return m.client; }
 
-void Record(std::vector<double>* ring, size_t* next, double value) {
-  if (ring->size() < kLatencyWindow) {
+// Keeps the last `window` values in *ring (publish.latency_window).
+void Record(std::vector<double>* ring, size_t* next, size_t window, double value) {
+  if (ring->size() < window) {
     ring->push_back(value);
   } else {
-    (*ring)[(*next)++ % kLatencyWindow] = value;
+    (*ring)[(*next)++ % window] = value;
   }
 }
 
@@ -69,11 +68,22 @@ std::string Daemon::InboundChannel(const Inbound& in) const {
 
 namespace {
 
-std::int64_t Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())));
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-  return static_cast<std::int64_t>(v[k]);
+// The q-quantiles of v for ascending qs, from one copy: each nth_element works on the part
+// above the previous one (windows can be large, see publish.latency_window).
+template <size_t N>
+std::array<std::int64_t, N> Percentiles(std::vector<double> v, const std::array<double, N>& qs) {
+  std::array<std::int64_t, N> out{};
+  if (v.empty()) return out;
+  auto from = v.begin();
+  for (size_t i = 0; i < N; ++i) {
+    const size_t k =
+        std::min(v.size() - 1, static_cast<size_t>(qs[i] * static_cast<double>(v.size())));
+    const auto kth = v.begin() + static_cast<std::ptrdiff_t>(k);
+    std::nth_element(from, kth, v.end());
+    out[i] = static_cast<std::int64_t>(*kth);
+    from = kth;
+  }
+  return out;
 }
 
 }  // namespace
@@ -283,7 +293,7 @@ int Daemon::StepEstimator(double timeout_s) {
     const ProcessResult r = estimator_->Process(batch);
     JournalUpdate(batch);
     for (const core::Isam2Result& u : r.updates) {
-      Record(&update_us_, &update_us_next_, u.seconds.total * 1e6);
+      Record(&update_us_, &update_us_next_, LatencyWindow(), u.seconds.total * 1e6);
       log_->debug("update: {}", u.Brief());
     }
     if (!r.status.ok()) log_->warn("solver update failed: {}", r.status.ToString());
@@ -470,7 +480,8 @@ void Daemon::PublishEstimates(const EstimateSnapshot& snap) {
     // after a refinement moved the pose would count the idle time since the last message.
     if (r.received_us > 0 && r.received_us != latency_recorded_us_[r.id]) {
       latency_recorded_us_[r.id] = r.received_us;
-      Record(&publish_us_, &publish_us_next_, static_cast<double>(out.latency_us));
+      Record(&publish_us_, &publish_us_next_, LatencyWindow(),
+             static_cast<double>(out.latency_us));
     }
     const core::Status s = server::Publish(*bus_, channels_.Estimate(), out);
     if (!s.ok()) log_->warn("cannot publish estimate_t: {}", s.ToString());
@@ -508,12 +519,14 @@ void Daemon::PublishStatus(const EstimateSnapshot& snap) {
   }
   out.queue_depth = queue_.size();
   out.queue_capacity = queue_.capacity();
-  out.update_latency_p50_us = Percentile(update_us_, 0.5);
-  out.update_latency_p90_us = Percentile(update_us_, 0.9);
-  out.update_latency_p99_us = Percentile(update_us_, 0.99);
-  out.update_latency_max_us = Percentile(update_us_, 1.0);
-  out.publish_latency_p50_us = Percentile(publish_us_, 0.5);
-  out.publish_latency_p99_us = Percentile(publish_us_, 0.99);
+  const auto update = Percentiles<4>(update_us_, {0.5, 0.9, 0.99, 1.0});
+  out.update_latency_p50_us = update[0];
+  out.update_latency_p90_us = update[1];
+  out.update_latency_p99_us = update[2];
+  out.update_latency_max_us = update[3];
+  const auto publish = Percentiles<2>(publish_us_, {0.5, 0.99});
+  out.publish_latency_p50_us = publish[0];
+  out.publish_latency_p99_us = publish[1];
   out.journal_records = journal_ ? journal_->records() : 0;
   out.journal_bytes = journal_ ? journal_->durable_offset() : 0;
   out.chi2 = snap.chi2;

@@ -110,6 +110,7 @@ class Daemon {
                   std::int64_t update_sequence, bool* partial);
   bool RefineDue() const;           // refinement enabled and the estimate not settled
   std::int64_t IdleMicros() const;  // since the estimator last popped a message [µs]
+  size_t LatencyWindow() const { return static_cast<size_t>(params_.publish.latency_window); }
   void IntakeLoop();
   void EstimatorLoop();
 
@@ -134,9 +135,11 @@ class Daemon {
   std::int64_t published_sequence_ = 0;
   std::int64_t last_status_us_ = 0;
   bool last_status_settled_ = true;
-  std::vector<double> update_us_;  // recent update latencies (ring of 1024) for status_t
+  // Recent update and ingest-to-publish latencies for status_t (rings of
+  // publish.latency_window).
+  std::vector<double> update_us_;
   size_t update_us_next_ = 0;
-  std::vector<double> publish_us_;  // recent ingest-to-publish latencies (ring of 1024)
+  std::vector<double> publish_us_;
   std::array<std::int64_t, 256> latency_recorded_us_{};  // per robot id: receipt time recorded
   size_t publish_us_next_ = 0;
   std::int64_t last_map_us_ = 0, last_map_sequence_ = -1;

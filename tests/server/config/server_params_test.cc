@@ -21,6 +21,7 @@ TEST(ServerParamsTest, EachViolationNamesItsField) {
       {[](ServerParams* p) { p->queue.block_timeout_s = -1; }, "queue.block_timeout_s"},
       {[](ServerParams* p) { p->publish.status_rate_hz = -1; }, "publish.status_rate_hz"},
       {[](ServerParams* p) { p->publish.map_rate_hz = 1000; }, "publish.map_rate_hz"},
+      {[](ServerParams* p) { p->publish.latency_window = 8; }, "publish.latency_window"},
       {[](ServerParams* p) { p->refine.budget_s = 0; }, "refine.budget_s"},
       {[](ServerParams* p) { p->isam2.relinearization.skip = 0; }, "isam2.relinearization.skip"},
       {[](ServerParams* p) { p->isam2.batch_every = -1; }, "isam2.batch_every"},

@@ -166,6 +166,46 @@ TEST(DaemonTest, FullQueueRejectsAfterBlockingNeverDropsSilently) {
   EXPECT_EQ(s.residual_dimension, 6);
 }
 
+// status_t's latency percentiles cover the last publish.latency_window samples: one slow
+// message (30 ms in the queue) followed by 40 fast ones is in the p99 of a 1024-sample window and
+// out of a 16-sample one, where the p99 is the largest of the last 16 estimates' latencies.
+TEST(DaemonTest, StatusLatencyPercentilesCoverTheConfiguredWindow) {
+  for (const int window : {16, 1024}) {
+    SCOPED_TRACE(window);
+    InProcessBus bus;
+    ServerParams p = Params();
+    p.publish.status_rate_hz = 1000.0;
+    p.publish.latency_window = window;
+    auto daemon = Daemon::Create(p, &bus).value();
+    Client client(bus);
+    ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", Prior()).ok());
+    ASSERT_TRUE(daemon->PumpIntake(0).ok());
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    ASSERT_EQ(daemon->StepEstimator(0.0), 1);
+    for (int i = 0; i < 40; ++i) {
+      if (i == 39) std::this_thread::sleep_for(std::chrono::milliseconds(2));  // a status is due
+      ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(i, i + 1)).ok());
+      ASSERT_TRUE(daemon->PumpIntake(0).ok());
+      ASSERT_EQ(daemon->StepEstimator(0.0), 1);
+    }
+    ASSERT_TRUE(daemon->PumpIntake(0).ok());
+    ASSERT_EQ(client.estimates.size(), 41u);
+    ASSERT_FALSE(client.statuses.empty());
+    const slamd::status_t& s = client.statuses.back();
+    ASSERT_GE(client.estimates[0].latency_us, 30000);
+    if (window == 16) {
+      std::int64_t largest = 0;
+      for (size_t i = 41 - 16; i < 41; ++i) {
+        largest = std::max(largest, client.estimates[i].latency_us);
+      }
+      EXPECT_EQ(s.publish_latency_p99_us, largest);
+      EXPECT_LT(s.publish_latency_p99_us, 30000);
+    } else {
+      EXPECT_EQ(s.publish_latency_p99_us, client.estimates[0].latency_us);
+    }
+  }
+}
+
 TEST(DaemonTest, ThreadsProcessEverythingAndStopCleanly) {
   InProcessBus bus;
   ServerParams p = Params();
