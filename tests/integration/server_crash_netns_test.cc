@@ -37,7 +37,6 @@
 #include <thread>
 #include <vector>
 
-#include "core/factors/between_factor.h"
 #include "core/io/dataset_stream.h"
 #include "server/config/config_loader.h"
 #include "server/estimator/estimator_state.h"
@@ -48,15 +47,13 @@
 #include "server/transport/lcm_bus.h"
 #include "server/transport/typed_subscribe.h"
 #include "slamd/estimate_t.hpp"
-#include "slamd/loop_closure_t.hpp"
-#include "slamd/odometry_t.hpp"
-#include "slamd/prior_t.hpp"
 #include "slamd/query_reply_t.hpp"
 #include "slamd/query_t.hpp"
 #include "slamd/reject_t.hpp"
 #include "slamd/status_t.hpp"
 #include "tests/testing/datasets.h"
 #include "tests/testing/processes.h"
+#include "tests/testing/wire_steps.h"
 
 namespace slamd::server {
 namespace {
@@ -64,6 +61,8 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 using testing::OnlyLoopback;
+using testing::StepMessages;
+using testing::WireMessage;
 
 // A larger receive buffer: re-sent bursts come back as bursts of reject_t.
 constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=2097152";
@@ -97,72 +96,6 @@ class TempDir {
  private:
   fs::path path_;
 };
-
-// One inbound message as it goes on the wire.
-struct WireMessage {
-  std::string suffix;  // channel without prefix
-  std::vector<std::uint8_t> bytes;
-};
-using StepMessages = std::vector<WireMessage>;
-
-template <typename Msg>
-WireMessage Wire(const char* suffix, const Msg& m) {
-  WireMessage w{suffix, std::vector<std::uint8_t>(m.getEncodedSize())};
-  m.encode(w.bytes.data(), 0, static_cast<int>(w.bytes.size()));
-  return w;
-}
-
-const core::BetweenFactor<core::Pose2>& Between(const core::FactorPtr& f) {
-  const auto* b = dynamic_cast<const core::BetweenFactor<core::Pose2>*>(f.get());
-  SLAMD_CHECK(b != nullptr) << "expected a BetweenFactor<Pose2>, got " << f->Name();
-  return *b;
-}
-
-// Steps 0..n-1 of a 2D pose graph as messages (utime = step index): step 0 an anchoring prior,
-// then each step's odometry first and its loop closures. *factors gets the dataset factor count.
-std::vector<StepMessages> MakeSteps(const std::vector<core::DatasetStep>& steps, int n,
-                                    int* factors) {
-  std::vector<StepMessages> out(n);
-  *factors = 1;  // the prior
-  for (int k = 0; k < n; ++k) {
-    const core::DatasetStep& step = steps[k];
-    if (k == 0) {
-      slamd::prior_t prior;
-      ToLcm(PriorMeasurement{k, kRobot, core::KeyIndex(step.pose), PriorKind::kPose2,
-                             std::get<core::Pose2>(step.initial),
-                             core::NoiseModel::Isotropic(3, kAnchorSigma).value()},
-            &prior);
-      out[k].push_back(Wire("PRIOR", prior));
-    }
-    if (step.odometry) {
-      const auto& b = Between(step.odometry);
-      SLAMD_CHECK(step.odometry->keys()[1] == step.pose) << "reversed odometry at step " << k;
-      slamd::odometry_t odo;
-      ToLcm(OdometryMeasurement{k, kRobot, core::KeyIndex(step.odometry_from),
-                                core::KeyIndex(step.pose), b.measured(), b.noise_model()},
-            &odo);
-      out[k].push_back(Wire("ODOMETRY", odo));
-      ++*factors;
-    }
-    for (const core::FactorPtr& f : step.factors) {
-      if (f == step.odometry) continue;
-      const auto& b = Between(f);
-      slamd::loop_closure_t lc;
-      ToLcm(LoopClosureMeasurement{k,
-                                   kRobot,
-                                   core::KeyIndex(f->keys()[0]),
-                                   kRobot,
-                                   core::KeyIndex(f->keys()[1]),
-                                   b.measured(),
-                                   b.noise_model(),
-                                   {}},
-            &lc);
-      out[k].push_back(Wire("LOOP_CLOSURE", lc));
-      ++*factors;
-    }
-  }
-  return out;
-}
 
 // One slamd process as the client sees it.
 struct Server {
@@ -424,7 +357,7 @@ TEST(ServerCrashNetnsTest, KilledServerRecoversToTheUninterruptedResult) {
       core::MakeIncrementalSteps(core::ReadDataset(path).value());
   const int n = std::min<int>(kCrashSteps, static_cast<int>(steps.size()));
   int expected_factors = 0;
-  const std::vector<StepMessages> messages = MakeSteps(steps, n, &expected_factors);
+  const std::vector<StepMessages> messages = testing::MakeWireSteps(steps, n, kRobot, kAnchorSigma, &expected_factors);
 
   TempDir tmp("main");
   const std::string config = tmp.str() + "/slamd.textproto";
@@ -535,7 +468,7 @@ TEST(ServerCrashNetnsTest, TornJournalTailAfterKillDuringBurst) {
       core::MakeIncrementalSteps(core::ReadDataset(path).value());
   constexpr int kBurst = 400;
   int expected_factors = 0;
-  const std::vector<StepMessages> messages = MakeSteps(steps, kBurst, &expected_factors);
+  const std::vector<StepMessages> messages = testing::MakeWireSteps(steps, kBurst, kRobot, kAnchorSigma, &expected_factors);
 
   TempDir tmp("torn");
   const std::string config = tmp.str() + "/slamd.textproto";
