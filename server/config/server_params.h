@@ -76,7 +76,8 @@ struct ServerParams {
     // A snapshot after this many solver updates (0 = not by count) ... >= 0.
     int snapshot_every_updates = 500;
     // ... or this many seconds since the last one, if anything changed (0 = not by time) [s];
-    // 0..1e6.
+    // 0..1e6. Either way at most 5% of the time goes to snapshots: after one that took t, the
+    // next waits at least 20 t (a map of 600k variables takes seconds to snapshot).
     double snapshot_every_s = 300.0;
     // Snapshots kept on disk (the newest and older ones, in case the newest is damaged); >= 1.
     int keep_snapshots = 2;

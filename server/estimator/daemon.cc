@@ -378,18 +378,27 @@ void Daemon::MaybeSnapshot() {
                         sequence - snapshot_update_sequence_ >= j.snapshot_every_updates;
   const bool by_time = j.snapshot_every_s > 0 && now - snapshot_us_ >= j.snapshot_every_s * 1e6;
   if (!by_count && !by_time) return;
+  // A snapshot of a large map costs (export here, encoding and writing in the background): at
+  // most kSnapshotMaxLoad of the time goes to them, whatever snapshot_every_* ask for.
+  constexpr double kSnapshotMaxLoad = 0.05;
+  if (static_cast<double>(now - snapshot_us_) * kSnapshotMaxLoad <
+      static_cast<double>(snapshot_cost_us_)) {
+    return;
+  }
   JoinSnapshotWriter();
   snapshot_update_sequence_ = sequence;
   snapshot_us_ = now;
   auto state = std::make_shared<EstimatorState>(estimator_->ExportState());
+  const std::int64_t export_us = SteadyMicros() - now;
   const JournalPosition position{.last_message_sequence = processed_sequence_,
                                  .journal_offset = journal_->offset()};
   snapshot_busy_ = true;
-  snapshot_thread_ = std::thread([this, state, position] {
+  snapshot_thread_ = std::thread([this, state, position, export_us] {
     core::Stopwatch timer;
     const std::string bytes = EncodeState(*state, position);
     const core::Result<std::string> path = WriteSnapshotFile(
         params_.data_dir, position.journal_offset, bytes, {.keep = params_.journal.keep_snapshots});
+    snapshot_cost_us_ = export_us + static_cast<std::int64_t>(timer.Seconds() * 1e6);
     if (path.ok()) {
       log_->info("snapshot {} ({} bytes, message {}) in {:.3f} s", path.value(), bytes.size(),
                  position.last_message_sequence, timer.Seconds());

@@ -148,6 +148,7 @@ class Daemon {
   std::int64_t snapshot_update_sequence_ = 0, snapshot_us_ = 0;
   std::thread snapshot_thread_;
   std::atomic<bool> snapshot_busy_{false};
+  std::atomic<std::int64_t> snapshot_cost_us_{0};  // the last snapshot's export + write time
 
   mutable std::mutex snapshot_mutex_;
   std::shared_ptr<const EstimateSnapshot> snapshot_;

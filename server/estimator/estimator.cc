@@ -677,15 +677,19 @@ void Estimator::PublishSnapshot(bool bump) {
   snap->held_messages = static_cast<int>(held_.size());
   snap->settled = settled_;
   // chi2 is O(factors): after every update it would dominate a long run's update time. It is
-  // recomputed at most every chi2_interval_s, and whenever the estimate settles.
+  // recomputed at most every chi2_interval_s and at most 2% of the time, and whenever the
+  // estimate settles.
+  constexpr double kChi2MaxLoad = 0.02;
   const auto now = std::chrono::steady_clock::now();
-  const bool due =
-      std::chrono::duration<double>(now - chi2_time_).count() >= params_.chi2_interval_s;
+  const double since = std::chrono::duration<double>(now - chi2_time_).count();
+  const double interval = params_.chi2_interval_s;
+  const bool due = since >= interval && (interval == 0.0 || since * kChi2MaxLoad >= chi2_cost_s_);
   const bool stale = !snapshot_ || snapshot_->chi2_sequence != sequence_;
   if (!snapshot_ || (stale && (due || settled_))) {
     snap->chi2 = isam_->Chi2();
     snap->chi2_sequence = sequence_;
-    chi2_time_ = now;
+    chi2_time_ = std::chrono::steady_clock::now();
+    chi2_cost_s_ = std::chrono::duration<double>(chi2_time_ - now).count();
   } else {
     snap->chi2 = snapshot_->chi2;
     snap->chi2_sequence = snapshot_->chi2_sequence;

@@ -217,6 +217,7 @@ class Estimator {
   bool settled_ = true;
   std::shared_ptr<const EstimateSnapshot> snapshot_;
   std::chrono::steady_clock::time_point chi2_time_;  // when snapshot chi2 was last computed
+  double chi2_cost_s_ = 0.0;                          // how long that took [s]
 };
 
 }  // namespace slamd::server

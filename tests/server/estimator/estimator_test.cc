@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
+#include <thread>
 
 namespace slamd::server {
 namespace {
@@ -365,6 +367,27 @@ TEST(EstimatorTest, Chi2LagsWhileUpdatingAndIsCurrentWhenSettled) {
   EXPECT_EQ(e->snapshot()->chi2_sequence, e->snapshot()->update_sequence);
   EXPECT_NEAR(e->snapshot()->chi2, e->solver().Chi2(), 1e-12);
   EXPECT_GT(e->snapshot()->chi2, 1e-3);
+}
+
+// ... and, whatever chi2_interval_s says, at most 2% of the time: after a pass that took t, the
+// next waits 50 t. 20000 factors take ~1 ms a pass, so the next update (microseconds later) finds
+// chi2 not due although chi2_interval_s has long passed; 100 t later it is recomputed.
+TEST(EstimatorTest, Chi2PassesTakeAtMostTwoPercentOfTheTime) {
+  auto e = Make({.chi2_interval_s = 1e-9});
+  std::vector<Inbound> chain = {Prior("r", 0, Pose2())};
+  for (int i = 0; i < 20000; ++i) chain.push_back(Odo("r", i, i + 1, kStep));
+  ASSERT_TRUE(e->Process(chain).status.ok());
+  const std::int64_t computed = e->snapshot()->chi2_sequence;
+  ASSERT_EQ(computed, e->snapshot()->update_sequence);
+  const auto start = std::chrono::steady_clock::now();
+  (void)e->solver().Chi2();
+  const auto pass = std::chrono::steady_clock::now() - start;
+  ASSERT_TRUE(e->Process({Odo("r", 20000, 20001, kStep)}).status.ok());
+  EXPECT_EQ(e->snapshot()->chi2_sequence, computed) << "recomputed right after a pass";
+  std::this_thread::sleep_for(100 * pass + std::chrono::milliseconds(1));
+  ASSERT_TRUE(e->Process({Odo("r", 20001, 20002, kStep)}).status.ok());
+  EXPECT_EQ(e->snapshot()->chi2_sequence, e->snapshot()->update_sequence);
+  EXPECT_NEAR(e->snapshot()->chi2, e->solver().Chi2(), 1e-9);
 }
 
 TEST(EstimatorTest, RejectHeldAnswersEveryHeldMessage) {

@@ -314,6 +314,58 @@ TEST(RecoveryTest, SnapshotPlusJournalEqualsFullReplay) {
   ExpectSameValues(a.solver().CalculateEstimate(), b.solver().CalculateEstimate(), 1e-8);
 }
 
+// Snapshots take at most 5% of the time, whatever snapshot_every_updates asks: after one that
+// took t (export, encoding, writing), the next waits 20 t.
+TEST(RecoveryTest, SnapshotsTakeAtMostFivePercentOfTheTime) {
+  TempDir dir;
+  InProcessBus bus;
+  std::mt19937 rng(17);
+  ServerParams p = Params(dir.str());
+  p.refine.enabled = false;
+  p.queue.depth = 100000;
+  p.journal.snapshot_every_updates = 1;
+  p.journal.keep_snapshots = 1000;
+  auto d = Daemon::Create(p, &bus).value();
+  auto count = [&] { return static_cast<int>(ListSnapshots(dir.str()).value().size()); };
+  auto wait_for = [&](int n) {
+    for (int i = 0; i < 30000 && count() < n; ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    return count() >= n;
+  };
+  // A plain odometry chain (Send's synthetic loop closures make GN diverge at this length).
+  auto chain = [&](int from, int to) {
+    if (from == 0) {
+      slamd::prior_t prior;
+      ToLcm(PriorMeasurement{1, "r", 0, PriorKind::kPose2, core::Pose2(), Noise(3, 0.01)},
+            &prior);
+      ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", prior).ok());
+    }
+    for (int i = from; i < to; ++i) {
+      slamd::odometry_t odo;
+      ToLcm(OdometryMeasurement{i, "r", static_cast<std::uint64_t>(i),
+                                static_cast<std::uint64_t>(i + 1), core::Pose2(1, 0, 0.01),
+                                Noise(3, 0.05)},
+            &odo);
+      ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", odo).ok());
+    }
+    Drive(*d, rng);
+  };
+  chain(0, 20000);  // one big update: a snapshot of 20000 poses costs tens of ms
+  const auto update_end = std::chrono::steady_clock::now();
+  ASSERT_TRUE(wait_for(1));
+  const auto write_time = std::chrono::steady_clock::now() - update_end;  // <= its cost t
+  const auto start = std::chrono::steady_clock::now();
+  for (int k = 20000; k < 20020; ++k) chain(k, k + 1);
+  const auto updates_time = std::chrono::steady_clock::now() - start;
+  ASSERT_LT(updates_time, 20 * write_time) << "too slow to tell";
+  EXPECT_EQ(count(), 1) << "a snapshot right after the last one";
+  std::this_thread::sleep_for(25 * write_time + std::chrono::milliseconds(100));
+  chain(20020, 20021);
+  EXPECT_TRUE(wait_for(2)) << "no snapshot once 5% of the time allows one";
+  d->Stop();
+}
+
 // Disk full (a file-size limit): intake rejects with REASON_STORAGE_ERROR and keeps running;
 // nothing rejected is in the graph; when writing works again, intake resumes.
 TEST(RecoveryTest, DiskFullRejectsThenResumes) {
