@@ -23,9 +23,11 @@ Isam2Result Isam2::Update(const FactorGraph& new_factors, const Values& new_valu
 Isam2::RefineResult Isam2::Refine(double budget_s, int max_rounds) {
   Stopwatch timer;
   RefineResult out;
-  const Isam2Params::Relinearization fine{.rotation_threshold = params_.refine_threshold,
-                                          .translation_threshold = params_.refine_threshold,
-                                          .skip = 1};
+  const Isam2Params::Relinearization fine{
+      .rotation_threshold = params_.refine_threshold,
+      .translation_threshold = params_.refine_threshold,
+      .error_threshold = params_.relinearization.error_threshold,
+      .skip = 1};
   while (out.rounds < max_rounds && timer.Seconds() < budget_s) {
     const Isam2Result r = UpdateWith({}, {}, {.force_relinearize = true}, fine,
                                      kRefineWildfire * params_.refine_threshold);

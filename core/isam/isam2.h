@@ -8,8 +8,10 @@
 //   the Bayes tree of the linearised system, and
 //   δ  its solution, so that the estimate is θ ⊕ δ.
 // Update() adds factors and variables, relinearises variables whose δ has grown past a threshold
-// (fluid relinearisation, every `skip` updates), removes from the tree the cliques those
-// touch together with their ancestors (the "top"), re-eliminates the top with its original
+// or one of whose factors is no longer well approximated by its linearisation at θ ⊕ δ (fluid
+// relinearisation, every `skip` updates; see Relinearization::error_threshold), removes from
+// the tree the cliques those touch together with their ancestors (the "top"), re-eliminates
+// the top with its original
 // factors plus the cached factors of the orphaned subtrees, in a constrained COLAMD order that
 // puts the newest variables last, re-attaches the orphans and back-substitutes from the top down
 // until the change falls under the wildfire threshold. An odometry-only step so touches only the
@@ -18,11 +20,13 @@
 // Errors: invalid input (unknown or duplicate keys, wrong types, non-finite values, bad factor
 // indices) returns a status and changes nothing; a numerical failure (an indeterminate system,
 // e.g. a new robot with no prior, a landmark with a single bearing) returns a status naming a
-// variable and restores the solver to its state before the call.
+// variable and restores the solver to its state before the call (but for the linearisation-
+// error screen's per-factor caches, which only steer what a later check evaluates).
 //
 // Thread safety: not thread-safe; one thread drives a solver (the server's estimator thread).
 #pragma once
 
+#include <array>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -42,6 +46,12 @@ class Isam2 {
  public:
   // Refine's wildfire threshold relative to refine_threshold (see Refine).
   static constexpr double kRefineWildfire = 0.1;
+  // Linearisation-error screen (see FindStaleLinearizations): a factor whose error is predicted
+  // below kStaleScreen x Relinearization::error_threshold is not evaluated (the prediction may
+  // be off by this factor before a stale linearisation goes unnoticed); an evaluated error below
+  // kErrorFloor x the threshold counts as that floor in the prediction.
+  static constexpr double kStaleScreen = 0.25;
+  static constexpr double kErrorFloor = 0.01;
 
   // kInvalidArgument (naming the field) when params are invalid.
   static Result<std::unique_ptr<Isam2>> Create(const Isam2Params& params = {});
@@ -105,7 +115,28 @@ class Isam2 {
   // Returns true when max_variables left some variables over the threshold for later.
   bool SelectRelinearization(const Isam2UpdateOptions& options, bool all,
                              const Isam2Params::Relinearization& thresholds,
-                             std::vector<int>* relin) const;
+                             std::vector<int>* relin);
+  // Linearisation-error check (Relinearization::error_threshold). The error of a factor's
+  // linearisation at the estimate, d_f = |r_f(θ ⊕ δ) − (A_f·δ + b_f)| (whitened), is second
+  // order in δ_f: d_f ≈ κ_f·s_f with s_f = StepSize(f). Each factor keeps κ_f from its last
+  // evaluation, and each variable a budget on |δ_v|² within which none of its factors can be
+  // predicted above kStaleScreen x threshold. SelectRelinearization lists the variables over
+  // budget (over_budget_); this evaluates, at θ ⊕ δ, those of their factors that are predicted
+  // above kStaleScreen x threshold or were never evaluated, raises ratio_ of the variables of
+  // each factor with d_f > threshold to d_f / threshold, and renews the budgets. Leaves θ as it
+  // was. Cost: O(factors of the variables over budget); a variable within its budget costs
+  // nothing beyond the δ scan SelectRelinearization does anyway.
+  // The prediction is a screen, not a bound: κ_f depends on the direction of δ_f (a rigid
+  // motion of a between factor's two poses costs no error at all), so a factor measured along
+  // one direction may be stale along another before it is evaluated again.
+  void FindStaleLinearizations(double threshold);
+  // |δ_nl|·|δ_f| for factor f: the scale of its linearisation error. δ_nl: the rotation
+  // entries of a factor on poses only (a pose's translation enters such residuals linearly but
+  // for products with its rotation), every entry of a factor on a point. Only during
+  // FindStaleLinearizations (reads step_norms_ of the variables over budget).
+  double StepSize(int f) const;
+  // Evaluates probe_factors_ (see above).
+  void ProbeLinearizations(double threshold);
   Status Relinearize(const std::vector<int>& relin, std::vector<int>* affected, int* num_factors);
   Status ReEliminate(const std::vector<int>& affected, const std::vector<int>& last,
                      std::vector<int>* new_cliques, Isam2Result* result);
@@ -141,10 +172,18 @@ class Isam2 {
   Isam2Params params_;
   Values theta_;                            // linearisation point; var id = slot
   std::vector<int> dims_;                   // tangent dimension per var id
+  std::vector<int> rotation_begin_;         // per var id: first rotation entry; -1: a point
   std::vector<int> offsets_;                // δ offsets per var id (size n + 1)
   Eigen::VectorXd delta_;                   // solution of the linearised system (tail unused)
   std::vector<FactorPtr> factors_;          // by factor index; null once removed
   std::vector<JacobianFactor> linearized_;  // cached linearisation of each factor at θ
+  // Linearisation-error screen (FindStaleLinearizations): per factor κ_f, or -1 before its
+  // first evaluation; per variable the |δ_v|² budget per unit of kStaleScreen x threshold
+  // (0: evaluate its factors as soon as δ_v moves).
+  std::vector<float> curvature_;
+  std::vector<double> budget_;
+  // Per factor its variable ids (-1: none), compact for the screen (linearized_ is large).
+  std::vector<std::array<int, kMaxFactorKeys>> factor_vars_;
   VariableIndex variable_index_;
   BayesTree tree_;
   Eliminator eliminator_;
@@ -156,6 +195,13 @@ class Isam2 {
   std::vector<int> removed_frontals_, orphans_, elim_vars_, elim_factors_, order_;
   std::vector<const JacobianFactor*> elim_jacobians_;
   std::vector<const HessianFactor*> elim_hessians_;
+  std::vector<double> ratio_;           // per var id: how far over the relinearisation thresholds
+  std::vector<char> probe_mark_;        // per factor: 0 between uses
+  std::vector<char> over_budget_mark_;  // per var id: 0 between uses
+  std::vector<std::pair<double, double>> step_norms_;  // per var id: |δ_v|², rotation part
+  std::vector<int> over_budget_, screened_, probe_factors_, probe_vars_;
+  std::vector<double> probe_weights_, probe_sizes_;
+  std::vector<Variable> probe_saved_;
   WildfireWorkspace wildfire_;
   Undo undo_;
 };

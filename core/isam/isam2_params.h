@@ -15,6 +15,15 @@ struct Isam2Params {
     double rotation_threshold = 0.1;
     // ... or a translation entry (metres; points have translation entries only). > 0.
     double translation_threshold = 0.1;
+    // ... or a factor on it has a stale linearisation: at the estimate θ ⊕ δ its whitened
+    // residual differs from the linear model's prediction A·δ + b by more than this (in standard
+    // deviations, |r(θ ⊕ δ) − (A·δ + b)|). The δ thresholds are in fixed units, blind to how
+    // stiff the factors are: with information ~1e12 (input_INTEL_g2o), a rotation δ far below
+    // 0.1 rad already leaves a linearisation error of thousands of sigmas, and the estimate
+    // stays far from the optimum. Checked with the δ thresholds (every `skip` updates); only
+    // factors whose error, predicted from their last evaluation, may be near this are
+    // evaluated. 0 = off (δ thresholds only, as GTSAM's ISAM2). >= 0.
+    double error_threshold = 1.0;
     // The check runs every `skip` updates (1 = every update). >= 1.
     int skip = 10;
     // At most this many variables are relinearised in one update, those whose δ exceeds the

@@ -1,5 +1,7 @@
 // The steps of Isam2::Update (isam2.cc).
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <thread>
 #include <unordered_set>
 
@@ -79,6 +81,11 @@ void Isam2::AddVariables(const Values& new_values) {
     const Status inserted = theta_.Insert(new_values.KeyAt(s), new_values.VariableAt(s));
     SLAMD_CHECK(inserted.ok()) << inserted.ToString();  // CheckInput ruled out every failure
     dims_.push_back(new_values.DimAt(s));
+    budget_.push_back(0.0);
+    const VariableType type = new_values.TypeAt(s);
+    rotation_begin_.push_back(type == VariableType::kPose2   ? 2
+                              : type == VariableType::kPose3 ? 3
+                                                             : -1);
     offsets_.push_back(offsets_.back() + dims_.back());
   }
   // δ grows geometrically (the back-substitution accepts a longer vector; the tail stays zero),
@@ -111,15 +118,23 @@ Status Isam2::AddFactors(const FactorGraph& new_factors, std::vector<int>* indic
     const int index = static_cast<int>(factors_.size());
     factors_.push_back(f);
     linearized_.emplace_back();
+    curvature_.push_back(-1.0f);
+    factor_vars_.push_back({-1, -1});
     if (Status s = LinearizeFactor(index); !s.ok()) {
       // Not in the variable index yet: drop it here, so that Rollback removes from the index
       // only the factors that were added to it.
       factors_.pop_back();
       linearized_.pop_back();
+      curvature_.pop_back();
+      factor_vars_.pop_back();
       return s;
+    }
+    for (int k = 0; k < linearized_[index].num_vars(); ++k) {
+      factor_vars_[index][k] = linearized_[index].var(k);
     }
     const Status added = variable_index_.AddFactor(index, linearized_[index].vars());
     SLAMD_CHECK(added.ok()) << added.ToString();
+    for (int v : linearized_[index].vars()) budget_[v] = 0.0;  // its curvature is unknown
     indices->push_back(index);
   }
   return Status::Ok();
@@ -138,25 +153,39 @@ void Isam2::RemoveFactors(const std::vector<int>& indices, std::vector<int>* aff
 
 bool Isam2::SelectRelinearization(const Isam2UpdateOptions& options, bool all,
                                   const Isam2Params::Relinearization& thresholds,
-                                  std::vector<int>* relin) const {
+                                  std::vector<int>* relin) {
   const int n = static_cast<int>(theta_.size());
   std::unordered_set<int> frozen;
   for (Key key : options.no_relinearize) frozen.insert(theta_.SlotOf(key));
   const double rot = thresholds.rotation_threshold;
   const double trans = thresholds.translation_threshold;
-  // Candidates with their largest |δ entry| / threshold; > 1 means over the threshold.
+  // Each variable's largest |δ entry| / threshold; > 1 means over the threshold.
+  const double error_threshold = all ? 0.0 : thresholds.error_threshold;
+  const double budget_unit = kStaleScreen * error_threshold;
+  ratio_.resize(n);
+  step_norms_.resize(n);
+  over_budget_.clear();
+  for (int v = 0; v < n; ++v) {
+    const double* d = delta_.data() + offsets_[v];
+    double ratio = 0.0, norm2 = 0.0, rotation2 = 0.0;
+    const int rotation_begin = rotation_begin_[v] >= 0 ? rotation_begin_[v] : dims_[v];
+    for (int k = 0; k < dims_[v]; ++k) {
+      const bool rotation = k >= rotation_begin;
+      ratio = std::max(ratio, std::abs(d[k]) / (rotation ? rot : trans));
+      norm2 += d[k] * d[k];
+      rotation2 += rotation ? d[k] * d[k] : 0.0;
+    }
+    ratio_[v] = ratio;
+    if (error_threshold > 0.0 && norm2 > budget_unit * budget_[v]) {
+      over_budget_.push_back(v);
+      step_norms_[v] = {norm2, rotation2};
+    }
+  }
+  // ... raised to linearisation error / error_threshold on the variables of stale factors.
+  if (error_threshold > 0.0) FindStaleLinearizations(error_threshold);
   std::vector<std::pair<double, int>> over;
   for (int v = 0; v < n; ++v) {
-    if (frozen.count(v)) continue;
-    const double* d = delta_.data() + offsets_[v];
-    double ratio = 0.0;
-    const VariableType type = theta_.TypeAt(v);
-    for (int k = 0; k < dims_[v]; ++k) {
-      const bool rotation =
-          (type == VariableType::kPose2 && k == 2) || (type == VariableType::kPose3 && k >= 3);
-      ratio = std::max(ratio, std::abs(d[k]) / (rotation ? rot : trans));
-    }
-    if (all || ratio > 1.0) over.emplace_back(ratio, v);
+    if ((all || ratio_[v] > 1.0) && !frozen.count(v)) over.emplace_back(ratio_[v], v);
   }
   const int limit = thresholds.max_variables;
   bool capped = false;
@@ -168,6 +197,137 @@ bool Isam2::SelectRelinearization(const Isam2UpdateOptions& options, bool all,
   }
   for (const auto& [ratio, v] : over) relin->push_back(v);
   return capped;
+}
+
+void Isam2::FindStaleLinearizations(double threshold) {
+  // Candidates: the factors of the variables over budget, unless predicted well below the
+  // threshold by their curvature. (Factors with a variable over the δ threshold are relinearised
+  // anyway, but at that variable's new θ only: their other variables keep a δ whose
+  // linearisation error still counts.)
+  probe_factors_.clear();
+  probe_sizes_.clear();
+  screened_.clear();
+  probe_mark_.resize(factors_.size(), 0);
+  over_budget_mark_.resize(theta_.size(), 0);
+  for (int v : over_budget_) over_budget_mark_[v] = 1;
+  for (int v : over_budget_) {
+    for (int f : variable_index_.FactorsOf(v)) {
+      if (probe_mark_[f]) continue;
+      probe_mark_[f] = 1;
+      screened_.push_back(f);
+      const double size = StepSize(f);
+      if (size == 0.0) continue;  // at θ itself the linearisation is exact
+      if (curvature_[f] >= 0.0f && curvature_[f] * size <= kStaleScreen * threshold) continue;
+      probe_factors_.push_back(f);
+      probe_sizes_.push_back(size);
+    }
+  }
+  for (int f : screened_) probe_mark_[f] = 0;  // all zero between uses
+  for (int v : over_budget_) over_budget_mark_[v] = 0;
+  if (!probe_factors_.empty()) ProbeLinearizations(threshold);
+  // New budgets: with each of its k_f variables u at |δ_u|² ≤ unit x budget_u, a factor f has
+  // κ_f·s_f ≤ κ_f·|δ_f|² ≤ unit (unit = kStaleScreen x threshold): it would pass the screen.
+  // Unknown curvature: budget 0 (evaluate as soon as δ_v moves).
+  for (int v : over_budget_) {
+    double budget = std::numeric_limits<double>::infinity();
+    for (int f : variable_index_.FactorsOf(v)) {
+      const double kappa = curvature_[f];
+      if (kappa < 0.0) {
+        budget = 0.0;
+        break;
+      }
+      // k_f <= kMaxFactorKeys (a bound, so that the factor's storage is not touched here).
+      if (kappa > 0.0) budget = std::min(budget, 1.0 / (kappa * kMaxFactorKeys));
+    }
+    budget_[v] = budget;
+  }
+}
+
+double Isam2::StepSize(int f) const {
+  // |δ_u|² and its rotation part for each variable u of f, from SelectRelinearization's scan
+  // (step_norms_ holds them for the variables over budget; the others are read from δ).
+  double all2 = 0.0, rotation2 = 0.0;
+  bool poses_only = true;
+  for (int u : factor_vars_[f]) {
+    if (u < 0) break;
+    poses_only = poses_only && rotation_begin_[u] >= 0;
+    if (over_budget_mark_[u]) {
+      all2 += step_norms_[u].first;
+      rotation2 += step_norms_[u].second;
+      continue;
+    }
+    const double* d = delta_.data() + offsets_[u];
+    for (int k = 0; k < dims_[u]; ++k) {
+      all2 += d[k] * d[k];
+      if (rotation_begin_[u] >= 0 && k >= rotation_begin_[u]) rotation2 += d[k] * d[k];
+    }
+  }
+  return std::sqrt(all2 * (poses_only ? rotation2 : all2));
+}
+
+void Isam2::ProbeLinearizations(double threshold) {
+  // A robust factor's cached linearisation is scaled by √w at θ (IRLS): the weight is taken
+  // first, and the difference is measured unweighted, in sigmas as for any other factor (a
+  // large residual has a small weight, but its linearisation error moves the cost as much).
+  probe_weights_.assign(probe_factors_.size(), 1.0);
+  for (std::size_t i = 0; i < probe_factors_.size(); ++i) {
+    const Factor& factor = *factors_[probe_factors_[i]];
+    if (factor.robust_kernel().is_none()) continue;
+    const double s = factor.noise_model().SquaredMahalanobis(factor.Error(theta_));
+    probe_weights_[i] = std::sqrt(factor.robust_kernel().Weight(s));
+  }
+  // Move θ to θ ⊕ δ on the probed variables (restored below; mark_ is all zero between uses).
+  probe_vars_.clear();
+  probe_saved_.clear();
+  for (int f : probe_factors_) {
+    for (int v : linearized_[f].vars()) {
+      if (mark_[v]) continue;
+      mark_[v] = 1;
+      probe_vars_.push_back(v);
+      probe_saved_.push_back(theta_.VariableAt(v));
+      RetractInPlace(&theta_.MutableVariableAt(v), delta_.data() + offsets_[v]);
+    }
+  }
+  for (std::size_t i = 0; i < probe_factors_.size(); ++i) {
+    const JacobianFactor& linear = linearized_[probe_factors_[i]];
+    const Factor& factor = *factors_[probe_factors_[i]];
+    const NoiseModel::Vector e = factor.Error(theta_);
+    // d = √w·R·e − (b + A·δ), in plain loops: the blocks are at most 6 x 6, where Eigen's
+    // dynamic-size kernels cost more in set-up than in arithmetic.
+    const int m = linear.rows();
+    const auto& R = factor.noise_model().sqrt_information();
+    const double w = probe_weights_[i];
+    const double* ab = linear.data();  // [A_0 ... A_{p-1} b], column-major, m rows
+    double d[kMaxResidualDim];
+    for (int row = 0; row < m; ++row) {
+      double whitened = 0.0;
+      for (int col = row; col < m; ++col) whitened += R(row, col) * e[col];
+      d[row] = w * whitened - ab[static_cast<std::size_t>(linear.Dim()) * m + row];
+    }
+    for (int k = 0; k < linear.num_vars(); ++k) {
+      const double* x = delta_.data() + offsets_[linear.var(k)];
+      const double* a = ab + static_cast<std::size_t>(linear.offset(k)) * m;
+      for (int col = 0; col < linear.dim(k); ++col, a += m) {
+        for (int row = 0; row < m; ++row) d[row] -= a[row] * x[col];
+      }
+    }
+    double norm2 = 0.0;
+    for (int row = 0; row < m; ++row) norm2 += d[row] * d[row];
+    // Weight 0 (a redescending kernel far out): the factor does not count at all.
+    const double error = w > 0.0 ? std::sqrt(norm2) / w : 0.0;
+    // κ from this evaluation; an error below the floor counts as the floor, so that a factor
+    // found (nearly) exact is evaluated again once its step has grown
+    // kStaleScreen / kErrorFloor-fold, whatever its direction.
+    curvature_[probe_factors_[i]] =
+        static_cast<float>(std::max(error, kErrorFloor * threshold) / probe_sizes_[i]);
+    const double ratio = error / threshold;
+    if (!(ratio > 1.0)) continue;
+    for (int v : linear.vars()) ratio_[v] = std::max(ratio_[v], ratio);
+  }
+  for (std::size_t i = 0; i < probe_vars_.size(); ++i) {
+    theta_.MutableVariableAt(probe_vars_[i]) = probe_saved_[i];
+    mark_[probe_vars_[i]] = 0;
+  }
 }
 
 Status Isam2::Relinearize(const std::vector<int>& relin, std::vector<int>* affected,
@@ -340,6 +500,8 @@ void Isam2::Rollback() {
   }
   factors_.resize(undo_.num_factors);
   linearized_.resize(undo_.num_factors);
+  curvature_.resize(undo_.num_factors);
+  factor_vars_.resize(undo_.num_factors);
   for (auto& [f, factor] : undo_.removed_factors) {
     factors_[f] = std::move(factor);
     const Status added = variable_index_.AddFactor(f, linearized_[f].vars());
@@ -352,6 +514,8 @@ void Isam2::Rollback() {
   }
   delta_.segment(offsets_[undo_.num_vars], offsets_.back() - offsets_[undo_.num_vars]).setZero();
   dims_.resize(undo_.num_vars);
+  budget_.resize(undo_.num_vars);
+  rotation_begin_.resize(undo_.num_vars);
   offsets_.resize(undo_.num_vars + 1);
   // The tree: re-eliminate the detached top from the old factors, which succeeded before.
   if (undo_.top_removed) {

@@ -11,6 +11,7 @@ TEST(Isam2ParamsTest, DefaultsAreValidAndMatchGtsam) {
   EXPECT_EQ(p.relinearization.skip, 10);
   EXPECT_DOUBLE_EQ(p.relinearization.rotation_threshold, 0.1);
   EXPECT_DOUBLE_EQ(p.wildfire_threshold, 0.001);
+  EXPECT_DOUBLE_EQ(p.relinearization.error_threshold, 1.0);  // on: GTSAM's ISAM2 has no such check
 }
 
 TEST(Isam2ParamsTest, EachViolationNamesTheField) {
@@ -21,6 +22,7 @@ TEST(Isam2ParamsTest, EachViolationNamesTheField) {
   const Case cases[] = {
       {{.relinearization = {.rotation_threshold = 0.0}}, "relinearization.rotation_threshold"},
       {{.relinearization = {.translation_threshold = -1.0}}, "relinearization.translation_threshold"},
+      {{.relinearization = {.error_threshold = -1.0}}, "relinearization.error_threshold"},
       {{.relinearization = {.skip = 0}}, "relinearization.skip"},
       {{.relinearization = {.max_variables = -1}}, "relinearization.max_variables"},
       {{.wildfire_threshold = -0.1}, "wildfire_threshold"},

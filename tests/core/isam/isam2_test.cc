@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <map>
 #include <set>
 
@@ -155,6 +156,96 @@ TEST(Isam2Test, InvalidInputIsRejectedBeforeAnyChange) {
   EXPECT_EQ(r.status.code(), StatusCode::kInvalidArgument);
   EXPECT_NE(r.status.message().find("x7"), std::string::npos);
   EXPECT_FALSE(Isam2::Create({.relinearization = {.skip = 0}}).ok());
+}
+
+// Linearisation-error check (Isam2Params::Relinearization::error_threshold).
+
+// Eight poses on a circle of radius 8 m (6 m apart), exact odometry, a loop closure 1 cm off,
+// very stiff noise (sigma 1e-4: information 1e8; input_INTEL_g2o reaches 1e12) and an initial
+// guess whose headings are off by 0.02-0.03 rad, far below the 0.1 rad relinearisation
+// threshold. A Gauss-Newton step from there moves every heading by less than the threshold, so
+// the δ thresholds never relinearise; but over 6 m lever arms the step leaves the linear model
+// off by tens of sigmas, and chi2 at θ ⊕ δ stays far above the optimum.
+struct StiffLoop {
+  FactorGraph graph;
+  Values initial;
+};
+StiffLoop MakeStiffLoop(bool robust) {
+  StiffLoop p;
+  const NoiseModel stiff = *NoiseModel::Isotropic(3, 1e-4);
+  const RobustKernel kernel =
+      robust ? *RobustKernel::Create(RobustKernel::Kind::kHuber, 1.0) : RobustKernel();
+  std::vector<Pose2> truth;
+  for (int i = 0; i < 8; ++i) {
+    const double phi = i * M_PI / 4;
+    truth.emplace_back(8 * std::cos(phi), 8 * std::sin(phi), phi + M_PI / 2);
+    const double error = (i % 3 == 0 ? 0.03 : i % 3 == 1 ? -0.03 : 0.02);
+    const Pose2 guess(truth[i].x(), truth[i].y(), phi + M_PI / 2 + error);
+    EXPECT_TRUE(p.initial.Insert(MakeKey('x', i), guess).ok());
+  }
+  p.graph.Emplace<PriorFactor<Pose2>>(MakeKey('x', 0), truth[0], stiff);
+  for (int i = 0; i < 8; ++i) {
+    const int j = (i + 1) % 8;
+    // The loop closure is 1 cm (100 sigma) off: the optimum has residuals of ~10 sigma, where
+    // the Huber kernel (k = 1) weighs ~0.1.
+    const Pose2 odometry = truth[i].Between(truth[j]).Compose(Pose2(j == 0 ? 1e-2 : 0.0, 0, 0));
+    p.graph.Emplace<BetweenFactor<Pose2>>(MakeKey('x', i), MakeKey('x', j), odometry, stiff,
+                                          kernel);
+  }
+  return p;
+}
+
+class Isam2StaleLinearizationTest : public ::testing::TestWithParam<bool> {};
+
+TEST_P(Isam2StaleLinearizationTest, StiffFactorsAreRelinearizedBelowTheDeltaThresholds) {
+  const StiffLoop p = MakeStiffLoop(GetParam());
+  auto checked = MakeIsam2({.relinearization = {.skip = 1}});
+  auto unchecked = MakeIsam2({.relinearization = {.error_threshold = 0.0, .skip = 1}});
+  ASSERT_TRUE(checked->Update(p.graph, p.initial).status.ok());
+  ASSERT_TRUE(unchecked->Update(p.graph, p.initial).status.ok());
+  const double after_first_step = unchecked->Chi2();
+  EXPECT_GT(after_first_step, 1e3);  // the stale Gauss-Newton step
+  for (int k = 0; k < 8; ++k) {
+    const Isam2Result off = unchecked->Update({}, {});
+    ASSERT_TRUE(off.status.ok());
+    EXPECT_EQ(off.relinearized_variables, 0);  // every |δ| stays under 0.1
+    ASSERT_TRUE(checked->Update({}, {}).status.ok());
+  }
+  EXPECT_NEAR(unchecked->Chi2(), after_first_step, 1e-6 * after_first_step);  // stuck
+  // Near the optimum: what is left comes from linearisation errors under the threshold, and
+  // with the kernel from weights that only relinearisation renews (iSAM2's IRLS).
+  const FactorGraph graph = checked->Factors();
+  const BatchResult batch = Optimize(graph, p.initial, {.relative_tolerance = 1e-12});
+  ASSERT_TRUE(batch.status.ok());
+  const double optimum = batch.summary.final_cost;
+  EXPECT_LT(graph.Cost(checked->CalculateEstimate()) - optimum,
+            5e-2 * (graph.Cost(unchecked->CalculateEstimate()) - optimum));
+  // Converged: the check finds nothing stale (with a kernel, once the IRLS weight of the cached
+  // linearisation is undone), and relinearises nothing.
+  const Isam2Result settled = checked->Update({}, {});
+  ASSERT_TRUE(settled.status.ok());
+  EXPECT_EQ(settled.relinearized_variables, 0);
+}
+
+INSTANTIATE_TEST_SUITE_P(PlainAndRobust, Isam2StaleLinearizationTest, ::testing::Bool());
+
+TEST(Isam2Test, TheLinearizationErrorCheckHasNoSideEffects) {
+  // The check evaluates factors at θ ⊕ δ by moving θ and restoring it: with a threshold no
+  // factor reaches, every step must be bit-identical to a run without the check.
+  const ExampleProblem p = testing::MakePlanarProblem(40, 8, 3);
+  auto checked = MakeIsam2({.relinearization = {.error_threshold = 1e12}});
+  auto unchecked = MakeIsam2({.relinearization = {.error_threshold = 0.0}});
+  for (const testing::ExampleStep& step : testing::StreamByPose(p)) {
+    const Isam2Result a = checked->Update(step.factors, step.values);
+    const Isam2Result b = unchecked->Update(step.factors, step.values);
+    ASSERT_TRUE(a.status.ok() && b.status.ok());
+    EXPECT_EQ(a.relinearized_variables, b.relinearized_variables);
+  }
+  EXPECT_EQ(testing::MaxDifference(checked->CalculateEstimate(), unchecked->CalculateEstimate()),
+            0.0);
+  EXPECT_EQ(
+      testing::MaxDifference(checked->linearization_point(), unchecked->linearization_point()),
+      0.0);
 }
 
 }  // namespace
