@@ -146,6 +146,10 @@ void RegisterBench(CLI::App& app) {
   cmd->add_option("--relinearize-skip", opt->isam2.relinearization.skip,
                   "isam2: check for relinearisation every N updates")
       ->capture_default_str();
+  cmd->add_option("--relinearize-error", opt->isam2.relinearization.error_threshold,
+                  "isam2: also relinearise a variable when one of its factors' linearisation "
+                  "error at the estimate exceeds this many sigmas (0: off, as GTSAM)")
+      ->capture_default_str();
   cmd->add_option("--relinearize-max", opt->isam2.relinearization.max_variables,
                   "isam2: relinearise at most this many variables per update, most changed first "
                   "(0: no limit)")

@@ -81,6 +81,9 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
     p->isam2.relinearization.translation_threshold = rl.translation_threshold();
   if (rl.has_skip()) p->isam2.relinearization.skip = rl.skip();
   if (rl.has_max_variables()) p->isam2.relinearization.max_variables = rl.max_variables();
+  if (rl.has_error_threshold()) {
+    p->isam2.relinearization.error_threshold = rl.error_threshold();
+  }
   if (i.has_wildfire_threshold()) p->isam2.wildfire_threshold = i.wildfire_threshold();
   if (i.has_refine_threshold()) p->isam2.refine_threshold = i.refine_threshold();
   if (i.has_batch_every()) p->isam2.batch_every = i.batch_every();
@@ -193,6 +196,8 @@ std::string DefaultConfigText() {
       << "    translation_threshold: " << Num(rl.translation_threshold) << "  # [m], > 0\n"
       << "    skip: " << rl.skip << "  # updates between relinearisation checks, >= 1\n"
       << "    max_variables: " << rl.max_variables << "  # per update, 0 = no limit\n"
+      << "    error_threshold: " << Num(rl.error_threshold)
+      << "  # or a factor's linearisation error exceeds this [sigmas], 0 = off, >= 0\n"
       << "  }\n"
       << "  wildfire_threshold: " << Num(d.isam2.wildfire_threshold)
       << "  # partial back-substitution\n"

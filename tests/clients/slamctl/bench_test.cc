@@ -1,5 +1,6 @@
 // Runs the slamctl binary: `slamctl bench` on a small dataset, and its argument errors.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -48,6 +49,25 @@ TEST(BenchTest, Isam2JsonHasStepPercentilesAndSettles) {
                                     " --solver isam2 --relinearize-skip 0");
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_NE(bad.out.find("relinearization.skip"), std::string::npos) << bad.out;
+}
+
+// Growth windows (steps 500-1000 and the last 500): p50 of all steps and of the odometry-only
+// steps. In a world without loop closures both are the same steps.
+TEST(BenchTest, Isam2StepGrowthWindowsOfOdometryOnlySteps) {
+  const std::string dir = ::testing::TempDir() + "slamd_bench_growth_" + std::to_string(getpid());
+  ASSERT_EQ(RunSlamctl("sim manhattan --steps 1200 --loop-probability 0 -o " + dir).exit_code, 0);
+  const SlamctlRun r = RunSlamctl("bench " + dir + "/world.g2o --solver isam2 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  auto field = [&](const std::string& name) {
+    const size_t at = r.out.find("\"" + name + "\": ");
+    EXPECT_NE(at, std::string::npos) << name << " missing from " << r.out;
+    return at == std::string::npos ? -1.0 : std::stod(r.out.substr(at + name.size() + 4));
+  };
+  EXPECT_GT(field("p50_early_ms"), 0.0);
+  EXPECT_GT(field("p50_late_ms"), 0.0);
+  EXPECT_EQ(field("odometry_p50_early_ms"), field("p50_early_ms"));
+  EXPECT_EQ(field("odometry_p50_late_ms"), field("p50_late_ms"));
+  std::filesystem::remove_all(dir);
 }
 
 TEST(BenchTest, Isam2MarginalsAreTimed) {

@@ -33,6 +33,8 @@ TEST(ConfigLoaderTest, DefaultConfigTextParsesToDefaults) {
   EXPECT_EQ(v.isam2.relinearization.skip, d.isam2.relinearization.skip);
   EXPECT_EQ(v.isam2.relinearization.rotation_threshold, d.isam2.relinearization.rotation_threshold);
   EXPECT_EQ(v.isam2.wildfire_threshold, d.isam2.wildfire_threshold);
+  EXPECT_EQ(v.isam2.relinearization.error_threshold, d.isam2.relinearization.error_threshold);
+  EXPECT_EQ(v.publish.latency_window, d.publish.latency_window);
   EXPECT_EQ(v.estimator.new_robot_anchor, d.estimator.new_robot_anchor);
   EXPECT_EQ(v.estimator.anchor_sigma, d.estimator.anchor_sigma);
   EXPECT_EQ(v.estimator.max_held_messages, d.estimator.max_held_messages);
@@ -45,8 +47,10 @@ lcm_url: "memq://"
 channel_prefix: "TEST_"
 queue { depth: 7 block_timeout_s: 0.5 }
 refine { enabled: false }
-isam2 { relinearization { skip: 1 rotation_threshold: 0.01 } wildfire_threshold: 0 }
+isam2 { relinearization { skip: 1 rotation_threshold: 0.01 error_threshold: 0 }
+        wildfire_threshold: 0 }
 estimator { new_robot_anchor: ANCHOR_AT_ORIGIN max_hold_updates: 3 }
+publish { latency_window: 64 }
 )");
   ASSERT_TRUE(p.ok()) << p.status().ToString();
   const ServerParams& v = p.value();
@@ -58,6 +62,8 @@ estimator { new_robot_anchor: ANCHOR_AT_ORIGIN max_hold_updates: 3 }
   EXPECT_EQ(v.refine.budget_s, ServerParams{}.refine.budget_s);
   EXPECT_EQ(v.isam2.relinearization.skip, 1);
   EXPECT_EQ(v.isam2.relinearization.rotation_threshold, 0.01);
+  EXPECT_EQ(v.isam2.relinearization.error_threshold, 0.0);
+  EXPECT_EQ(v.publish.latency_window, 64);
   EXPECT_EQ(v.isam2.wildfire_threshold, 0.0);
   EXPECT_EQ(v.estimator.new_robot_anchor, AnchorPolicy::kAnchorAtOrigin);
   EXPECT_EQ(v.estimator.max_hold_updates, 3);
