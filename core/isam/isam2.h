@@ -88,6 +88,9 @@ class Isam2 {
   double Chi2() const;
 
   const Values& linearization_point() const { return theta_; }
+  // The current update δ of the variable in `slot` (linearization_point().SlotOf(key)): its
+  // estimate is θ ⊕ δ. Valid until the next Update or Refine.
+  const double* Delta(int slot) const { return delta_.data() + offsets_[slot]; }
   // The current factors (removed ones left out), in index order.
   FactorGraph Factors() const;
   // Every factor by its index (Isam2Result::new_factor_indices); null once removed.

@@ -3,15 +3,21 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <bit>
+#include <cstddef>
 #include <cmath>
 #include <cstring>
 #include <string>
 
 #include "core/base/check.h"
+#include "core/marginals/clique_kernels.h"
 #include "core/isam/isam2.h"
 
 namespace slamd::core {
 namespace {
+
+using internal::HashClique;
+using internal::NegProductTransposed;
+using internal::Prefetch;
 
 using MatrixMap = Eigen::Map<Eigen::MatrixXd>;
 
@@ -20,55 +26,6 @@ MatrixMap View(std::vector<double>* buffer, int rows, int cols) {
   const std::size_t n = static_cast<std::size_t>(rows) * cols;
   if (buffer->size() < n) buffer->resize(n);
   return {buffer->data(), rows, cols};
-}
-
-// Eight independent multiply-rotate lanes (so the loop is not one long dependency chain), then a
-// splitmix finaliser. Detects any change of structure or of a bit of [R S]; not cryptographic.
-class Hasher {
- public:
-  void Add(std::uint64_t x) { Step(&lanes_[0], x); }
-  void AddDoubles(const double* p, std::size_t n) {
-    std::size_t i = 0;
-    for (; i + kLanes <= n; i += kLanes) {
-      for (int l = 0; l < kLanes; ++l) Step(&lanes_[l], std::bit_cast<std::uint64_t>(p[i + l]));
-    }
-    for (; i < n; ++i) Step(&lanes_[i % kLanes], std::bit_cast<std::uint64_t>(p[i]));
-  }
-  std::uint64_t Finish() const {
-    std::uint64_t h = 0;
-    for (std::uint64_t l : lanes_) h = SplitMix(h ^ l);
-    return h;
-  }
-
- private:
-  static void Step(std::uint64_t* lane, std::uint64_t x) {
-    *lane = std::rotl((*lane ^ x) * 0x9E3779B97F4A7C15ull, 31);
-  }
-  static std::uint64_t SplitMix(std::uint64_t z) {
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  static constexpr int kLanes = 8;
-  std::uint64_t lanes_[kLanes] = {1, 2, 3, 4, 5, 6, 7, 8};
-};
-
-std::uint64_t HashClique(const Clique& c) {
-  Hasher h;
-  const int nf = c.num_frontals(), ns = c.num_separator();
-  h.Add((static_cast<std::uint64_t>(nf) << 32) | static_cast<std::uint32_t>(ns));
-  for (int k = 0; k < nf; ++k) {
-    h.Add((static_cast<std::uint64_t>(c.frontal(k)) << 32) | static_cast<std::uint32_t>(c.frontal_dim(k)));
-  }
-  for (int k = 0; k < ns; ++k) {
-    h.Add((static_cast<std::uint64_t>(c.separator()[k]) << 32) |
-          static_cast<std::uint32_t>(c.separator_dim(k)));
-  }
-  // R and S are the first FrontalDim() x (FrontalDim() + SeparatorDim()) entries of [R S d];
-  // d does not enter the covariance.
-  const auto rs = c.conditional();
-  h.AddDoubles(rs.data(), static_cast<std::size_t>(c.FrontalDim()) * (c.FrontalDim() + c.SeparatorDim()));
-  return h.Finish();
 }
 
 // Index of `var` among the clique's frontals (it must be one).
@@ -82,13 +39,11 @@ int FrontalIndex(const Clique& c, int var) {
 
 }  // namespace
 
-TangentMatrix EstimateTangentJacobian(const Variable& theta, const Variable& estimate) {
-  SLAMD_CHECK(theta.index() == estimate.index()) << "EstimateTangentJacobian: different types";
-  switch (TypeOf(theta)) {
+TangentMatrix EstimateTangentJacobian(VariableType type, const double* delta) {
+  switch (type) {
     case VariableType::kPose2: {
       // θ·P(δ+ε) seen from E = θ·P(δ): P(δ)⁻¹P(δ+ε) = (Rot(ε_θ), R(δ_θ)ᵀ ε_xy), exactly linear.
-      const Vector3 d = std::get<Pose2>(theta).LocalCoordinates(std::get<Pose2>(estimate));
-      const double c = std::cos(d[2]), s = std::sin(d[2]);
+      const double c = std::cos(delta[2]), s = std::sin(delta[2]);
       TangentMatrix J = TangentMatrix::Identity(3, 3);
       J(0, 0) = c;
       J(0, 1) = s;
@@ -98,9 +53,8 @@ TangentMatrix EstimateTangentJacobian(const Variable& theta, const Variable& est
     }
     case VariableType::kPose3: {
       // Log(Exp(δ)⁻¹ Exp(δ+ε)) = Jr(δ) ε + O(ε²).
-      const Vector6 d = std::get<Pose3>(theta).LocalCoordinates(std::get<Pose3>(estimate));
       Matrix6 H;
-      (void)Pose3::Exp(d, &H);
+      (void)Pose3::Exp(Eigen::Map<const Vector6>(delta), &H);
       return H;
     }
     case VariableType::kPoint2: return TangentMatrix::Identity(2, 2);
@@ -113,18 +67,21 @@ TangentMatrix EstimateTangentJacobian(const Variable& theta, const Variable& est
 // BayesTreeMarginals
 
 void BayesTreeMarginals::Resize() {
+  ++pass_;
   positions_of_ = BayesTree::kNone;  // the tree may have changed since the last call
   if (static_cast<int>(entries_.size()) < tree_->NumSlots()) entries_.resize(tree_->NumSlots());
   if (static_cast<int>(depth_.size()) < tree_->NumSlots()) depth_.resize(tree_->NumSlots(), -1);
   if (static_cast<int>(pos_.size()) < tree_->NumVariables()) {
     pos_.resize(tree_->NumVariables(), 0);
     row_.resize(tree_->NumVariables(), 0);
+    frontal_block_.resize(tree_->NumVariables());
   }
 }
 
 Eigen::Map<const Eigen::MatrixXd> BayesTreeMarginals::CliqueJoint(int clique) const {
   const Entry& e = entries_[clique];
-  return {e.joint.get(), e.n, e.n};
+  const int n = e.full ? e.n : e.nf;
+  return {e.data, n, n};
 }
 
 void BayesTreeMarginals::Invalidate(std::span<const int> cliques) {
@@ -137,24 +94,29 @@ void BayesTreeMarginals::InvalidateAll() {
   for (Entry& e : entries_) e.valid = false;
 }
 
-bool BayesTreeMarginals::IsValid(int c, int parent, std::uint64_t* hash) {
+bool BayesTreeMarginals::IsValid(int c, int parent, bool need_full, std::uint64_t* hash) {
   ++stats_.cliques_checked;
   *hash = HashClique(tree_->clique(c));
   Entry& e = entries_[c];
-  if (!e.valid || e.hash != *hash) return false;
+  if (!e.valid || e.hash != *hash || (need_full && !e.full)) return false;
   if (parent == BayesTree::kNone) return e.parent == BayesTree::kNone;  // a root's joint is R⁻¹R⁻ᵀ
-  if (e.parent == parent && e.parent_generation == entries_[parent].generation) return true;
+  const Entry& pe = entries_[parent];
+  if (e.parent == parent && e.parent_generation == pe.generation) {
+    // Also when the parent was recomputed this pass but reproduced the same joint (Invalidate()).
+    if (pe.computed_in == pass_) ++stats_.cliques_reused;
+    return true;
+  }
   // The parent's joint was recomputed. This joint is still right if the Σ_SS it was computed
   // from (its own bottom-right block) equals the parent's new one: iSAM2 re-creates the top
   // cliques every step, but an odometry step leaves the marginals below them unchanged up to
   // round-off (and the re-attached orphan may have a new parent id). Keeping `generation` then
-  // spares the whole subtree.
+  // spares the whole subtree. A Σ_FF-only entry cannot tell (it does not keep Σ_SS).
+  if (!e.full || !pe.full) return false;
   EnsurePositions(parent);
   const Clique& cl = tree_->clique(c);
   const int ns = cl.SeparatorDim();
-  const Entry& pe = entries_[parent];
-  const Eigen::Map<const Eigen::MatrixXd> P(pe.joint.get(), pe.n, pe.n);
-  const Eigen::Map<const Eigen::MatrixXd> J(e.joint.get(), e.n, e.n);
+  const Eigen::Map<const Eigen::MatrixXd> P(pe.data, pe.n, pe.n);
+  const Eigen::Map<const Eigen::MatrixXd> J(e.data, e.n, e.n);
   const double allowed = params_.reuse_tolerance * J.bottomRightCorner(ns, ns).cwiseAbs().maxCoeff();
   SeparatorRuns(cl);
   for (const Run& b : runs_) {
@@ -201,66 +163,245 @@ void BayesTreeMarginals::SetPositions(int c) {
   positions_of_ = c;
 }
 
-void BayesTreeMarginals::Compute(int c, int parent, std::uint64_t hash) {
-  ++stats_.cliques_computed;
-  const Clique& cl = tree_->clique(c);
+void BayesTreeMarginals::ComputeJoint(const Clique& cl, const double* parent_joint, int parent_n, bool with_fs,
+                                      double* out) {
   const int nf = cl.FrontalDim(), ns = cl.SeparatorDim(), n = nf + ns;
-  Entry& e = entries_[c];
-  e.n = n;
-  const std::size_t size = static_cast<std::size_t>(n) * n;
-  // Grow as needed; shrink when far too large (a recycled clique slot may have been the root).
-  if (e.capacity < size || (e.capacity > 4 * size && e.capacity > 1024)) {
-    e.joint.reset(new double[size]);
-    e.capacity = size;
-  }
-  MatrixMap J(e.joint.get(), n, n);
+  MatrixMap J(out, n, n);
   const auto R = cl.R();
   MatrixMap Rinv = View(&rinv_, nf, nf);
   Rinv.setIdentity();
   R.triangularView<Eigen::Upper>().solveInPlace(Rinv);
+  // R⁻¹R⁻ᵀ: R⁻¹ is upper triangular; Eigen's triangular product is faster from ~24 rows up.
+  const auto inverse_gram = [&](auto&& dst) {
+    if (nf >= 24) {
+      dst.noalias() = Rinv.triangularView<Eigen::Upper>() * Rinv.transpose();
+    } else {
+      dst.noalias() = Rinv * Rinv.transpose();
+    }
+  };
   if (ns == 0) {
-    J.noalias() = Rinv * Rinv.transpose();
+    inverse_gram(J);
+    return;
+  }
+  // Σ_SS from the parent's joint: copied into this joint (children read it there, and a cached
+  // joint is compared with its parent's through it), or, when only Σ_FF is wanted and the
+  // separator is one contiguous block of the parent's joint, read in place.
+  const Eigen::Map<const Eigen::MatrixXd> P(parent_joint, parent_n, parent_n);
+  SeparatorRuns(cl);
+  const double* ss_data = out + nf + static_cast<std::size_t>(nf) * n;
+  int ss_stride = n;
+  if (!with_fs && runs_.size() == 1) {
+    ss_data = parent_joint + runs_[0].parent + static_cast<std::size_t>(runs_[0].parent) * parent_n;
+    ss_stride = parent_n;
   } else {
-    SLAMD_CHECK(parent != BayesTree::kNone)
-        << "clique " << c << " has a separator but no parent (tree between RemoveTop and re-attach?)";
-    // Σ_SS from the parent's joint.
-    EnsurePositions(parent);
-    const Entry& pe = entries_[parent];
-    const Eigen::Map<const Eigen::MatrixXd> P(pe.joint.get(), pe.n, pe.n);
-    SeparatorRuns(cl);
     for (const Run& b : runs_) {
       for (const Run& a : runs_) J.block(a.own, b.own, a.size, b.size) = P.block(a.parent, b.parent, a.size, b.size);
     }
-    // K = R⁻¹S; Σ_FS = −K Σ_SS; Σ_FF = R⁻¹R⁻ᵀ − Σ_FS Kᵀ (= R⁻¹R⁻ᵀ + K Σ_SS Kᵀ).
-    MatrixMap K = View(&k_, nf, ns);
-    K = cl.S();
-    R.triangularView<Eigen::Upper>().solveInPlace(K);
-    J.topRightCorner(nf, ns).noalias() = -K * J.bottomRightCorner(ns, ns);
-    J.bottomLeftCorner(ns, nf) = J.topRightCorner(nf, ns).transpose();
-    J.topLeftCorner(nf, nf).noalias() = Rinv * Rinv.transpose();
-    J.topLeftCorner(nf, nf).noalias() -= J.topRightCorner(nf, ns) * K.transpose();
   }
-  e.valid = true;
+  // K = R⁻¹S; Σ_SF = −Σ_SS Kᵀ; Σ_FF = R⁻¹R⁻ᵀ − K Σ_SF (= R⁻¹R⁻ᵀ + K Σ_SS Kᵀ).
+  // Σ_SF (ns x nf) rather than Σ_FS: the long dimension as rows suits the kernel's packets.
+  MatrixMap K = View(&k_, nf, ns);
+  K = cl.S();
+  R.triangularView<Eigen::Upper>().solveInPlace(K);
+  NegProductTransposed(ss_data, ss_stride, ns, K.data(), nf, out + nf, n);
+  auto SF = J.bottomLeftCorner(ns, nf);
+  auto FF = J.topLeftCorner(nf, nf);
+  inverse_gram(FF);
+  if (nf >= 12) {
+    // Large frontal blocks (3D, several poses): only the lower triangle of the symmetric
+    // update (half the flops), then mirrored. Below that size Eigen's full GEMM is faster.
+    FF.triangularView<Eigen::Lower>() -= K * SF;
+    FF.triangularView<Eigen::StrictlyUpper>() = FF.transpose();
+  } else {
+    FF.noalias() -= K * SF;
+  }
+  if (with_fs) J.topRightCorner(nf, ns) = SF.transpose();
+}
+
+void BayesTreeMarginals::Record(int c, int parent, std::uint64_t hash) {
+  ++stats_.cliques_computed;
+  Entry& e = entries_[c];
+  const std::uint64_t parent_generation = parent == BayesTree::kNone ? 0 : entries_[parent].generation;
+  // Same conditional and same parent joint as the result it replaces (only Invalidate()d, or
+  // upgraded from Σ_FF to the full joint): the computation is deterministic, so the joint is
+  // the same and the subtree below may keep theirs.
+  const bool same = e.has_result && e.hash == hash && e.parent == parent && e.parent_generation == parent_generation;
+  if (!same) e.generation = next_generation_++;
+  e.valid = e.has_result = true;
   e.hash = hash;
   e.parent = parent;
-  e.parent_generation = parent == BayesTree::kNone ? 0 : entries_[parent].generation;
-  e.generation = next_generation_++;
+  e.parent_generation = parent_generation;
+  e.computed_in = pass_;
+  // Where each frontal's block is, tagged with the result it belongs to (generations are unique
+  // to one entry and kept only when the structure is the same).
+  const Clique& cl = tree_->clique(c);
+  for (int k = 0; k < cl.num_frontals(); ++k) {
+    frontal_block_[cl.frontal(k)] = {e.generation, cl.frontal_offset(k), cl.frontal_dim(k)};
+  }
+}
+
+void BayesTreeMarginals::Compute(int c, int parent, std::uint64_t hash) {
+  const Clique& cl = tree_->clique(c);
+  const int nf = cl.FrontalDim(), ns = cl.SeparatorDim(), n = nf + ns;
+  const double* parent_joint = nullptr;
+  int parent_n = 0;
+  if (ns > 0) {
+    SLAMD_CHECK(parent != BayesTree::kNone)
+        << "clique " << c << " has a separator but no parent (tree between RemoveTop and re-attach?)";
+    if (!entries_[parent].full) EnsureFull(parent);
+    EnsurePositions(parent);
+    parent_joint = entries_[parent].data;
+    parent_n = entries_[parent].n;
+  }
+  Entry& e = entries_[c];
+  const std::size_t size = static_cast<std::size_t>(n) * n;
+  // Grow as needed; shrink when far too large (a recycled clique slot may have been the root).
+  if (e.capacity < size || (e.capacity > 4 * size && e.capacity > 1024)) {
+    e.own.reset(new double[size]);
+    e.capacity = size;
+  }
+  ComputeJoint(cl, parent_joint, parent_n, true, e.own.get());
+  e.data = e.own.get();
+  e.n = n;
+  e.nf = nf;
+  e.full = true;
+  Record(c, parent, hash);
+}
+
+void BayesTreeMarginals::EnsureFull(int c) {
+  // Only reached for valid entries (their hash is current); the recomputed joints reproduce the
+  // results they replace, so Record() keeps their generations.
+  std::vector<int>& up = stack_;
+  const std::size_t base = up.size();
+  for (int x = c; x != BayesTree::kNone && !entries_[x].full; x = tree_->clique(x).parent()) up.push_back(x);
+  while (up.size() > base) {
+    const int x = up.back();
+    up.pop_back();
+    Compute(x, tree_->clique(x).parent(), entries_[x].hash);
+  }
+}
+
+void BayesTreeMarginals::ComputeAllFresh() {
+  // 1. Σ_FF-only results of an earlier fresh pass point into the arena that is about to be
+  //    replaced: drop them (every live clique is recomputed below anyway).
+  for (Entry& e : entries_) {
+    if (!e.full) {
+      e.valid = e.has_result = false;
+      e.data = nullptr;
+    }
+  }
+  // 2. Sizes, in one walk over the tree: the arena holds Σ nf²; the scratch stack (see 3) is
+  //    sized exactly, as growing it would page-fault twice. Walk frames: `off` = where the
+  //    clique's joint is computed, `next_child` = where it stays while its subtree is computed.
+  std::size_t total = 0, deepest = 0;
+  for (int r : tree_->roots()) {
+    frames_.clear();
+    frames_.push_back({r, 0, 0, 0});
+    while (!frames_.empty()) {
+      const Frame f = frames_.back();
+      frames_.pop_back();
+      const Clique& cl = tree_->clique(f.clique);
+      const std::size_t nf = cl.FrontalDim(), n = nf + cl.SeparatorDim();
+      total += nf * nf;
+      deepest = std::max(deepest, f.off + n * n);
+      const std::vector<int>& children = cl.children();
+      const std::size_t base = f.next_child + n * n;
+      for (std::size_t k = 0; k < children.size(); ++k) {
+        frames_.push_back({children[k], 0, base, k + 1 == children.size() ? f.next_child : base});
+      }
+    }
+  }
+  if (diag_capacity_ < total) {
+    diag_arena_.reset(new double[total]);
+    diag_capacity_ = total;
+  }
+  if (scratch_capacity_ < deepest) {
+    scratch_.reset(new double[deepest]);
+    scratch_capacity_ = deepest;
+  }
+  std::size_t used = 0;
+  // 3. Depth first. A clique's full joint lives on the scratch stack while its subtree is
+  //    computed (children read their Σ_SS from it); only Σ_FF is kept. Scratch is at most the
+  //    sum of n² along one root-to-leaf path instead of the whole tree's, so a fresh cache
+  //    page-faults in a few MB instead of tens.
+  const auto compute = [&](int c, const Frame* parent, std::size_t off) -> Frame {
+    const Clique& cl = tree_->clique(c);
+    SLAMD_CHECK(parent != nullptr || cl.SeparatorDim() == 0)
+        << "clique " << c << " has a separator but no parent (tree between RemoveTop and re-attach?)";
+    ++stats_.cliques_checked;
+    const std::uint64_t hash = HashClique(cl);
+    // The conditionals are scattered over the heap and cold: ask for the next ones early (the
+    // first child is computed next; the next sibling is asked for by the loop below).
+    if (!cl.children().empty()) Prefetch(tree_->clique(cl.children()[0]));
+    const int nf = cl.FrontalDim(), n = nf + cl.SeparatorDim();
+    SLAMD_CHECK(off + static_cast<std::size_t>(n) * n <= scratch_capacity_) << "scratch sized wrongly";
+    const double* parent_joint = nullptr;
+    if (parent != nullptr) {
+      EnsurePositions(parent->clique);
+      parent_joint = scratch_.get() + parent->off;
+    }
+    double* joint = scratch_.get() + off;
+    ComputeJoint(cl, parent_joint, parent ? parent->n : 0, !cl.children().empty(), joint);
+    Entry& e = entries_[c];
+    e.data = diag_arena_.get() + used;
+    e.n = n;
+    e.nf = nf;
+    e.full = n == nf;  // a root's joint is its Σ_FF
+    Eigen::Map<Eigen::MatrixXd>(e.data, nf, nf) = Eigen::Map<const Eigen::MatrixXd>(joint, n, n).topLeftCorner(nf, nf);
+    used += static_cast<std::size_t>(nf) * nf;
+    Record(c, parent ? parent->clique : BayesTree::kNone, hash);
+    return {c, n, off, 0};
+  };
+  for (int r : tree_->roots()) {
+    frames_.clear();
+    frames_.push_back(compute(r, nullptr, 0));
+    while (!frames_.empty()) {
+      Frame& f = frames_.back();
+      const std::vector<int>& children = tree_->clique(f.clique).children();
+      if (f.next_child == children.size()) {
+        frames_.pop_back();
+        continue;
+      }
+      const int child = children[f.next_child++];
+      if (f.next_child < children.size()) Prefetch(tree_->clique(children[f.next_child]));
+      const bool last = f.next_child == children.size();
+      const Frame top = f;  // frames_ may grow below
+      Frame cf = compute(child, &top, top.off + static_cast<std::size_t>(top.n) * top.n);
+      if (tree_->clique(child).children().empty()) continue;
+      if (last) {
+        // The parent's joint is not needed any more: the child's moves down into its place, so
+        // a chain of only children (the top of an iSAM2 tree) holds two joints, not a path's.
+        std::memmove(scratch_.get() + top.off, scratch_.get() + cf.off,
+                     sizeof(double) * static_cast<std::size_t>(cf.n) * cf.n);
+        cf.off = top.off;
+        frames_.back() = cf;
+      } else {
+        frames_.push_back(cf);
+      }
+    }
+  }
 }
 
 void BayesTreeMarginals::ComputeAll() {
   Resize();
   stats_ = {};
+  bool any_valid = false;
+  for (int c = 0; c < tree_->NumSlots() && !any_valid; ++c) any_valid = entries_[c].valid && tree_->IsLive(c);
+  if (!any_valid) {
+    ComputeAllFresh();
+    return;
+  }
   stack_.clear();
   std::uint64_t hash;
   for (int r : tree_->roots()) {
-    if (!IsValid(r, BayesTree::kNone, &hash)) Compute(r, BayesTree::kNone, hash);
+    if (!IsValid(r, BayesTree::kNone, false, &hash)) Compute(r, BayesTree::kNone, hash);
     stack_.push_back(r);
   }
   while (!stack_.empty()) {
     const int c = stack_.back();
     stack_.pop_back();
     for (int child : tree_->clique(c).children()) {
-      if (!IsValid(child, c, &hash)) Compute(child, c, hash);
+      if (!IsValid(child, c, false, &hash)) Compute(child, c, hash);
       stack_.push_back(child);
     }
   }
@@ -273,7 +414,7 @@ void BayesTreeMarginals::EnsurePath(int c) {
   std::uint64_t hash;
   for (int i = static_cast<int>(path_.size()) - 1; i >= 0; --i) {
     const int x = path_[i];
-    if (!IsValid(x, parent, &hash)) Compute(x, parent, hash);
+    if (!IsValid(x, parent, true, &hash)) Compute(x, parent, hash);
     parent = x;
   }
 }
@@ -298,10 +439,23 @@ Status BayesTreeMarginals::CachedMarginal(int var, Eigen::MatrixXd* cov) const {
   if (c == BayesTree::kNone || c >= static_cast<int>(entries_.size()) || !entries_[c].valid) {
     return NotFound("no cached marginal for variable " + std::to_string(var));
   }
-  const Clique& cl = tree_->clique(c);
-  const int k = FrontalIndex(cl, var);
-  const int o = cl.frontal_offset(k), d = cl.frontal_dim(k);
-  *cov = CliqueJoint(c).block(o, o, d, d);
+  // The variable's block as recorded when its clique's entry was computed (reading every
+  // variable then touches no clique structure); else found among the clique's frontals.
+  const Entry& e = entries_[c];
+  const FrontalBlock& b = frontal_block_[var];
+  int o, d;
+  if (b.generation == e.generation) {
+    o = b.offset;
+    d = b.dim;
+  } else {
+    const Clique& cl = tree_->clique(c);
+    const int k = FrontalIndex(cl, var);
+    o = cl.frontal_offset(k);
+    d = cl.frontal_dim(k);
+  }
+  const int ld = e.full ? e.n : e.nf;
+  *cov = Eigen::Map<const Eigen::MatrixXd, 0, Eigen::OuterStride<>>(e.data + o + static_cast<std::size_t>(o) * ld, d, d,
+                                                                     Eigen::OuterStride<>(ld));
   return Status::Ok();
 }
 
@@ -450,9 +604,8 @@ namespace {
 
 // Σ ← J Σ Jᵀ: the covariance of `slot` moved from θ's tangent space to the estimate's.
 void ToEstimateFrame(const Isam2& isam, int slot, Eigen::MatrixXd* cov) {
-  const Values& theta = isam.linearization_point();
   const TangentMatrix J =
-      EstimateTangentJacobian(theta.VariableAt(slot), isam.CalculateEstimate(theta.KeyAt(slot)));
+      EstimateTangentJacobian(isam.linearization_point().TypeAt(slot), isam.Delta(slot));
   const TangentMatrix JS = J * (*cov);
   cov->noalias() = JS * J.transpose();
 }
@@ -488,7 +641,7 @@ Status Isam2Marginals::JointMarginal(std::span<const Key> keys, Frame frame, Eig
     // Σ_E = blockdiag(J_i) Σ_θ blockdiag(J_i)ᵀ, applied block row by block row, then by columns.
     int o = 0;
     for (std::size_t i = 0; i < keys.size(); ++i) {
-      const TangentMatrix J = EstimateTangentJacobian(theta.VariableAt(vars_[i]), isam_->CalculateEstimate(keys[i]));
+      const TangentMatrix J = EstimateTangentJacobian(theta.TypeAt(vars_[i]), isam_->Delta(vars_[i]));
       const int d = static_cast<int>(J.rows());
       cov->middleRows(o, d) = (J * cov->middleRows(o, d)).eval();
       cov->middleCols(o, d) = (cov->middleCols(o, d) * J.transpose()).eval();

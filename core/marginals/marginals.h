@@ -7,8 +7,9 @@
 //     child:  Σ_FS = −R⁻¹S Σ_SS,   Σ_FF = R⁻¹R⁻ᵀ + R⁻¹S Σ_SS SᵀR⁻ᵀ,
 // where Σ_SS is read from the parent's joint (a child's separator lies in its parent's frontals
 // and separator). BayesTreeMarginals keeps, per clique, the joint marginal over [F; S] (frontals
-// in R's row order, then the separator in S's column order) and reuses it until the clique's
-// conditional or the Σ_SS it was computed from changes (see CHANGE DETECTION).
+// in R's row order, then the separator in S's column order; or only Σ_FF, see FRESH PASS) and
+// reuses it until the clique's conditional or the Σ_SS it was computed from changes (see CHANGE
+// DETECTION).
 //
 // CONVENTION. Covariances are of the tree's unknown δ, i.e. in the tangent space at the
 // LINEARISATION POINT θ with slamd's right-perturbation charts (variable.h): Pose2 θ·Pose2(δ)
@@ -26,11 +27,31 @@
 // update, so "recompute below every changed conditional" alone would recompute the whole tree
 // each step, while after an odometry step the marginals below the top are unchanged. A changed
 // conditional or a changed Σ_SS forces recomputation; nothing else does. Invalidate() forces it
-// explicitly. (Hashing reads [R S] of each checked clique; a generation counter on Clique, bumped
-// by Reset() and mutable_conditional(), would make that check O(1).)
+// explicitly; a joint recomputed from the same conditional and the same parent joint is the same
+// (the computation is deterministic), so it keeps its generation and its subtree stays valid.
+// (Hashing reads [R S] of each checked clique; a generation counter on Clique, bumped by Reset()
+// and mutable_conditional(), would make that check O(1).)
+//
+// FRESH PASS. ComputeAll() on a cache with no valid entry (a new object, or after
+// InvalidateAll()) keeps only Σ_FF per clique: it walks the tree depth first with the full joints
+// of the current root-to-clique path on a scratch stack (a child reads its Σ_SS there, or in
+// place when it is one block of the parent's joint and the child has no children), and copies
+// each Σ_FF into one contiguous arena. Memory touched: Σ nF² + max over paths of Σ n² instead of
+// Σ n² (n = nF + nS; input_M3500 0.4 + 1.9 MB instead of 9.5 MB, parking-garage 1.0 + 2.5 MB
+// instead of 20 MB); on first use every page costs a fault (~0.3-0.5 µs per 4 KB here), which
+// was most of the old first pass. A Σ_FF-only entry serves CachedMarginal() and Marginal() of its
+// frontals and stays valid while its parent's generation is unchanged; it cannot be checked
+// against a changed parent (no Σ_SS kept), so it is recomputed then. Anything that needs a full
+// joint (Marginal()/JointMarginal() paths, a recomputed child) recomputes it from its parent's,
+// with the same generation. Consequence: the ComputeAll() after the first update that follows a
+// fresh pass recomputes the whole tree once (as a first pass did before); later ones are
+// incremental as described above.
 //
 // COSTS (nF, nS: a clique's frontal and separator dimensions).
-//   * computing one clique's joint: O(nF³ + nF²nS + nF nS²) flops.
+//   * computing one clique's joint: K = R⁻¹S (nF²nS), Σ_SF = −Σ_SS Kᵀ (2nF nS², the bulk; a
+//     register-blocked kernel on Eigen's packets, 1.3-2x Eigen's GEMM at nF <= 6),
+//     Σ_FF = R⁻¹R⁻ᵀ − K Σ_SF (nF³ + 2nF²nS, halved for nF >= 12 by updating one triangle).
+//     Totals: input_M3500 ~15 Mflop, parking-garage ~45 Mflop, victoriaPark ~7 Mflop.
 //   * ComputeAll(): checks every clique (hash, O(nF(nF+nS))) and recomputes the changed ones.
 //   * Marginal(var), or JointMarginal of variables that all lie in one clique's frontals and
 //     separator: validates and recomputes only the path from the variable's clique to the root
@@ -41,9 +62,14 @@
 //     substitution R x = y down U; O(k · Σ_{c∈U} nF(nF+nS)) flops. Does not use or touch the cache.
 // No heap allocation per call once warm (scratch and cache storage are reused), except to resize
 // *cov and in Isam2Marginals' frame conversion of a joint.
-// Measured on input_M3500_g2o streamed into Isam2 (3117 cliques, loaded 2-core machine): all
-// marginals from scratch 4-6 ms (8-9 ms for the very first pass, which page-faults in ~9.5 MB of
-// cache), ComputeAll after each step 0.3 ms median (2 cliques recomputed), newest pose 0.5 µs.
+// Measured with `slamctl bench FILE --solver isam2 --marginals latest --json`, column
+// marginals_final_all_ms (a fresh Isam2Marginals: ComputeAll, then CachedMarginal of every key in
+// the estimate's tangent), median of 3, 2-core VM with load average ~3 from other jobs; the
+// full-joint-per-clique layout before -> now: input_M3500 10.9 -> 4.7 ms, manhattan 10.1 -> 5.2,
+// intel 2.7 -> 1.2, parking-garage 13.2 -> 6.2, victoriaPark 11.7 -> 7.2. Of parking-garage's,
+// ~4 ms is arithmetic (45 Mflop, SSE2 build), the rest cold tree data (hashing reads it first),
+// page faults and 0.7 ms of per-key Pose3 frame conversion. ComputeAll after each step
+// (--marginals all) unchanged: input_M3500 0.27 ms median; newest pose 0.6 µs median.
 //
 // Thread safety: not thread-safe (queries update the cache). The tree must not change during a
 // call; it may change between calls (that is what the cache checks are for).
@@ -69,8 +95,9 @@ using TangentMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eige
                                     kMaxVariableDim, kMaxVariableDim>;
 
 // J such that Σ_E = J Σ_θ Jᵀ re-expresses a covariance of a variable's tangent at θ in the
-// tangent at the estimate E = θ ⊕ δ (see the file comment). Same types required (checked).
-TangentMatrix EstimateTangentJacobian(const Variable& theta, const Variable& estimate);
+// tangent at the estimate E = θ ⊕ δ (see the file comment), for a variable of `type` and its
+// update δ (TangentDim(type) entries). It depends on δ only.
+TangentMatrix EstimateTangentJacobian(VariableType type, const double* delta);
 
 struct MarginalsParams {
   // A clique whose conditional is unchanged keeps its cached joint after its parent's joint
@@ -96,9 +123,9 @@ class BayesTreeMarginals {
   explicit BayesTreeMarginals(const BayesTree* tree, const MarginalsParams& params = {})
       : tree_(tree), params_(params) {}
 
-  // Brings every clique's joint marginal up to date in one top-down pass (the block diagonal of
-  // Σ for all variables is then available through Marginal() without further computation beyond
-  // the path check).
+  // Brings every clique's joint marginal up to date in one top-down pass: the block diagonal of
+  // Σ for all variables is then available through CachedMarginal() (O(1) each) or Marginal()
+  // (path check; after a fresh pass, see FRESH PASS, it first recomputes its path's full joints).
   void ComputeAll();
 
   // Marginal covariance (dim x dim) of variable `var` (a tree variable id, i.e. Isam2's slot).
@@ -117,40 +144,59 @@ class BayesTreeMarginals {
   void Invalidate(std::span<const int> cliques);
   void InvalidateAll();
 
-  // The cached joint over [frontals; separator] of a clique; valid after ComputeAll() or a query
-  // whose path covered it, until the tree changes.
+  // The cached joint over [frontals; separator] of a clique; valid after a query whose path
+  // covered it (or ComputeAll() on a cache that held valid joints), until the tree changes.
+  // After ComputeAll() on an empty cache only Σ_FF is kept (FrontalDim() square; see COSTS).
   Eigen::Map<const Eigen::MatrixXd> CliqueJoint(int clique) const;
 
   const Stats& stats() const { return stats_; }
 
  private:
   struct Entry {
-    bool valid = false;
+    bool valid = false;       // result usable (has_result and not Invalidate()d)
+    bool has_result = false;  // data holds the result computed from (hash, parent, parent_generation)
+    bool full = false;        // data is the n x n joint; else only Σ_FF (nf x nf, in diag_arena_)
     std::uint64_t hash = 0;
     int parent = BayesTree::kNone;
     std::uint64_t parent_generation = 0;
-    std::uint64_t generation = 0;  // changes whenever `joint` is recomputed
-    int n = 0;                     // joint is n x n, n = FrontalDim() + SeparatorDim()
-    // Column-major n x n. Uninitialised storage (not std::vector): the first pass over a large
+    std::uint64_t generation = 0;  // changes whenever the joint changes
+    std::uint64_t computed_in = 0;  // pass_ of the last recomputation
+    int n = 0;   // FrontalDim() + SeparatorDim()
+    int nf = 0;  // FrontalDim()
+    double* data = nullptr;  // column-major, leading dimension n (full) or nf
+    // Own storage of a full joint. Uninitialised (not std::vector): the first pass over a large
     // tree writes megabytes, and zero-filling them first cost a visible share of its time.
-    std::unique_ptr<double[]> joint;
+    std::unique_ptr<double[]> own;
     std::size_t capacity = 0;
   };
 
-  // Grows the per-clique and per-variable arrays to the tree's current sizes.
+  // Grows the per-clique and per-variable arrays to the tree's current sizes; starts a pass.
   void Resize();
-  // True if clique c's cached joint may be used under `parent` (whose own entry is valid);
-  // *hash receives the clique's current hash.
-  bool IsValid(int c, int parent, std::uint64_t* hash);
-  // Recomputes clique c's joint; the parent's positions must be in pos_ (SetPositions(parent)).
+  // True if clique c's cached result may be used under `parent` (whose own entry is valid);
+  // *hash receives the clique's current hash. need_full: only a full joint will do.
+  bool IsValid(int c, int parent, bool need_full, std::uint64_t* hash);
+  // Recomputes clique c's full joint into its own storage (upgrading the parent first if it
+  // holds only Σ_FF).
   void Compute(int c, int parent, std::uint64_t hash);
+  // Bookkeeping common to both kinds of recomputation (generation, stats).
+  void Record(int c, int parent, std::uint64_t hash);
+
+  // The n x n joint of clique `cl` into `out` (leading dimension n); `parent_joint` is the
+  // parent's full joint (parent_n square) with its layout in pos_ (ignored for a root).
+  // Without with_fs only Σ_FF and Σ_SF are sure to be written (Σ_SS may be read in place).
+  void ComputeJoint(const Clique& cl, const double* parent_joint, int parent_n, bool with_fs, double* out);
+  // ComputeAll on a cache with no valid entry: depth-first, full joints only on a scratch stack
+  // (the current path), Σ_FF of each clique kept in one contiguous arena (see COSTS).
+  void ComputeAllFresh();
+  // Recomputes the full joints of c and of those of its ancestors that hold only Σ_FF.
+  void EnsureFull(int c);
   // pos_[v] = row of v in clique c's joint, for its frontals and separator.
   void SetPositions(int c);
   void EnsurePositions(int c);
   // runs_ = the separator of `cl` as maximal runs contiguous both in its joint and in the
   // parent's (whose layout must be in pos_).
-  void SeparatorRuns(const Clique& cl);  // SetPositions(c) unless pos_ already holds c's layout
-  // Makes the joints on the path from clique c to its root valid.
+  void SeparatorRuns(const Clique& cl);
+  // Makes the joints on the path from clique c to its root valid and full.
   void EnsurePath(int c);
   // JointMarginal when the variables do not share a clique (see COSTS).
   void JointBySolving(std::span<const int> vars, Eigen::MatrixXd* cov);
@@ -158,14 +204,34 @@ class BayesTreeMarginals {
   struct Run {
     int own, parent, size;  // rows in this clique's joint, in the parent's joint, count
   };
+  struct Frame {
+    int clique;
+    int n;            // its joint is n x n ...
+    std::size_t off;  // ... at scratch_[off]
+    std::size_t next_child;
+  };
 
   const BayesTree* tree_;
   MarginalsParams params_;
   std::vector<Entry> entries_;  // by clique id
   std::vector<int> pos_;        // by variable id, scratch
+  struct FrontalBlock {
+    std::uint64_t generation = 0;  // of the entry it was recorded with
+    int offset = 0, dim = 0;       // of the variable's block in that entry's Σ_FF
+  };
+  std::vector<FrontalBlock> frontal_block_;  // by variable id
   int positions_of_ = BayesTree::kNone;  // the clique whose layout pos_ holds (this call)
   std::uint64_t next_generation_ = 1;
+  std::uint64_t pass_ = 0;
   Stats stats_;
+
+  // Σ_FF blocks of the cliques computed by ComputeAllFresh (not full), contiguous.
+  std::unique_ptr<double[]> diag_arena_;
+  std::size_t diag_capacity_ = 0;
+  // ComputeAllFresh's stack of full joints (the current root-to-clique path).
+  std::unique_ptr<double[]> scratch_;
+  std::size_t scratch_capacity_ = 0;
+  std::vector<Frame> frames_;
 
   // Scratch, reused across calls.
   std::vector<Run> runs_;

@@ -255,6 +255,115 @@ TEST(MarginalsTest, InvalidateForcesRecomputationOfTheSubtree) {
   EXPECT_EQ(marginals.stats().cliques_computed, tree.NumCliques());
 }
 
+// ComputeAll() on an empty cache keeps only Σ_FF per clique (a full joint only for roots); the
+// values must equal the dense inverse, and later queries must upgrade what they need.
+TEST(MarginalsTest, FreshComputeAllKeepsTheBlockDiagonalAndQueriesUpgradeIt) {
+  for (int kind = 0; kind < 2; ++kind) {
+    auto isam = Solve(kind == 0 ? testing::MakePlanarProblem(40, 8, 81) : testing::MakeSpatialProblem(30, 82));
+    const BayesTree& tree = isam->tree();
+    const DenseReference ref = Dense(*isam);
+    const int n = static_cast<int>(ref.dims.size());
+    BayesTreeMarginals marginals(&tree);
+    marginals.ComputeAll();
+    EXPECT_EQ(marginals.stats().cliques_computed, tree.NumCliques());
+    Eigen::MatrixXd cov;
+    int frontal_only = 0;
+    for (int c : tree.TopDownOrder()) {
+      const Clique& cl = tree.clique(c);
+      const auto J = marginals.CliqueJoint(c);
+      if (cl.SeparatorDim() > 0 && J.rows() == cl.FrontalDim()) ++frontal_only;
+      EXPECT_TRUE(J.rows() == cl.FrontalDim() || J.rows() == cl.FrontalDim() + cl.SeparatorDim());
+    }
+    EXPECT_GT(frontal_only, 0) << "the fresh pass kept full joints: nothing tested";
+    for (int v = 0; v < n; ++v) {
+      ASSERT_TRUE(marginals.CachedMarginal(v, &cov).ok());
+      const int one[] = {v};
+      EXPECT_TRUE(RelativelyNear(cov, ref.Joint(one), 1e-9)) << "variable " << v;
+    }
+    // A deep variable: its path is recomputed as full joints, reproducing the same values, so
+    // a ComputeAll() right after has nothing to do.
+    int deepest = 0, depth_max = 0;
+    for (int v = 0; v < n; ++v) {
+      int d = 0;
+      for (int x = tree.CliqueOf(v); x != BayesTree::kNone; x = tree.clique(x).parent()) ++d;
+      if (d > depth_max) {
+        depth_max = d;
+        deepest = v;
+      }
+    }
+    ASSERT_GT(depth_max, 2);
+    ASSERT_TRUE(marginals.Marginal(deepest, &cov).ok());
+    EXPECT_EQ(marginals.stats().cliques_computed, depth_max - 1);  // all but the root
+    const int c = tree.CliqueOf(deepest);
+    EXPECT_EQ(marginals.CliqueJoint(c).rows(), tree.clique(c).FrontalDim() + tree.clique(c).SeparatorDim());
+    marginals.ComputeAll();
+    EXPECT_EQ(marginals.stats().cliques_computed, 0);
+    // The full joint of a clique (fast path of JointMarginal) after the fresh pass.
+    std::vector<int> s(tree.clique(c).separator().begin(), tree.clique(c).separator().end());
+    s.push_back(deepest);
+    ASSERT_TRUE(marginals.JointMarginal(s, &cov).ok());
+    EXPECT_TRUE(RelativelyNear(cov, ref.Joint(s), 1e-9));
+  }
+}
+
+// A clique recomputed under a parent that holds only Σ_FF: the parent (and its Σ_FF-only
+// ancestors) are recomputed as full joints first; nothing else is.
+TEST(MarginalsTest, RecomputingBelowAFrontalOnlyParentUpgradesOnlyThePath) {
+  auto isam = Solve(testing::MakePlanarProblem(40, 8, 91));
+  const BayesTree& tree = isam->tree();
+  const DenseReference ref = Dense(*isam);
+  BayesTreeMarginals marginals(&tree);
+  marginals.ComputeAll();  // fresh: Σ_FF only
+  int leaf = BayesTree::kNone, depth = 0;
+  for (int c : tree.TopDownOrder()) {
+    int d = 0;
+    for (int x = c; x != BayesTree::kNone; x = tree.clique(x).parent()) ++d;
+    if (tree.clique(c).children().empty() && d > depth) {
+      leaf = c;
+      depth = d;
+    }
+  }
+  ASSERT_GT(depth, 2);
+  const int one_clique[] = {leaf};
+  marginals.Invalidate(one_clique);
+  marginals.ComputeAll();
+  EXPECT_EQ(marginals.stats().cliques_computed, depth - 1);  // the leaf and its ancestors but the root
+  Eigen::MatrixXd cov;
+  for (int v = 0; v < static_cast<int>(ref.dims.size()); ++v) {
+    ASSERT_TRUE(marginals.CachedMarginal(v, &cov).ok());
+    const int one[] = {v};
+    EXPECT_TRUE(RelativelyNear(cov, ref.Joint(one), 1e-9)) << "variable " << v;
+  }
+}
+
+// Fresh passes again after InvalidateAll (the Σ_FF arena is replaced while full joints from
+// queries exist), with the tree growing between calls; cached results stay exact.
+TEST(MarginalsTest, FreshPassesAfterInvalidateAllAndAGrowingTree) {
+  const ExampleProblem p = testing::MakeSpatialProblem(24, 95);
+  auto isam = MakeIsam2();
+  BayesTreeMarginals marginals(&isam->tree());
+  const std::vector<testing::ExampleStep> steps = testing::StreamByPose(p);
+  Eigen::MatrixXd cov;
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    ASSERT_TRUE(isam->Update(steps[i].factors, steps[i].values).status.ok());
+    if (i % 4 == 0) marginals.InvalidateAll();
+    marginals.ComputeAll();
+    if (i % 4 == 0) {
+      EXPECT_EQ(marginals.stats().cliques_computed, isam->tree().NumCliques());
+    }
+    const int n = static_cast<int>(isam->linearization_point().size());
+    ASSERT_TRUE(marginals.Marginal(n / 2, &cov).ok());  // leaves some full joints behind
+    if (i % 5 == 0 || i + 1 == steps.size()) {
+      const DenseReference ref = Dense(*isam);
+      for (int v = 0; v < n; ++v) {
+        ASSERT_TRUE(marginals.CachedMarginal(v, &cov).ok()) << "step " << i << " variable " << v;
+        const int one[] = {v};
+        ASSERT_TRUE(RelativelyNear(cov, ref.Joint(one), 1e-9)) << "step " << i << " variable " << v;
+      }
+    }
+  }
+}
+
 TEST(MarginalsTest, BadQueriesReturnErrors) {
   auto isam = Solve(testing::MakePlanarProblem(10, 2, 51));
   BayesTreeMarginals marginals(&isam->tree());
@@ -297,9 +406,7 @@ TEST(MarginalsTest, EstimateTangentJacobianMatchesNumericalDifferentiationOfTheC
       const int d = TangentDim(TypeOf(theta));
       Eigen::VectorXd delta(d);
       for (int k = 0; k < d; ++k) delta[k] = scale * n01(rng);
-      Variable estimate = theta;
-      RetractInPlace(&estimate, delta.data());
-      const Eigen::MatrixXd J = EstimateTangentJacobian(theta, estimate);
+      const Eigen::MatrixXd J = EstimateTangentJacobian(TypeOf(theta), delta.data());
       const Eigen::MatrixXd expected = NumericalEstimateJacobian(theta, delta);
       EXPECT_LT((J - expected).cwiseAbs().maxCoeff(), 1e-7) << VariableTypeName(TypeOf(theta)) << "\n"
                                                              << J << "\nvs\n" << expected;
@@ -338,7 +445,8 @@ TEST(MarginalsTest, Isam2MarginalsConvertToTheEstimateTangent) {
     Eigen::MatrixXd D = Eigen::MatrixXd::Zero(total, total);
     int o = 0;
     for (int v : vars) {
-      D.block(o, o, ref.dims[v], ref.dims[v]) = EstimateTangentJacobian(theta.VariableAt(v), estimate.VariableAt(v));
+      const Eigen::VectorXd delta = LocalCoordinates(theta.VariableAt(v), estimate.VariableAt(v));
+      D.block(o, o, ref.dims[v], ref.dims[v]) = EstimateTangentJacobian(TypeOf(theta.VariableAt(v)), delta.data());
       o += ref.dims[v];
     }
     EXPECT_TRUE(RelativelyNear(cov, D * ref.Joint(vars) * D.transpose(), 1e-9));
