@@ -119,7 +119,8 @@ Status Isam2::AddFactors(const FactorGraph& new_factors, std::vector<int>* indic
     factors_.push_back(f);
     linearized_.emplace_back();
     curvature_.push_back(-1.0f);
-    factor_vars_.push_back({-1, -1});
+    factor_vars_.emplace_back();
+    factor_vars_.back().fill(-1);
     if (Status s = LinearizeFactor(index); !s.ok()) {
       // Not in the variable index yet: drop it here, so that Rollback removes from the index
       // only the factors that were added to it.
@@ -240,6 +241,16 @@ void Isam2::FindStaleLinearizations(double threshold) {
       if (kappa > 0.0) budget = std::min(budget, 1.0 / (kappa * kMaxFactorKeys));
     }
     budget_[v] = budget;
+  }
+  // A probe may have raised κ_f: the budgets of f's other variables (within their budgets, so
+  // not renewed above) must shrink with it, or f could drift past the screen through them.
+  for (int f : probe_factors_) {
+    const double kappa = curvature_[f];
+    if (kappa <= 0.0) continue;
+    for (int u : factor_vars_[f]) {
+      if (u < 0) break;
+      budget_[u] = std::min(budget_[u], 1.0 / (kappa * kMaxFactorKeys));
+    }
   }
 }
 

@@ -5,7 +5,8 @@
 namespace slamd::core {
 namespace {
 
-TEST(Isam2ParamsTest, DefaultsAreValidAndMatchGtsam) {
+// GTSAM's ISAM2 defaults, plus the linearisation-error check GTSAM does not have.
+TEST(Isam2ParamsTest, DefaultsAreValidAndGtsamsPlusTheErrorCheck) {
   const Isam2Params p;
   EXPECT_TRUE(p.Validate().ok());
   EXPECT_EQ(p.relinearization.skip, 10);

@@ -358,7 +358,9 @@ TEST(RecoveryTest, SnapshotsTakeAtMostFivePercentOfTheTime) {
   const auto start = std::chrono::steady_clock::now();
   for (int k = 20000; k < 20020; ++k) chain(k, k + 1);
   const auto updates_time = std::chrono::steady_clock::now() - start;
-  ASSERT_LT(updates_time, 20 * write_time) << "too slow to tell";
+  // The gate counts from the snapshot's start (export included); a wide margin for that and the
+  // polling.
+  ASSERT_LT(updates_time, 10 * write_time) << "too slow to tell";
   EXPECT_EQ(count(), 1) << "a snapshot right after the last one";
   std::this_thread::sleep_for(25 * write_time + std::chrono::milliseconds(100));
   chain(20020, 20021);
