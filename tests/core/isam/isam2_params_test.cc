@@ -12,7 +12,7 @@ TEST(Isam2ParamsTest, DefaultsAreValidAndGtsamsPlusTheErrorCheck) {
   EXPECT_EQ(p.relinearization.skip, 10);
   EXPECT_DOUBLE_EQ(p.relinearization.rotation_threshold, 0.1);
   EXPECT_DOUBLE_EQ(p.wildfire_threshold, 0.001);
-  EXPECT_DOUBLE_EQ(p.relinearization.error_threshold, 1.0);  // on: GTSAM's ISAM2 has no such check
+  EXPECT_DOUBLE_EQ(p.relinearization.error_threshold, 0.1);  // on: GTSAM's ISAM2 has no such check
 }
 
 TEST(Isam2ParamsTest, EachViolationNamesTheField) {
