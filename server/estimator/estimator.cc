@@ -634,6 +634,15 @@ core::Result<std::unique_ptr<Estimator>> Estimator::Restore(const EstimatorParam
     const core::Isam2Result r = e->isam_->Update(graph, state.linearization_point);
     if (!r.status.ok()) return core::DataLoss("snapshot: " + r.status.ToString());
   }
+  // An anchored robot's newest pose is read after every update: it must be in the graph.
+  for (const EstimatorState::Robot& r : state.robots) {
+    if (!r.anchored) continue;
+    if (r.newest > core::kMaxKeyIndex ||
+        !e->isam_->linearization_point().Contains(MakeKey('x', r.newest, r.id))) {
+      return core::DataLoss("snapshot: robot '" + r.name + "' is anchored but its newest pose " +
+                            std::to_string(r.newest) + " is not in the graph");
+    }
+  }
   for (const EstimatorState::HeldMessage& h : state.held) e->held_.push_back({h.message, h.waited});
   e->counters_ = state.counters;
   e->sequence_ = state.update_sequence;

@@ -144,6 +144,17 @@ TEST(StateCodecTest, CorruptBytesGiveDataLossNamingThePart) {
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.status().message().find("factor 1000"), std::string::npos)
       << bad.status().ToString();
+
+  // An anchored robot whose newest pose is not in the graph (found by fuzz_state: the next
+  // update read that pose and aborted).
+  EstimatorState missing = e->ExportState();
+  ASSERT_FALSE(missing.robots.empty());
+  missing.robots[0].newest = 1000;
+  bad = Estimator::Restore({}, isam2, missing);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.status().code(), core::StatusCode::kDataLoss);
+  EXPECT_NE(bad.status().message().find("newest pose 1000"), std::string::npos)
+      << bad.status().ToString();
 }
 
 }  // namespace
