@@ -82,6 +82,7 @@ void BayesTree::SetCliqueOf(int var, int id) {
 
 void BayesTree::RemoveTop(std::span<const int> vars, std::vector<int>* removed_frontals,
                           std::vector<int>* orphans) {
+  ReleaseRemoved();
   // 1. Mark the cliques of `vars` and their ancestors (stop at already marked ones: O(top)).
   std::vector<int> removed;
   for (int v : vars) {
@@ -100,10 +101,14 @@ void BayesTree::RemoveTop(std::span<const int> vars, std::vector<int>* removed_f
       orphans->push_back(child);
     }
   }
-  // 3. Free the removed cliques. Their parents are removed too, so no sibling lists to edit.
+  // 3. Take the removed cliques out (kept aside with their links for RestoreRemoved). Their
+  //    parents are removed too, so no sibling lists to edit.
   for (int id : removed) {
     Clique& c = *cliques_[id];
     c.marked_ = false;
+    const int begin = static_cast<int>(removed_children_.size());
+    removed_children_.insert(removed_children_.end(), c.children_.begin(), c.children_.end());
+    removed_.push_back({id, c.parent_, begin, static_cast<int>(removed_children_.size())});
     c.children_.clear();
     c.parent_ = kNone;
     RemoveRoot(id);
@@ -112,11 +117,40 @@ void BayesTree::RemoveTop(std::span<const int> vars, std::vector<int>* removed_f
       if (CliqueOf(v) == id) var_clique_[v] = kNone;
     }
     c.live_ = false;
-    free_.push_back(id);
   }
 }
 
+void BayesTree::RestoreRemoved() {
+  for (const Removed& r : removed_) {
+    Clique& c = *cliques_[r.id];
+    SLAMD_CHECK(!c.live_) << "RestoreRemoved: slot " << r.id << " was reused";
+    c.live_ = true;
+    c.parent_ = r.parent;
+    if (r.parent == kNone) AddRoot(r.id);
+    for (int v : c.frontals()) SetCliqueOf(v, r.id);
+    const auto children = std::span<const int>(removed_children_).subspan(
+        r.children_begin, r.children_end - r.children_begin);
+    for (int child : children) {
+      Clique& ch = *cliques_[child];
+      SLAMD_CHECK(ch.parent_ == kNone || ch.parent_ == r.id)
+          << "RestoreRemoved: child " << child << " was attached elsewhere";
+      RemoveRoot(child);  // an orphan (a detached root); no-op for a removed child
+      ch.parent_ = r.id;
+    }
+    c.children_.assign(children.begin(), children.end());
+  }
+  removed_.clear();
+  removed_children_.clear();
+}
+
+void BayesTree::ReleaseRemoved() {
+  for (const Removed& r : removed_) free_.push_back(r.id);
+  removed_.clear();
+  removed_children_.clear();
+}
+
 void BayesTree::Clear() {
+  ReleaseRemoved();
   for (int id = 0; id < NumSlots(); ++id) {
     Clique& c = *cliques_[id];
     if (!c.live_) continue;

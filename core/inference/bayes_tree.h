@@ -42,7 +42,9 @@ class BayesTree {
   int CliqueOf(int var) const {
     return var >= 0 && var < NumVariables() ? var_clique_[var] : kNone;
   }
-  int NumCliques() const { return static_cast<int>(cliques_.size() - free_.size()); }
+  int NumCliques() const {
+    return static_cast<int>(cliques_.size() - free_.size() - removed_.size());
+  }
   int NumSlots() const { return static_cast<int>(cliques_.size()); }
   bool IsLive(int id) const { return id >= 0 && id < NumSlots() && cliques_[id]->live_; }
   const Clique& clique(int id) const { return *cliques_[id]; }
@@ -75,8 +77,18 @@ class BayesTree {
   // *orphans (now detached roots whose cached factors summarise them; re-attach them under the
   // new cliques, see EliminationResult::hessian_cliques). Variables not in the tree are ignored.
   // Cost: O(removed cliques + their children).
+  // The removed cliques are kept aside (not reused) until ReleaseRemoved() or RestoreRemoved().
   void RemoveTop(std::span<const int> vars, std::vector<int>* removed_frontals,
                  std::vector<int>* orphans);
+  // Undo of the last RemoveTop (iSAM2 rolling back an update that failed to re-eliminate):
+  // puts the removed cliques back exactly as they were, with their parents, children and
+  // frontals, re-attaching the orphans. Precondition: the orphans are detached roots again and
+  // every clique created since has been freed (Eliminator::Eliminate frees its own on failure).
+  // Exact, so it cannot fail where a re-elimination in a new order could (ill-conditioning).
+  void RestoreRemoved();
+  // Frees the cliques kept by the last RemoveTop (the update succeeded). RemoveTop and Clear
+  // call it first.
+  void ReleaseRemoved();
 
   // Removes all cliques (keeping their storage for reuse) and clears the variable map.
   void Clear();
@@ -86,6 +98,17 @@ class BayesTree {
 
   void AddRoot(int id);
   void RemoveRoot(int id);
+
+  // A clique taken out by RemoveTop, with its links at that time (its children in
+  // removed_children_[children_begin, children_end): one pooled array, no allocation per update).
+  struct Removed {
+    int id;
+    int parent;
+    int children_begin;
+    int children_end;
+  };
+  std::vector<Removed> removed_;
+  std::vector<int> removed_children_;
 
   std::vector<std::unique_ptr<Clique>> cliques_;
   std::vector<int> free_;        // freed slots, reused LIFO

@@ -105,6 +105,7 @@ Isam2Result Isam2::UpdateWith(const FactorGraph& new_factors, const Values& new_
     result.seconds.total = total.Seconds();
     return result;
   }
+  tree_.ReleaseRemoved();  // the update stands: the detached top's cliques can be reused
 
   // 8. Partial back-substitution (Alg. 7, "wildfire") from the new cliques down.
   result.solved_cliques =

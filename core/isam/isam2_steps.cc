@@ -528,17 +528,10 @@ void Isam2::Rollback() {
   budget_.resize(undo_.num_vars);
   rotation_begin_.resize(undo_.num_vars);
   offsets_.resize(undo_.num_vars + 1);
-  // The tree: re-eliminate the detached top from the old factors, which succeeded before.
-  if (undo_.top_removed) {
-    std::vector<int> vars;
-    for (int v : removed_frontals_) {
-      if (v < undo_.num_vars) vars.push_back(v);
-    }
-    std::vector<int> cliques;
-    Isam2Result ignored;
-    const Status s = EliminateTop(vars, {}, &cliques, &ignored);
-    SLAMD_CHECK(s.ok()) << "restoring the Bayes tree after a failed update: " << s.ToString();
-  }
+  // The tree: the detached top back as it was (the failed elimination freed what it made, and
+  // the orphans are detached roots). Not a re-elimination: in a new order, an ill-conditioned
+  // system that eliminated before could fail now.
+  if (undo_.top_removed) tree_.RestoreRemoved();
 }
 
 }  // namespace slamd::core

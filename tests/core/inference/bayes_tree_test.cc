@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <set>
+#include <span>
 
 #include "core/inference/consistency_check.h"
 #include "tests/core/inference/random_linear_system.h"
@@ -16,7 +17,7 @@ using testing::MakeRandomSystem;
 using testing::NaturalOrder;
 using testing::RandomLinearSystem;
 
-std::set<int> AsSet(const std::vector<int>& v) { return {v.begin(), v.end()}; }
+std::set<int> AsSet(std::span<const int> v) { return {v.begin(), v.end()}; }
 
 TEST(BayesTreeTest, NewAttachDetachFree) {
   BayesTree tree;
@@ -95,6 +96,44 @@ TEST(BayesTreeTest, RemoveTopReturnsAncestorsAndOrphans) {
   orphans.clear();
   tree.RemoveTop(std::vector<int>{1000}, &removed, &orphans);
   EXPECT_TRUE(removed.empty());
+}
+
+// iSAM2's undo of a failed update: the removed top comes back exactly (same ids, links,
+// frontals, conditionals), and released cliques' slots are reused.
+TEST(BayesTreeTest, RestoreRemovedPutsTheTopBackExactly) {
+  const RandomLinearSystem s = MakeRandomSystem(25, 10, false, 9);
+  BayesTree tree;
+  EliminationResult result;
+  ASSERT_NO_FATAL_FAILURE(EliminateAll(s, NaturalOrder(s.NumVars()), &tree, &result));
+  const BayesTree before = tree;
+  std::vector<int> removed, orphans;
+  tree.RemoveTop(std::vector<int>{5}, &removed, &orphans);
+  ASSERT_FALSE(removed.empty());
+  ASSERT_FALSE(orphans.empty());
+  tree.RestoreRemoved();
+  EXPECT_TRUE(CheckConsistency(tree).ok());
+  ASSERT_EQ(tree.NumCliques(), before.NumCliques());
+  ASSERT_EQ(tree.NumSlots(), before.NumSlots());
+  EXPECT_EQ(AsSet(tree.roots()), AsSet(before.roots()));
+  for (int v = 0; v < before.NumVariables(); ++v) EXPECT_EQ(tree.CliqueOf(v), before.CliqueOf(v));
+  for (int id = 0; id < before.NumSlots(); ++id) {
+    ASSERT_EQ(tree.IsLive(id), before.IsLive(id)) << id;
+    if (!before.IsLive(id)) continue;
+    const Clique& a = tree.clique(id);
+    const Clique& b = before.clique(id);
+    EXPECT_EQ(a.parent(), b.parent()) << id;
+    EXPECT_EQ(AsSet(a.children()), AsSet(b.children())) << id;
+    EXPECT_EQ(AsSet(a.frontals()), AsSet(b.frontals())) << id;
+    EXPECT_EQ(a.conditional(), b.conditional()) << id;  // bit for bit
+  }
+  // Released instead: they are gone, and their slots are handed out again.
+  tree.RemoveTop(std::vector<int>{5}, &removed, &orphans);
+  const int live = tree.NumCliques();
+  tree.ReleaseRemoved();
+  EXPECT_EQ(tree.NumCliques(), live);
+  std::set<int> top;
+  for (int c = before.CliqueOf(5); c != BayesTree::kNone; c = before.clique(c).parent()) top.insert(c);
+  EXPECT_EQ(top.count(tree.NewClique()), 1u);
 }
 
 TEST(BayesTreeTest, ClearKeepsSlotsForReuse) {
