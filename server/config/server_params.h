@@ -77,7 +77,7 @@ struct ServerParams {
     int snapshot_every_updates = 500;
     // ... or this many seconds since the last one, if anything changed (0 = not by time) [s];
     // 0..1e6. Either way at most 5% of the time goes to snapshots: after one that took t, the
-    // next waits at least 20 t (a map of 600k variables takes seconds to snapshot).
+    // next waits at least 20 t (the cost grows with the map: 20000 poses ~30 ms, 4.4 MB).
     double snapshot_every_s = 300.0;
     // Snapshots kept on disk (the newest and older ones, in case the newest is damaged); >= 1.
     int keep_snapshots = 2;

@@ -370,8 +370,9 @@ TEST(EstimatorTest, Chi2LagsWhileUpdatingAndIsCurrentWhenSettled) {
 }
 
 // ... and, whatever chi2_interval_s says, at most 2% of the time: after a pass that took t, the
-// next waits 50 t. 20000 factors take ~1 ms a pass, so the next update (microseconds later) finds
-// chi2 not due although chi2_interval_s has long passed; 500 t later it is recomputed.
+// next waits 50 t. A pass over 20000 factors takes far longer than the next update (a few
+// microseconds later), which therefore finds chi2 not due although chi2_interval_s has long
+// passed; 500 t later it is recomputed.
 TEST(EstimatorTest, Chi2PassesTakeAtMostTwoPercentOfTheTime) {
   auto e = Make({.chi2_interval_s = 1e-9});
   std::vector<Inbound> chain = {Prior("r", 0, Pose2())};
