@@ -57,11 +57,16 @@ TEST(BayesTreeTest, VariableMap) {
   EXPECT_EQ(tree.CliqueOf(3), BayesTree::kNone);
 }
 
-TEST(BayesTreeTest, RemoveTopReturnsAncestorsAndOrphans) {
+// The tree the RemoveTop tests cut: a random 25-variable system eliminated in natural order.
+void EliminateExample(BayesTree* tree, EliminationResult* result) {
   const RandomLinearSystem s = MakeRandomSystem(25, 10, false, 9);
+  ASSERT_NO_FATAL_FAILURE(EliminateAll(s, NaturalOrder(s.NumVars()), tree, result));
+}
+
+TEST(BayesTreeTest, RemoveTopReturnsAncestorsAndOrphans) {
   BayesTree tree;
   EliminationResult result;
-  ASSERT_NO_FATAL_FAILURE(EliminateAll(s, NaturalOrder(s.NumVars()), &tree, &result));
+  ASSERT_NO_FATAL_FAILURE(EliminateExample(&tree, &result));
   const BayesTree before = tree;
 
   const int v = 5;
@@ -101,10 +106,9 @@ TEST(BayesTreeTest, RemoveTopReturnsAncestorsAndOrphans) {
 // iSAM2's undo of a failed update: the removed top comes back exactly (same ids, links,
 // frontals, conditionals), and released cliques' slots are reused.
 TEST(BayesTreeTest, RestoreRemovedPutsTheTopBackExactly) {
-  const RandomLinearSystem s = MakeRandomSystem(25, 10, false, 9);
   BayesTree tree;
   EliminationResult result;
-  ASSERT_NO_FATAL_FAILURE(EliminateAll(s, NaturalOrder(s.NumVars()), &tree, &result));
+  ASSERT_NO_FATAL_FAILURE(EliminateExample(&tree, &result));
   const BayesTree before = tree;
   std::vector<int> removed, orphans;
   tree.RemoveTop(std::vector<int>{5}, &removed, &orphans);
