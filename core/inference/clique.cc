@@ -1,8 +1,20 @@
 #include "core/inference/clique.h"
 
+#include <atomic>
+
 #include "core/base/storage.h"
 
 namespace slamd::core {
+namespace {
+
+// Next value of Clique::generation(); starts at 1 so that 0 can mean "none" to readers.
+std::atomic<std::uint64_t> next_generation{1};
+
+}  // namespace
+
+std::uint64_t Clique::NewGeneration() {
+  return next_generation.fetch_add(1, std::memory_order_relaxed);
+}
 
 void Clique::Reset(std::span<const int> frontals, std::span<const int> frontal_dims,
                    std::span<const int> separator, std::span<const int> separator_dims) {
@@ -20,6 +32,7 @@ void Clique::ResetImpl(std::span<const int> frontals, std::span<const int> front
                        bool zero_cached) {
   SLAMD_DCHECK(!frontals.empty() && frontals.size() == frontal_dims.size())
       << "Clique::Reset: bad frontals";
+  generation_ = NewGeneration();
   num_frontals_ = static_cast<int>(frontals.size());
   index_.resize(2 * frontals.size() + 1);
   int offset = 0;

@@ -16,10 +16,20 @@
 // Storage: [R S d] is one contiguous column-major FrontalDim() x (FrontalDim() + SeparatorDim()
 // + 1) array (R's strictly lower part is zero). Cliques are owned by their BayesTree and
 // addressed by int ids; parent/children links are ids, managed by the tree only.
-// Thread safety: const methods may run concurrently.
+//
+// Generation stamp: generation() identifies the clique's current content (structure, [R S d],
+// cached factor). Reset() and ResetForElimination() give it a new value, unique among all
+// cliques of the process (a process-wide counter), so a reader that caches data derived from a
+// clique (marginals.h) detects a change in O(1) by comparing stamps. Contract for writers: every
+// (re)definition of the content starts with one of the two resets; writing through
+// mutable_conditional() / mutable_cached_factor() without one is invisible to such caches. A
+// copy keeps the stamp (same content).
+// Thread safety: const methods may run concurrently; Reset()/ResetForElimination() of distinct
+// cliques may run concurrently (the stamp counter is atomic).
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -76,17 +86,21 @@ class Clique {
         FrontalDim()};
   }
 
+  // Unique to this content of this clique across the process; renewed by Reset() and
+  // ResetForElimination(), kept by a copy. Never 0.
+  std::uint64_t generation() const { return generation_; }
+
   // The Schur complement on the separator left by eliminating this clique.
   const HessianFactor& cached_factor() const { return cached_; }
   HessianFactor& mutable_cached_factor() { return cached_; }
 
-  // Sets frontals and separator (ids with their dims) and zeroes [R S d] and the cached factor.
-  // Reuses storage. Preconditions (SLAMD_DCHECK): non-empty frontals, dims >= 1, no id twice.
+  // Sets frontals and separator (ids with their dims), zeroes [R S d] and the cached factor and
+  // renews generation(). Reuses storage. Preconditions (SLAMD_DCHECK): non-empty frontals, dims >= 1, no id twice.
   // Does not touch the tree links.
   void Reset(std::span<const int> frontals, std::span<const int> frontal_dims,
              std::span<const int> separator, std::span<const int> separator_dims);
   // As Reset, but the cached factor's entries are left unspecified (elimination overwrites all
-  // of them); [R S d] is still zeroed.
+  // of them); [R S d] is still zeroed and generation() renewed.
   void ResetForElimination(std::span<const int> frontals, std::span<const int> frontal_dims,
                            std::span<const int> separator, std::span<const int> separator_dims);
 
@@ -98,6 +112,11 @@ class Clique {
                  std::span<const int> separator, std::span<const int> separator_dims,
                  bool zero_cached);
 
+  // A fresh value of the process-wide stamp counter (relaxed atomic increment: only uniqueness
+  // is needed; publishing the content to other threads is the caller's synchronisation).
+  static std::uint64_t NewGeneration();
+
+  std::uint64_t generation_ = NewGeneration();
   int num_frontals_ = 0;
   std::vector<int> index_ = {0};     // [frontal ids (nf) | frontal offsets (nf + 1)]
   std::vector<double> conditional_;  // [R S d], column-major

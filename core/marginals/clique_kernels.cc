@@ -2,41 +2,9 @@
 
 #include <Eigen/Core>
 #include <algorithm>
-#include <bit>
 
 namespace slamd::core::internal {
 namespace {
-
-// Eight independent multiply-rotate lanes (so the loop is not one long dependency chain), then a
-// splitmix finaliser. Detects any change of structure or of a bit of [R S]; not cryptographic.
-class Hasher {
- public:
-  void Add(std::uint64_t x) { Step(&lanes_[0], x); }
-  void AddDoubles(const double* p, std::size_t n) {
-    std::size_t i = 0;
-    for (; i + kLanes <= n; i += kLanes) {
-      for (int l = 0; l < kLanes; ++l) Step(&lanes_[l], std::bit_cast<std::uint64_t>(p[i + l]));
-    }
-    for (; i < n; ++i) Step(&lanes_[i % kLanes], std::bit_cast<std::uint64_t>(p[i]));
-  }
-  std::uint64_t Finish() const {
-    std::uint64_t h = 0;
-    for (std::uint64_t l : lanes_) h = SplitMix(h ^ l);
-    return h;
-  }
-
- private:
-  static void Step(std::uint64_t* lane, std::uint64_t x) {
-    *lane = std::rotl((*lane ^ x) * 0x9E3779B97F4A7C15ull, 31);
-  }
-  static std::uint64_t SplitMix(std::uint64_t z) {
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  static constexpr int kLanes = 8;
-  std::uint64_t lanes_[kLanes] = {1, 2, 3, 4, 5, 6, 7, 8};
-};
 
 // C = −A Kᵀ for one block of NB ≤ 6 columns: C (m x NB, column-major, ldc), A (m x m, column-major,
 // lda), K (NB x m, column-major, ldk). The bulk of every clique's cost (Σ_SF = −Σ_SS Kᵀ) with few
@@ -82,24 +50,6 @@ void NegProductBlock(const double* A, std::ptrdiff_t lda, int m, const double* K
 
 }  // namespace
 
-std::uint64_t HashClique(const Clique& c) {
-  Hasher h;
-  const int nf = c.num_frontals(), ns = c.num_separator();
-  h.Add((static_cast<std::uint64_t>(nf) << 32) | static_cast<std::uint32_t>(ns));
-  for (int k = 0; k < nf; ++k) {
-    h.Add((static_cast<std::uint64_t>(c.frontal(k)) << 32) | static_cast<std::uint32_t>(c.frontal_dim(k)));
-  }
-  for (int k = 0; k < ns; ++k) {
-    h.Add((static_cast<std::uint64_t>(c.separator()[k]) << 32) |
-          static_cast<std::uint32_t>(c.separator_dim(k)));
-  }
-  // R and S are the first FrontalDim() x (FrontalDim() + SeparatorDim()) entries of [R S d];
-  // d does not enter the covariance.
-  const auto rs = c.conditional();
-  h.AddDoubles(rs.data(), static_cast<std::size_t>(c.FrontalDim()) * (c.FrontalDim() + c.SeparatorDim()));
-  return h.Finish();
-}
-
 // C = −A Kᵀ with C m x nf (ldc), A m x m (lda), K nf x m (leading dimension nf), in blocks of
 // six columns (more accumulators than registers would spill).
 void NegProductTransposed(const double* A, std::ptrdiff_t lda, int m, const double* K, int nf, double* C,
@@ -118,7 +68,7 @@ void NegProductTransposed(const double* A, std::ptrdiff_t lda, int m, const doub
   }
 }
 
-// Asks for the clique's [R S] to be brought into the caches (it is hashed and read soon).
+// Asks for the clique's [R S] to be brought into the caches (it is read soon).
 void Prefetch(const Clique& c) {
   const char* p = reinterpret_cast<const char*>(c.conditional().data());
   const std::size_t bytes = sizeof(double) * c.FrontalDim() * (c.FrontalDim() + c.SeparatorDim());

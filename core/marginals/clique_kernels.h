@@ -1,18 +1,12 @@
-// Per-clique kernels of BayesTreeMarginals (marginals.h): the change-detection hash, a cache
-// prefetch, and the product that dominates a clique's marginal. Internal to core/marginals.
+// Per-clique kernels of BayesTreeMarginals (marginals.h): a cache prefetch and the product that
+// dominates a clique's marginal. Internal to core/marginals.
 #pragma once
 
 #include <cstddef>
-#include <cstdint>
 
 #include "core/inference/clique.h"
 
 namespace slamd::core::internal {
-
-// 64-bit hash of a clique's structure (frontal and separator ids and dims) and of the bits of its
-// [R S] (d does not enter a covariance). Any change of either changes it with probability
-// 1 − 2⁻⁶⁴ per check; not cryptographic. Reads FrontalDim() (FrontalDim() + SeparatorDim()) doubles.
-std::uint64_t HashClique(const Clique& c);
 
 // Asks the CPU to bring the clique's [R S] into the caches (no effect on results).
 void Prefetch(const Clique& c);

@@ -2,7 +2,6 @@
 
 #include <Eigen/LU>
 #include <algorithm>
-#include <bit>
 #include <cstddef>
 #include <cmath>
 #include <cstring>
@@ -15,7 +14,6 @@
 namespace slamd::core {
 namespace {
 
-using internal::HashClique;
 using internal::NegProductTransposed;
 using internal::Prefetch;
 
@@ -94,11 +92,10 @@ void BayesTreeMarginals::InvalidateAll() {
   for (Entry& e : entries_) e.valid = false;
 }
 
-bool BayesTreeMarginals::IsValid(int c, int parent, bool need_full, std::uint64_t* hash) {
+bool BayesTreeMarginals::IsValid(int c, int parent, bool need_full) {
   ++stats_.cliques_checked;
-  *hash = HashClique(tree_->clique(c));
   Entry& e = entries_[c];
-  if (!e.valid || e.hash != *hash || (need_full && !e.full)) return false;
+  if (!e.valid || e.clique_generation != tree_->clique(c).generation() || (need_full && !e.full)) return false;
   if (parent == BayesTree::kNone) return e.parent == BayesTree::kNone;  // a root's joint is R⁻¹R⁻ᵀ
   const Entry& pe = entries_[parent];
   if (e.parent == parent && e.parent_generation == pe.generation) {
@@ -218,29 +215,30 @@ void BayesTreeMarginals::ComputeJoint(const Clique& cl, const double* parent_joi
   if (with_fs) J.topRightCorner(nf, ns) = SF.transpose();
 }
 
-void BayesTreeMarginals::Record(int c, int parent, std::uint64_t hash) {
+void BayesTreeMarginals::Record(int c, int parent) {
   ++stats_.cliques_computed;
   Entry& e = entries_[c];
+  const Clique& cl = tree_->clique(c);
   const std::uint64_t parent_generation = parent == BayesTree::kNone ? 0 : entries_[parent].generation;
   // Same conditional and same parent joint as the result it replaces (only Invalidate()d, or
   // upgraded from Σ_FF to the full joint): the computation is deterministic, so the joint is
   // the same and the subtree below may keep theirs.
-  const bool same = e.has_result && e.hash == hash && e.parent == parent && e.parent_generation == parent_generation;
+  const bool same = e.has_result && e.clique_generation == cl.generation() && e.parent == parent &&
+                    e.parent_generation == parent_generation;
   if (!same) e.generation = next_generation_++;
   e.valid = e.has_result = true;
-  e.hash = hash;
+  e.clique_generation = cl.generation();
   e.parent = parent;
   e.parent_generation = parent_generation;
   e.computed_in = pass_;
   // Where each frontal's block is, tagged with the result it belongs to (generations are unique
-  // to one entry and kept only when the structure is the same).
-  const Clique& cl = tree_->clique(c);
+  // to one entry and kept only when the clique's content, so its structure, is the same).
   for (int k = 0; k < cl.num_frontals(); ++k) {
     frontal_block_[cl.frontal(k)] = {e.generation, cl.frontal_offset(k), cl.frontal_dim(k)};
   }
 }
 
-void BayesTreeMarginals::Compute(int c, int parent, std::uint64_t hash) {
+void BayesTreeMarginals::Compute(int c, int parent) {
   const Clique& cl = tree_->clique(c);
   const int nf = cl.FrontalDim(), ns = cl.SeparatorDim(), n = nf + ns;
   const double* parent_joint = nullptr;
@@ -265,19 +263,19 @@ void BayesTreeMarginals::Compute(int c, int parent, std::uint64_t hash) {
   e.n = n;
   e.nf = nf;
   e.full = true;
-  Record(c, parent, hash);
+  Record(c, parent);
 }
 
 void BayesTreeMarginals::EnsureFull(int c) {
-  // Only reached for valid entries (their hash is current); the recomputed joints reproduce the
-  // results they replace, so Record() keeps their generations.
+  // Only reached for valid entries (their clique's stamp is current); the recomputed joints
+  // reproduce the results they replace, so Record() keeps their generations.
   std::vector<int>& up = stack_;
   const std::size_t base = up.size();
   for (int x = c; x != BayesTree::kNone && !entries_[x].full; x = tree_->clique(x).parent()) up.push_back(x);
   while (up.size() > base) {
     const int x = up.back();
     up.pop_back();
-    Compute(x, tree_->clique(x).parent(), entries_[x].hash);
+    Compute(x, tree_->clique(x).parent());
   }
 }
 
@@ -329,7 +327,6 @@ void BayesTreeMarginals::ComputeAllFresh() {
     SLAMD_CHECK(parent != nullptr || cl.SeparatorDim() == 0)
         << "clique " << c << " has a separator but no parent (tree between RemoveTop and re-attach?)";
     ++stats_.cliques_checked;
-    const std::uint64_t hash = HashClique(cl);
     // The conditionals are scattered over the heap and cold: ask for the next ones early (the
     // first child is computed next; the next sibling is asked for by the loop below).
     if (!cl.children().empty()) Prefetch(tree_->clique(cl.children()[0]));
@@ -349,7 +346,7 @@ void BayesTreeMarginals::ComputeAllFresh() {
     e.full = n == nf;  // a root's joint is its Σ_FF
     Eigen::Map<Eigen::MatrixXd>(e.data, nf, nf) = Eigen::Map<const Eigen::MatrixXd>(joint, n, n).topLeftCorner(nf, nf);
     used += static_cast<std::size_t>(nf) * nf;
-    Record(c, parent ? parent->clique : BayesTree::kNone, hash);
+    Record(c, parent ? parent->clique : BayesTree::kNone);
     return {c, n, off, 0};
   };
   for (int r : tree_->roots()) {
@@ -392,16 +389,15 @@ void BayesTreeMarginals::ComputeAll() {
     return;
   }
   stack_.clear();
-  std::uint64_t hash;
   for (int r : tree_->roots()) {
-    if (!IsValid(r, BayesTree::kNone, false, &hash)) Compute(r, BayesTree::kNone, hash);
+    if (!IsValid(r, BayesTree::kNone, false)) Compute(r, BayesTree::kNone);
     stack_.push_back(r);
   }
   while (!stack_.empty()) {
     const int c = stack_.back();
     stack_.pop_back();
     for (int child : tree_->clique(c).children()) {
-      if (!IsValid(child, c, false, &hash)) Compute(child, c, hash);
+      if (!IsValid(child, c, false)) Compute(child, c);
       stack_.push_back(child);
     }
   }
@@ -411,10 +407,9 @@ void BayesTreeMarginals::EnsurePath(int c) {
   path_.clear();
   for (int x = c; x != BayesTree::kNone; x = tree_->clique(x).parent()) path_.push_back(x);
   int parent = BayesTree::kNone;
-  std::uint64_t hash;
   for (int i = static_cast<int>(path_.size()) - 1; i >= 0; --i) {
     const int x = path_[i];
-    if (!IsValid(x, parent, true, &hash)) Compute(x, parent, hash);
+    if (!IsValid(x, parent, true)) Compute(x, parent);
     parent = x;
   }
 }

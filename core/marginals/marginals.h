@@ -18,19 +18,23 @@
 // Σ_E = J Σ_θ Jᵀ with J = ∂ Local(E, θ ⊕ (δ̂ + ε)) / ∂ε at ε = 0 (Pose2: blockdiag(R(δ̂_θ)ᵀ, 1);
 // Pose3: the SE(3) right Jacobian Jr(δ̂); points: I). Isam2Marginals offers both frames.
 //
-// CHANGE DETECTION. The tree exposes no per-clique version stamp, so each cached joint records a
-// 64-bit hash of the clique's structure (frontal and separator ids and dims) and of its [R S]
-// entries, its parent's id, and the generation number of the parent's joint it was computed from.
-// A cached joint is reused iff the hash matches and either the parent and its generation match,
-// or the Σ_SS the joint was computed from equals (to MarginalsParams::reuse_tolerance) the
-// parent's current one. This second rule matters: iSAM2 re-creates the top cliques every
-// update, so "recompute below every changed conditional" alone would recompute the whole tree
-// each step, while after an odometry step the marginals below the top are unchanged. A changed
-// conditional or a changed Σ_SS forces recomputation; nothing else does. Invalidate() forces it
-// explicitly; a joint recomputed from the same conditional and the same parent joint is the same
-// (the computation is deterministic), so it keeps its generation and its subtree stays valid.
-// (Hashing reads [R S] of each checked clique; a generation counter on Clique, bumped by Reset()
-// and mutable_conditional(), would make that check O(1).)
+// CHANGE DETECTION. Each cached joint records the generation stamp of the clique it was computed
+// from (Clique::generation(): unique across the process, renewed by every Reset() /
+// ResetForElimination(), which every writer of a clique's content calls first; see clique.h),
+// its parent's id, and the generation number of the parent's joint it was computed from. A
+// cached joint is reused iff the clique's stamp matches (an O(1) check that reads no matrix) and
+// either the parent and its generation match, or the Σ_SS the joint was computed from equals (to
+// MarginalsParams::reuse_tolerance) the parent's current one. This second rule matters: iSAM2
+// re-creates the top cliques every update, so "recompute below every changed conditional" alone
+// would recompute the whole tree each step, while after an odometry step the marginals below the
+// top are unchanged. A re-eliminated clique is recomputed even when it reproduced its conditional
+// bit for bit (the stamp cannot tell; the former hash of [R S] could, but checking every clique
+// that way cost more per step than such recomputations save, see COSTS).
+// A changed conditional or a changed Σ_SS forces recomputation; nothing else does. Invalidate()
+// forces it explicitly; a joint recomputed from the same conditional and the same parent joint
+// is the same (the computation is deterministic), so it keeps its generation and its subtree
+// stays valid. BayesTree::RestoreRemoved() and a tree copied back keep their stamps, and so the
+// cached joints computed from them.
 //
 // FRESH PASS. ComputeAll() on a cache with no valid entry (a new object, or after
 // InvalidateAll()) keeps only Σ_FF per clique: it walks the tree depth first with the full joints
@@ -52,7 +56,7 @@
 //     register-blocked kernel on Eigen's packets, 1.3-2x Eigen's GEMM at nF <= 6),
 //     Σ_FF = R⁻¹R⁻ᵀ − K Σ_SF (nF³ + 2nF²nS, halved for nF >= 12 by updating one triangle).
 //     Totals: input_M3500 ~15 Mflop, parking-garage ~45 Mflop, victoriaPark ~7 Mflop.
-//   * ComputeAll(): checks every clique (hash, O(nF(nF+nS))) and recomputes the changed ones.
+//   * ComputeAll(): checks every clique (stamp, O(1)) and recomputes the changed ones.
 //   * Marginal(var), or JointMarginal of variables that all lie in one clique's frontals and
 //     separator: validates and recomputes only the path from the variable's clique to the root
 //     (the newest pose of an incremental SLAM problem sits in a clique at or next to the root: O(1)).
@@ -62,14 +66,19 @@
 //     substitution R x = y down U; O(k · Σ_{c∈U} nF(nF+nS)) flops. Does not use or touch the cache.
 // No heap allocation per call once warm (scratch and cache storage are reused), except to resize
 // *cov and in Isam2Marginals' frame conversion of a joint.
-// Measured with `slamctl bench FILE --solver isam2 --marginals latest --json`, column
-// marginals_final_all_ms (a fresh Isam2Marginals: ComputeAll, then CachedMarginal of every key in
-// the estimate's tangent), median of 3, 2-core VM with load average ~3 from other jobs; the
-// full-joint-per-clique layout before -> now: input_M3500 10.9 -> 4.7 ms, manhattan 10.1 -> 5.2,
-// intel 2.7 -> 1.2, parking-garage 13.2 -> 6.2, victoriaPark 11.7 -> 7.2. Of parking-garage's,
-// ~4 ms is arithmetic (45 Mflop, SSE2 build), the rest cold tree data (hashing reads it first),
-// page faults and 0.7 ms of per-key Pose3 frame conversion. ComputeAll after each step
-// (--marginals all) unchanged: input_M3500 0.27 ms median; newest pose 0.6 µs median.
+// Measured with `slamctl bench FILE --solver isam2 --marginals all --marginals-every 100000
+// --json`, column marginals_final_all_ms (a fresh Isam2Marginals: ComputeAll, then CachedMarginal
+// of every key in the estimate's tangent), 2-core VM with load average 2-3 from other jobs.
+// Earlier, the full-joint-per-clique layout -> the FRESH PASS layout: input_M3500 10.9 -> 4.7 ms,
+// manhattan 10.1 -> 5.2, intel 2.7 -> 1.2, parking-garage 13.2 -> 6.2, victoriaPark 11.7 -> 7.2.
+// Replacing the per-clique hash of [R S] by the stamp left it within noise (parking-garage 6.63 ->
+// 6.50 ms, median of 15 interleaved runs): the fresh pass reads every [R S] anyway, and the cache
+// misses the hash took are now taken by the computation. Of parking-garage's, ~4 ms is arithmetic
+// (45 Mflop, SSE2 build), the rest cold tree data, page faults and 0.7 ms of per-key Pose3 frame
+// conversion. ComputeAll after each step (--marginals all, column marginal_ms p50), hash -> stamp:
+// input_M3500 0.30 -> 0.05 ms, manhattan 0.29 -> 0.05, intel 0.097 -> 0.016 (checking was most of
+// it), parking-garage 1.7 -> 1.7, victoriaPark ~1.5 -> 1.2 (recomputation dominates); newest pose
+// (--marginals latest) 0.75 µs median on input_M3500.
 //
 // Thread safety: not thread-safe (queries update the cache). The tree must not change during a
 // call; it may change between calls (that is what the cache checks are for).
@@ -114,7 +123,7 @@ class BayesTreeMarginals {
  public:
   // Counts of the last call, for tests and benchmarks.
   struct Stats {
-    int cliques_checked = 0;   // cached joints validated (hash computed)
+    int cliques_checked = 0;   // cached joints validated (stamp compared)
     int cliques_computed = 0;  // joints (re)computed
     int cliques_reused = 0;    // kept although the parent's joint was recomputed (see MarginalsParams)
   };
@@ -154,9 +163,10 @@ class BayesTreeMarginals {
  private:
   struct Entry {
     bool valid = false;       // result usable (has_result and not Invalidate()d)
-    bool has_result = false;  // data holds the result computed from (hash, parent, parent_generation)
+    bool has_result = false;  // data holds the result computed from (clique_generation, parent,
+                              // parent_generation)
     bool full = false;        // data is the n x n joint; else only Σ_FF (nf x nf, in diag_arena_)
-    std::uint64_t hash = 0;
+    std::uint64_t clique_generation = 0;  // Clique::generation() of the conditional used
     int parent = BayesTree::kNone;
     std::uint64_t parent_generation = 0;
     std::uint64_t generation = 0;  // changes whenever the joint changes
@@ -172,14 +182,14 @@ class BayesTreeMarginals {
 
   // Grows the per-clique and per-variable arrays to the tree's current sizes; starts a pass.
   void Resize();
-  // True if clique c's cached result may be used under `parent` (whose own entry is valid);
-  // *hash receives the clique's current hash. need_full: only a full joint will do.
-  bool IsValid(int c, int parent, bool need_full, std::uint64_t* hash);
+  // True if clique c's cached result may be used under `parent` (whose own entry is valid).
+  // need_full: only a full joint will do.
+  bool IsValid(int c, int parent, bool need_full);
   // Recomputes clique c's full joint into its own storage (upgrading the parent first if it
   // holds only Σ_FF).
-  void Compute(int c, int parent, std::uint64_t hash);
-  // Bookkeeping common to both kinds of recomputation (generation, stats).
-  void Record(int c, int parent, std::uint64_t hash);
+  void Compute(int c, int parent);
+  // Bookkeeping common to both kinds of recomputation (generations, stats).
+  void Record(int c, int parent);
 
   // The n x n joint of clique `cl` into `out` (leading dimension n); `parent_joint` is the
   // parent's full joint (parent_n square) with its layout in pos_ (ignored for a root).

@@ -364,6 +364,89 @@ TEST(MarginalsTest, FreshPassesAfterInvalidateAllAndAGrowingTree) {
   }
 }
 
+// Σ = (RᵀR)⁻¹ assembled densely from the tree's own conditionals (an independent reference for
+// a tree edited by hand); dims and offsets as in `layout`.
+DenseReference DenseFromTree(const BayesTree& tree, const DenseReference& layout) {
+  DenseReference ref = layout;
+  const int n = ref.offsets.back();
+  Eigen::MatrixXd R = Eigen::MatrixXd::Zero(n, n);
+  std::vector<int> global;  // clique column -> row/column of R
+  for (int c : tree.TopDownOrder()) {
+    const Clique& cl = tree.clique(c);
+    global.clear();
+    for (int k = 0; k < cl.num_frontals(); ++k) {
+      for (int t = 0; t < cl.frontal_dim(k); ++t) global.push_back(ref.offsets[cl.frontal(k)] + t);
+    }
+    for (int k = 0; k < cl.num_separator(); ++k) {
+      for (int t = 0; t < cl.separator_dim(k); ++t) global.push_back(ref.offsets[cl.separator()[k]] + t);
+    }
+    const auto rs = cl.conditional();
+    for (int i = 0; i < cl.FrontalDim(); ++i) {
+      for (int j = 0; j < static_cast<int>(global.size()); ++j) R(global[i], global[j]) = rs(i, j);
+    }
+  }
+  const Eigen::LLT<Eigen::MatrixXd> llt(R.transpose() * R);
+  EXPECT_EQ(llt.info(), Eigen::Success);
+  ref.sigma = llt.solve(Eigen::MatrixXd::Identity(n, n));
+  return ref;
+}
+
+// A clique re-defined with the same structure (ResetForElimination, then new numbers written, as
+// elimination does) has the same ids, dims and parent as before: only its generation stamp tells
+// the cache that its joint and its subtree's are stale. Both after a fresh pass (Σ_FF-only
+// entries) and with full joints everywhere.
+TEST(MarginalsTest, ACliqueRedefinedWithTheSameStructureIsNotServedFromTheCache) {
+  auto isam = Solve(testing::MakePlanarProblem(40, 8, 101));
+  const DenseReference before = Dense(*isam);
+  const int n = static_cast<int>(before.dims.size());
+  for (int full = 0; full < 2; ++full) {
+    BayesTree tree = isam->tree();  // a copy to edit (it keeps the stamps)
+    BayesTreeMarginals marginals(&tree);
+    marginals.ComputeAll();
+    Eigen::MatrixXd cov;
+    if (full) {
+      for (int v = 0; v < n; ++v) ASSERT_TRUE(marginals.Marginal(v, &cov).ok());
+    }
+    // A clique with a parent and children, so that the change must reach a subtree.
+    int c = BayesTree::kNone;
+    for (int x : tree.TopDownOrder()) {
+      if (tree.clique(x).parent() != BayesTree::kNone && !tree.clique(x).children().empty()) c = x;
+    }
+    ASSERT_NE(c, BayesTree::kNone);
+    int subtree = 0, depth = 0;
+    for (int x : tree.TopDownOrder()) subtree += IsAncestorOrSelf(tree, c, x);
+    for (int x = c; x != BayesTree::kNone; x = tree.clique(x).parent()) ++depth;
+    ASSERT_GT(subtree, 1);
+
+    Clique& cl = tree.mutable_clique(c);
+    const std::vector<int> frontals(cl.frontals().begin(), cl.frontals().end());
+    const std::vector<int> separator(cl.separator().begin(), cl.separator().end());
+    std::vector<int> frontal_dims, separator_dims;
+    for (int k = 0; k < cl.num_frontals(); ++k) frontal_dims.push_back(cl.frontal_dim(k));
+    for (int k = 0; k < cl.num_separator(); ++k) separator_dims.push_back(cl.separator_dim(k));
+    const Eigen::MatrixXd saved = cl.conditional();
+    cl.ResetForElimination(frontals, frontal_dims, separator, separator_dims);
+    auto rsd = cl.mutable_conditional();
+    rsd = saved;
+    rsd.leftCols(cl.FrontalDim()) *= 2.0;  // R doubled: still triangular with a positive diagonal
+    const DenseReference after = DenseFromTree(tree, before);
+    const int v0 = frontals[0], one0[] = {v0};
+    ASSERT_FALSE(RelativelyNear(after.Joint(one0), before.Joint(one0), 1e-3)) << "the edit changed nothing";
+
+    marginals.ComputeAll();
+    EXPECT_GE(marginals.stats().cliques_computed, subtree);
+    // The subtree, plus (after a fresh pass) the path above it upgraded to full joints.
+    EXPECT_LE(marginals.stats().cliques_computed, subtree + (full ? 0 : depth - 1)) << "full " << full;
+    for (int v = 0; v < n; ++v) {
+      const int one[] = {v};
+      ASSERT_TRUE(marginals.CachedMarginal(v, &cov).ok());
+      EXPECT_TRUE(RelativelyNear(cov, after.Joint(one), 1e-9)) << "full " << full << " variable " << v;
+      ASSERT_TRUE(marginals.Marginal(v, &cov).ok());
+      EXPECT_TRUE(RelativelyNear(cov, after.Joint(one), 1e-9)) << "full " << full << " variable " << v;
+    }
+  }
+}
+
 TEST(MarginalsTest, BadQueriesReturnErrors) {
   auto isam = Solve(testing::MakePlanarProblem(10, 2, 51));
   BayesTreeMarginals marginals(&isam->tree());
