@@ -150,6 +150,10 @@ void RegisterBench(CLI::App& app) {
                   "isam2: also relinearise a variable when one of its factors' linearisation "
                   "error at the estimate exceeds this many sigmas (0: off, as GTSAM)")
       ->capture_default_str();
+  cmd->add_option("--threads", opt->isam2.threads,
+                  "isam2: threads for the large steps (relinearising factors, eliminating "
+                  "independent subtrees); results do not depend on it")
+      ->capture_default_str();
   cmd->add_option("--relinearize-max", opt->isam2.relinearization.max_variables,
                   "isam2: relinearise at most this many variables per update, most changed first "
                   "(0: no limit)")
@@ -165,7 +169,9 @@ void RegisterBench(CLI::App& app) {
                   "isam2: relinearise and re-eliminate everything every N updates (0: never)")
       ->capture_default_str();
   cmd->add_option("--step-times", opt->step_times,
-                  "isam2: write one line per step (index,pose,ms,relinearized,reeliminated) to this CSV file");
+                  "isam2: write one line per step to this CSV file (index, pose, ms, relinearised and "
+                  "re-eliminated variables, then ms per phase of the update: add, relinearize, "
+                  "remove_top, order, eliminate, solve)");
   cmd->add_option("--marginals", opt->marginals,
                   "isam2: after every step compute the newest pose's marginal covariance (latest) "
                   "or every variable's (all), timed apart from the step")

@@ -52,7 +52,9 @@ void RunIsam2(const BenchOptions& opt) {
   if (!opt.step_times.empty()) {
     csv = std::fopen(opt.step_times.c_str(), "w");
     if (csv == nullptr) Fail(kExitFailure, "cannot write " + opt.step_times);
-    std::fprintf(csv, "step,pose,ms,relinearized,reeliminated\n");
+    std::fprintf(csv,
+                 "step,pose,ms,relinearized,reeliminated,add_ms,relinearize_ms,remove_top_ms,"
+                 "order_ms,eliminate_ms,solve_ms\n");
   }
   double worst_ms = -1.0;
   core::Stopwatch total;
@@ -78,8 +80,11 @@ void RunIsam2(const BenchOptions& opt) {
       worst_step = core::KeyToString(step.pose) + ": " + r.Brief();
     }
     if (csv) {
-      std::fprintf(csv, "%zu,%s,%.6f,%d,%d\n", step_ms.size() - 1, core::KeyToString(step.pose).c_str(),
-                   step_ms.back(), r.relinearized_variables, r.reeliminated_variables);
+      const core::Isam2Result::Seconds& t = r.seconds;
+      std::fprintf(csv, "%zu,%s,%.6f,%d,%d,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f\n", step_ms.size() - 1,
+                   core::KeyToString(step.pose).c_str(), step_ms.back(), r.relinearized_variables,
+                   r.reeliminated_variables, t.add * 1e3, t.relinearize * 1e3, t.remove_top * 1e3,
+                   t.order * 1e3, t.eliminate * 1e3, t.solve * 1e3);
     }
     if (opt.marginals != "none" && step_ms.size() % opt.marginals_every == 0) {
       core::Stopwatch marginal_timer;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include "core/inference/partial_cholesky.h"
 
@@ -11,6 +12,104 @@ namespace slamd::core {
 namespace {
 
 std::string Str(int v) { return std::to_string(v); }
+
+// M += [A b]ᵀ[A b] scattered to the clique's offsets, lower triangle only (the diagonal blocks'
+// lower halves included). Plain loops: the blocks are at most 6 wide; ScatterFactor
+// instantiates this for the usual row counts so the dot products are fully unrolled.
+template <int kRows>
+void ScatterJacobian(const double* data, int rows, const internal::ScatterBlock* blocks, int p,
+                     int ld, double* M, double* ref) {
+  const int m = kRows > 0 ? kRows : rows;
+  for (int a = 0; a <= p; ++a) {
+    for (int b = 0; b <= a; ++b) {
+      const internal::ScatterBlock* row = &blocks[a];
+      const internal::ScatterBlock* col = &blocks[b];
+      if (row->target < col->target) std::swap(row, col);
+      for (int cc = 0; cc < col->dim; ++cc) {
+        const double* y = data + static_cast<size_t>(col->source + cc) * m;
+        double* dst = M + static_cast<size_t>(col->target + cc) * ld + row->target;
+        for (int rr = (a == b ? cc : 0); rr < row->dim; ++rr) {
+          const double* x = data + static_cast<size_t>(row->source + rr) * m;
+          double s = 0.0;
+          for (int i = 0; i < m; ++i) s += x[i] * y[i];
+          dst[rr] += s;
+        }
+      }
+    }
+  }
+  // The raw diagonal is the pivot reference of a Jacobian factor (squared column norms).
+  for (int a = 0; a < p; ++a) {
+    for (int c = 0; c < blocks[a].dim; ++c) {
+      const double* x = data + static_cast<size_t>(blocks[a].source + c) * m;
+      double s = 0.0;
+      for (int i = 0; i < m; ++i) s += x[i] * x[i];
+      ref[blocks[a].target + c] += s;
+    }
+  }
+}
+
+void ScatterFactor(const JacobianFactor& f, const int* offset, int n, double* M, double* ref) {
+  const int p = f.num_vars();
+  internal::ScatterBlock blocks[JacobianFactor::kMaxVars + 1];
+  for (int k = 0; k < p; ++k) blocks[k] = {offset[f.var(k)], f.dim(k), f.offset(k)};
+  blocks[p] = {n, 1, f.Dim()};
+  const int ld = n + 1;
+  switch (f.rows()) {
+    case 1:
+      return ScatterJacobian<1>(f.data(), 1, blocks, p, ld, M, ref);
+    case 2:
+      return ScatterJacobian<2>(f.data(), 2, blocks, p, ld, M, ref);
+    case 3:
+      return ScatterJacobian<3>(f.data(), 3, blocks, p, ld, M, ref);
+    case 6:
+      return ScatterJacobian<6>(f.data(), 6, blocks, p, ld, M, ref);
+    default:
+      return ScatterJacobian<0>(f.data(), f.rows(), blocks, p, ld, M, ref);
+  }
+}
+
+// M += info scattered to the clique's offsets, lower triangle only.
+void ScatterFactor(const HessianFactor& h, const int* offset, int n, double* M, double* ref,
+                   std::vector<internal::ScatterBlock>* scatter_blocks) {
+  const int p = h.num_vars();
+  const int ld = n + 1;
+  const int hld = h.Dim() + 1;
+  scatter_blocks->resize(p + 1);
+  internal::ScatterBlock* blocks = scatter_blocks->data();
+  for (int k = 0; k < p; ++k) blocks[k] = {offset[h.var(k)], h.dim(k), h.offset(k)};
+  blocks[p] = {n, 1, h.Dim()};
+  const double* reference = h.reference().data();
+  for (int a = 0; a < p; ++a) {
+    for (int c = 0; c < blocks[a].dim; ++c)
+      ref[blocks[a].target + c] += reference[blocks[a].source + c];
+  }
+  // Merge runs of variables that are adjacent both in info and in M (a child's separator is
+  // usually a contiguous range of its parent's variables): fewer, longer inner loops. Every
+  // entry still receives exactly one addition.
+  int q = 0;
+  for (int k = 1; k <= p; ++k) {
+    if (blocks[k].target == blocks[q].target + blocks[q].dim) {
+      blocks[q].dim += blocks[k].dim;  // sources are contiguous by construction
+    } else {
+      blocks[++q] = blocks[k];
+    }
+  }
+  const double* data = h.data();
+  // info is fully symmetric, so any block can be read in whichever orientation lands in M's
+  // lower triangle; pairs a >= b cover every block once.
+  for (int a = 0; a <= q; ++a) {
+    for (int b = 0; b <= a; ++b) {
+      const internal::ScatterBlock* row = &blocks[a];
+      const internal::ScatterBlock* col = &blocks[b];
+      if (row->target < col->target) std::swap(row, col);
+      for (int cc = 0; cc < col->dim; ++cc) {
+        const double* src = data + static_cast<size_t>(col->source + cc) * hld + row->source;
+        double* dst = M + static_cast<size_t>(col->target + cc) * ld + row->target;
+        for (int rr = (a == b ? cc : 0); rr < row->dim; ++rr) dst[rr] += src[rr];
+      }
+    }
+  }
+}
 
 }  // namespace
 
@@ -28,11 +127,17 @@ Status Eliminate(const EliminationProblem& problem, BayesTree* tree, Elimination
   return eliminator.Eliminate(problem, tree, result);
 }
 
+Eliminator::Eliminator(EliminationParams params, int threads)
+    : params_(params), threads_(threads), workspaces_(std::max(threads, 1)) {
+  SLAMD_CHECK(threads >= 1) << "Eliminator: threads = " << threads << "; must be >= 1";
+}
+
 Status Eliminator::Eliminate(const EliminationProblem& problem, BayesTree* tree,
                              EliminationResult* result) {
   result->cliques.clear();
   result->hessian_cliques.assign(problem.hessians.size(), BayesTree::kNone);
   result->failed_variable = -1;
+  result->threads_used = 1;
   // 1. Positions, factor assignment, pivot references.
   Status status = Prepare(problem, *tree);
   if (!status.ok()) {
@@ -43,27 +148,192 @@ Status Eliminator::Eliminate(const EliminationProblem& problem, BayesTree* tree,
   const int k = static_cast<int>(problem.ordering.size());
   internal::BuildSymbolicForest(k, structure_ptr_, structure_pos_, hes_ptr_,
                                 params_.merge_supernodes, &forest_, &symbolic_workspace_);
-  // 3. Numeric phase, children before parents (the forest's creation order).
-  tree_id_.assign(forest_.NumCliques(), BayesTree::kNone);
-  result->cliques.reserve(forest_.NumCliques());
-  for (int c = 0; c < forest_.NumCliques() && status.ok(); ++c) {
-    status = EliminateClique(problem, c, tree, result);
+  // 3. Numeric phase into cliques created up front (so that threads only fill them), children
+  //    before parents; then the links, in creation order.
+  const int num = forest_.NumCliques();
+  tree_id_.resize(num);
+  for (int c = 0; c < num; ++c) tree_id_[c] = tree->NewClique();
+  const bool parallel = threads_ > 1 && EstimateWork(problem) >= kParallelMinWork;
+  if (parallel && EliminateParallel(problem, tree, result)) {
+    result->threads_used = threads_;
+  } else {
+    status = EliminateSerial(problem, tree, result);
   }
   if (!status.ok()) {
-    Rollback(tree, result->cliques);
-    result->cliques.clear();
+    // Freed in reverse creation order, which gives back the tree's free list as it was.
+    for (int c = num - 1; c >= 0; --c) tree->FreeClique(tree_id_[c]);
     std::fill(result->hessian_cliques.begin(), result->hessian_cliques.end(), BayesTree::kNone);
+    ResetPositions(problem.ordering);
+    return status;
+  }
+  result->cliques.reserve(num);
+  for (int c = 0; c < num; ++c) {
+    const int id = tree_id_[c];
+    for (int child = forest_.first_child[c]; child != -1; child = forest_.next_sibling[child]) {
+      tree->Attach(tree_id_[child], id);
+    }
+    for (int v : tree->clique(id).frontals()) tree->SetCliqueOf(v, id);
+    result->cliques.push_back(id);
   }
   ResetPositions(problem.ordering);
-  return status;
+  return Status::Ok();
+}
+
+Status Eliminator::EliminateSerial(const EliminationProblem& problem, BayesTree* tree,
+                                   EliminationResult* result) {
+  Workspace* ws = &workspaces_[0];
+  for (int c = 0; c < forest_.NumCliques(); ++c) {
+    const Status s = EliminateClique(problem, c, tree, ws, &result->hessian_cliques);
+    if (!s.ok()) {
+      result->failed_variable = ws->failed_variable;
+      return s;
+    }
+  }
+  return Status::Ok();
+}
+
+double Eliminator::EstimateWork(const EliminationProblem& problem) {
+  // Per clique: partial Cholesky nf·(nf²/3 + nf·ns + ns²) plus assembling its share of the
+  // parent, ns² (nf, ns: frontal and separator dims). Subtree sums in creation order (children
+  // first).
+  const int num = forest_.NumCliques();
+  work_.assign(num, 0.0);
+  subtree_work_.assign(num, 0.0);
+  double total = 0.0;
+  for (int c = 0; c < num; ++c) {
+    double nf = 0.0, ns = 0.0;
+    for (int p = forest_.first_frontal[c]; p != -1; p = forest_.next_frontal[p]) {
+      nf += problem.var_dims[problem.ordering[p]];
+    }
+    for (int i = forest_.sep_begin[c]; i < forest_.sep_end[c]; ++i) {
+      ns += problem.var_dims[problem.ordering[forest_.sep_data[i]]];
+    }
+    work_[c] = nf * (nf * nf / 3.0 + nf * ns + ns * ns) + ns * ns;
+    subtree_work_[c] += work_[c];
+    total += work_[c];
+    const int parent = forest_.Parent(c);
+    if (parent >= 0) subtree_work_[parent] += subtree_work_[c];
+  }
+  return total;
+}
+
+void Eliminator::AssignSubtrees() {
+  // Subtree-to-thread mapping: the threads eliminate disjoint subtrees, each on its own with no
+  // synchronisation, then the calling thread eliminates the cliques above them (the "top").
+  // Starting from the roots, the heaviest subtree is split (its root moves to the top, its
+  // children become subtrees) while that lowers the estimated time: top + max(heaviest subtree,
+  // all subtrees / threads). SLAM trees are lopsided (a spine with short branches), so this may
+  // peel many cliques off the spine; a heap keeps each split O(log subtrees).
+  const int num = forest_.NumCliques();
+  auto lighter = [&](int a, int b) { return subtree_work_[a] < subtree_work_[b]; };
+  std::vector<int> heap;
+  double frontier_work = 0.0;
+  for (int c = 0; c < num; ++c) {
+    if (forest_.Parent(c) < 0) {
+      heap.push_back(c);
+      frontier_work += subtree_work_[c];
+    }
+  }
+  std::make_heap(heap.begin(), heap.end(), lighter);
+  owner_.assign(num, 0);  // 0: below the frontier; 1: top; 2: a subtree root
+  std::vector<int> split;  // the cliques moved to the top, in order
+  double top_work = 0.0;
+  // Estimated time: top + the largest thread load when the kExact heaviest subtrees are given
+  // out whole (least loaded thread first, heaviest first) and the rest is poured in as if
+  // divisible. Splitting stops paying when the top grows more than the loads shrink.
+  const int exact = 4 * threads_;
+  std::vector<int> heaviest;
+  std::vector<double> load(threads_);
+  auto estimate = [&] {
+    heaviest = heap;
+    const int k = std::min<int>(exact, static_cast<int>(heaviest.size()));
+    std::partial_sort(heaviest.begin(), heaviest.begin() + k, heaviest.end(),
+                      [&](int a, int b) { return subtree_work_[a] > subtree_work_[b]; });
+    std::fill(load.begin(), load.end(), 0.0);
+    for (int i = 0; i < k; ++i) {
+      *std::min_element(load.begin(), load.end()) += subtree_work_[heaviest[i]];
+    }
+    const double largest = *std::max_element(load.begin(), load.end());
+    return top_work + std::max(largest, frontier_work / threads_);
+  };
+  double best = estimate();
+  std::size_t best_splits = 0;
+  while (!heap.empty() && forest_.first_child[heap.front()] != -1 && top_work < best) {
+    std::pop_heap(heap.begin(), heap.end(), lighter);
+    const int c = heap.back();
+    heap.pop_back();
+    split.push_back(c);
+    top_work += work_[c];
+    frontier_work -= subtree_work_[c];
+    for (int child = forest_.first_child[c]; child != -1; child = forest_.next_sibling[child]) {
+      heap.push_back(child);
+      std::push_heap(heap.begin(), heap.end(), lighter);
+      frontier_work += subtree_work_[child];
+    }
+    if (heap.empty()) break;
+    if (estimate() < best) {
+      best = estimate();
+      best_splits = split.size();
+    }
+  }
+  // The best split's subtrees go to the least loaded thread, heaviest first (LPT); a clique
+  // below goes where its subtree root went. owner_: thread, or -1 for the top.
+  for (std::size_t i = 0; i < best_splits; ++i) owner_[split[i]] = 1;
+  std::vector<int> subtrees;
+  for (int c = 0; c < num; ++c) {
+    const int parent = forest_.Parent(c);
+    if (owner_[c] != 1 && (parent < 0 || owner_[parent] == 1)) subtrees.push_back(c);
+  }
+  std::sort(subtrees.begin(), subtrees.end(),
+            [&](int a, int b) { return subtree_work_[a] > subtree_work_[b]; });
+  std::vector<int> thread_of(num, -1);
+  std::fill(load.begin(), load.end(), 0.0);
+  for (int c : subtrees) {
+    const int t = static_cast<int>(std::min_element(load.begin(), load.end()) - load.begin());
+    load[t] += subtree_work_[c];
+    thread_of[c] = t;
+  }
+  for (int c = num - 1; c >= 0; --c) {  // parents before children
+    if (owner_[c] == 1) {
+      owner_[c] = -1;
+    } else if (thread_of[c] >= 0) {
+      owner_[c] = thread_of[c];
+    } else {
+      owner_[c] = owner_[forest_.Parent(c)];
+    }
+  }
+}
+
+bool Eliminator::EliminateParallel(const EliminationProblem& problem, BayesTree* tree,
+                                   EliminationResult* result) {
+  AssignSubtrees();
+  const int num = forest_.NumCliques();
+  std::vector<char> failed(threads_, 0);
+  // Thread t eliminates the cliques owned by `owner` in creation order (children first).
+  auto eliminate_own = [&](int owner, int t) {
+    for (int c = 0; c < num; ++c) {
+      if (owner_[c] != owner) continue;
+      if (!EliminateClique(problem, c, tree, &workspaces_[t], &result->hessian_cliques).ok()) {
+        failed[t] = 1;
+        return;
+      }
+    }
+  };
+  std::vector<std::thread> helpers;
+  for (int t = 1; t < threads_; ++t) helpers.emplace_back(eliminate_own, t, t);
+  eliminate_own(0, 0);
+  for (std::thread& t : helpers) t.join();
+  if (std::find(failed.begin(), failed.end(), 1) != failed.end()) return false;
+  eliminate_own(-1, 0);  // the top, on the calling thread
+  return !failed[0];
 }
 
 Status Eliminator::Prepare(const EliminationProblem& problem, const BayesTree& tree) {
   SLAMD_RETURN_IF_ERROR(params_.Validate());
   const int n = static_cast<int>(problem.var_dims.size());
-  if (static_cast<int>(pos_.size()) < n) {
-    pos_.resize(n, -1);
-    offset_.resize(n, 0);
+  if (static_cast<int>(pos_.size()) < n) pos_.resize(n, -1);
+  for (Workspace& ws : workspaces_) {
+    if (static_cast<int>(ws.offset.size()) < n) ws.offset.resize(n, 0);
   }
   // 1a. Number the variables by position.
   const int k = static_cast<int>(problem.ordering.size());
@@ -158,69 +428,77 @@ Status Eliminator::Prepare(const EliminationProblem& problem, const BayesTree& t
 }
 
 Status Eliminator::EliminateClique(const EliminationProblem& problem, int sym, BayesTree* tree,
-                                   EliminationResult* result) {
+                                   Workspace* ws, std::vector<int>* hessian_cliques) const {
   const internal::SymbolicForest& forest = forest_;
   // 3a. The clique's variables: frontals in elimination order, then the separator.
-  frontal_ids_.clear();
-  frontal_dims_.clear();
-  sep_ids_.clear();
-  sep_dims_.clear();
+  std::vector<int>& frontal_ids = ws->frontal_ids;
+  std::vector<int>& frontal_dims = ws->frontal_dims;
+  std::vector<int>& sep_ids = ws->sep_ids;
+  std::vector<int>& sep_dims = ws->sep_dims;
+  frontal_ids.clear();
+  frontal_dims.clear();
+  sep_ids.clear();
+  sep_dims.clear();
   for (int p = forest.first_frontal[sym]; p != -1; p = forest.next_frontal[p]) {
     const int v = problem.ordering[p];
-    frontal_ids_.push_back(v);
-    frontal_dims_.push_back(problem.var_dims[v]);
+    frontal_ids.push_back(v);
+    frontal_dims.push_back(problem.var_dims[v]);
   }
   for (int i = forest.sep_begin[sym]; i < forest.sep_end[sym]; ++i) {
     const int v = problem.ordering[forest.sep_data[i]];
-    sep_ids_.push_back(v);
-    sep_dims_.push_back(problem.var_dims[v]);
+    sep_ids.push_back(v);
+    sep_dims.push_back(problem.var_dims[v]);
   }
-  const int id = tree->NewClique();
-  tree_id_[sym] = id;
+  const int id = tree_id_[sym];
   Clique& clique = tree->mutable_clique(id);
   // 3f overwrites the whole cached factor, so it is not zeroed here.
-  clique.ResetForElimination(frontal_ids_, frontal_dims_, sep_ids_, sep_dims_);
+  clique.ResetForElimination(frontal_ids, frontal_dims, sep_ids, sep_dims);
 
   // 3b. Offsets of the clique's variables in the dense augmented matrix M (n + 1 square; the
   //     last row/column is the right-hand side).
+  int* offset = ws->offset.data();
   int n = 0;
-  for (size_t i = 0; i < frontal_ids_.size(); ++i) {
-    offset_[frontal_ids_[i]] = n;
-    n += frontal_dims_[i];
+  for (size_t i = 0; i < frontal_ids.size(); ++i) {
+    offset[frontal_ids[i]] = n;
+    n += frontal_dims[i];
   }
   const int nf = n;
-  for (size_t i = 0; i < sep_ids_.size(); ++i) {
-    offset_[sep_ids_[i]] = n;
-    n += sep_dims_[i];
+  for (size_t i = 0; i < sep_ids.size(); ++i) {
+    offset[sep_ids[i]] = n;
+    n += sep_dims[i];
   }
   const int ld = n + 1;
   // Only the lower triangle is ever read or written (partial_cholesky.h), so only it is zeroed.
-  if (matrix_.size() < static_cast<size_t>(ld) * ld) matrix_.resize(static_cast<size_t>(ld) * ld);
-  double* M = matrix_.data();
+  std::vector<double>& matrix = ws->matrix;
+  if (matrix.size() < static_cast<size_t>(ld) * ld) matrix.resize(static_cast<size_t>(ld) * ld);
+  double* M = matrix.data();
   for (int c = 0; c < ld; ++c) {
     std::fill(M + static_cast<size_t>(c) * ld + c, M + static_cast<size_t>(c + 1) * ld, 0.0);
   }
   // Pivot references (partial_cholesky.h): the raw information assembled here plus the
   // references the children's cached factors carry.
-  ref_.assign(ld, 0.0);
+  std::vector<double>& ref = ws->ref;
+  ref.assign(ld, 0.0);
 
   // 3c. Assemble: the factors assigned to the frontals, then the children's cached factors.
   for (int p = forest.first_frontal[sym]; p != -1; p = forest.next_frontal[p]) {
-    for (int i = jac_ptr_[p]; i < jac_ptr_[p + 1]; ++i)
-      Scatter(*problem.factors[jac_list_[i]], n, M);
+    for (int i = jac_ptr_[p]; i < jac_ptr_[p + 1]; ++i) {
+      ScatterFactor(*problem.factors[jac_list_[i]], offset, n, M, ref.data());
+    }
     for (int i = hes_ptr_[p]; i < hes_ptr_[p + 1]; ++i) {
-      Scatter(*problem.hessians[hes_list_[i]], n, M);
-      result->hessian_cliques[hes_list_[i]] = id;
+      ScatterFactor(*problem.hessians[hes_list_[i]], offset, n, M, ref.data(), &ws->scatter_blocks);
+      (*hessian_cliques)[hes_list_[i]] = id;
     }
   }
   for (int c = forest.first_child[sym]; c != -1; c = forest.next_sibling[c]) {
-    Scatter(tree->clique(tree_id_[c]).cached_factor(), n, M);
+    ScatterFactor(tree->clique(tree_id_[c]).cached_factor(), offset, n, M, ref.data(),
+                  &ws->scatter_blocks);
   }
 
   // 3d. Partial Cholesky of the frontal block: M's first nf columns become [Rᵀ; Sᵀ; −dᵀ] and
   //     the trailing block the Schur complement on the separator (lower triangles).
   const double tol = params_.relative_pivot_tolerance;
-  int failed = internal::PartialCholeskyLower(M, ld, ld, nf, ref_.data(), tol);
+  int failed = internal::PartialCholeskyLower(M, ld, ld, nf, ref.data(), tol);
   bool non_finite_rhs = false;
   if (failed < 0) {
     for (int c = 0; c < nf && failed < 0; ++c) {
@@ -233,22 +511,21 @@ Status Eliminator::EliminateClique(const EliminationProblem& problem, int sym, B
   if (failed >= 0) {
     int k = 0;
     while (clique.frontal_offset(k + 1) <= failed) ++k;
-    const int var = frontal_ids_[k];
-    result->failed_variable = var;
+    const int var = frontal_ids[k];
+    ws->failed_variable = var;
     std::ostringstream message;
     message << "Eliminate: ";
     if (non_finite_rhs) {
       message << "non-finite right-hand side at variable " << var;
-    } else if (ref_[failed] == 0.0) {
+    } else if (ref[failed] == 0.0) {
       message << "variable " << var << " has no information (no factor constrains scalar "
               << failed - clique.frontal_offset(k) << " of it)";
     } else {
       message << "indeterminate system at variable " << var << ": pivot of its scalar "
               << failed - clique.frontal_offset(k) << " is not above " << tol
-              << " x the information that flowed into it (" << ref_[failed]
+              << " x the information that flowed into it (" << ref[failed]
               << "): missing prior or gauge constraint?";
     }
-    tree->FreeClique(id);
     return NumericalFailure(message.str());
   }
 
@@ -268,112 +545,8 @@ Status Eliminator::EliminateClique(const EliminationProblem& problem, int sym, B
     const double* col = M + static_cast<size_t>(nf + c) * ld + nf;
     for (int r = c; r < ns1; ++r) info(r, c) = info(c, r) = col[r];
   }
-  std::copy_n(&ref_[nf], n - nf, cached.mutable_reference().data());
-  // 3g. Link the children and map the frontals.
-  for (int c = forest.first_child[sym]; c != -1; c = forest.next_sibling[c]) {
-    tree->Attach(tree_id_[c], id);
-  }
-  for (int v : frontal_ids_) tree->SetCliqueOf(v, id);
-  result->cliques.push_back(id);
+  std::copy_n(&ref[nf], n - nf, cached.mutable_reference().data());
   return Status::Ok();
-}
-
-// M += [A b]ᵀ[A b] scattered to the clique's offsets, lower triangle only (the diagonal blocks'
-// lower halves included). Plain loops: the blocks are at most 6 wide; Eliminator::Scatter
-// instantiates this for the usual row counts so the dot products are fully unrolled.
-template <int kRows>
-void ScatterJacobian(const double* data, int rows, const internal::ScatterBlock* blocks, int p,
-                     int ld, double* M, double* ref) {
-  const int m = kRows > 0 ? kRows : rows;
-  for (int a = 0; a <= p; ++a) {
-    for (int b = 0; b <= a; ++b) {
-      const internal::ScatterBlock* row = &blocks[a];
-      const internal::ScatterBlock* col = &blocks[b];
-      if (row->target < col->target) std::swap(row, col);
-      for (int cc = 0; cc < col->dim; ++cc) {
-        const double* y = data + static_cast<size_t>(col->source + cc) * m;
-        double* dst = M + static_cast<size_t>(col->target + cc) * ld + row->target;
-        for (int rr = (a == b ? cc : 0); rr < row->dim; ++rr) {
-          const double* x = data + static_cast<size_t>(row->source + rr) * m;
-          double s = 0.0;
-          for (int i = 0; i < m; ++i) s += x[i] * y[i];
-          dst[rr] += s;
-        }
-      }
-    }
-  }
-  // The raw diagonal is the pivot reference of a Jacobian factor (squared column norms).
-  for (int a = 0; a < p; ++a) {
-    for (int c = 0; c < blocks[a].dim; ++c) {
-      const double* x = data + static_cast<size_t>(blocks[a].source + c) * m;
-      double s = 0.0;
-      for (int i = 0; i < m; ++i) s += x[i] * x[i];
-      ref[blocks[a].target + c] += s;
-    }
-  }
-}
-
-void Eliminator::Scatter(const JacobianFactor& f, int n, double* M) {
-  double* ref = ref_.data();
-  const int p = f.num_vars();
-  internal::ScatterBlock blocks[JacobianFactor::kMaxVars + 1];
-  for (int k = 0; k < p; ++k) blocks[k] = {offset_[f.var(k)], f.dim(k), f.offset(k)};
-  blocks[p] = {n, 1, f.Dim()};
-  const int ld = n + 1;
-  switch (f.rows()) {
-    case 1:
-      return ScatterJacobian<1>(f.data(), 1, blocks, p, ld, M, ref);
-    case 2:
-      return ScatterJacobian<2>(f.data(), 2, blocks, p, ld, M, ref);
-    case 3:
-      return ScatterJacobian<3>(f.data(), 3, blocks, p, ld, M, ref);
-    case 6:
-      return ScatterJacobian<6>(f.data(), 6, blocks, p, ld, M, ref);
-    default:
-      return ScatterJacobian<0>(f.data(), f.rows(), blocks, p, ld, M, ref);
-  }
-}
-
-// M += info scattered to the clique's offsets, lower triangle only.
-void Eliminator::Scatter(const HessianFactor& h, int n, double* M) {
-  const int p = h.num_vars();
-  const int ld = n + 1;
-  const int hld = h.Dim() + 1;
-  scatter_blocks_.resize(p + 1);
-  internal::ScatterBlock* blocks = scatter_blocks_.data();
-  for (int k = 0; k < p; ++k) blocks[k] = {offset_[h.var(k)], h.dim(k), h.offset(k)};
-  blocks[p] = {n, 1, h.Dim()};
-  const double* reference = h.reference().data();
-  for (int a = 0; a < p; ++a) {
-    for (int c = 0; c < blocks[a].dim; ++c)
-      ref_[blocks[a].target + c] += reference[blocks[a].source + c];
-  }
-  // Merge runs of variables that are adjacent both in info and in M (a child's separator is
-  // usually a contiguous range of its parent's variables): fewer, longer inner loops. Every
-  // entry still receives exactly one addition.
-  int q = 0;
-  for (int k = 1; k <= p; ++k) {
-    if (blocks[k].target == blocks[q].target + blocks[q].dim) {
-      blocks[q].dim += blocks[k].dim;  // sources are contiguous by construction
-    } else {
-      blocks[++q] = blocks[k];
-    }
-  }
-  const double* data = h.data();
-  // info is fully symmetric, so any block can be read in whichever orientation lands in M's
-  // lower triangle; pairs a >= b cover every block once.
-  for (int a = 0; a <= q; ++a) {
-    for (int b = 0; b <= a; ++b) {
-      const internal::ScatterBlock* row = &blocks[a];
-      const internal::ScatterBlock* col = &blocks[b];
-      if (row->target < col->target) std::swap(row, col);
-      for (int cc = 0; cc < col->dim; ++cc) {
-        const double* src = data + static_cast<size_t>(col->source + cc) * hld + row->source;
-        double* dst = M + static_cast<size_t>(col->target + cc) * ld + row->target;
-        for (int rr = (a == b ? cc : 0); rr < row->dim; ++rr) dst[rr] += src[rr];
-      }
-    }
-  }
 }
 
 void Eliminator::ResetPositions(std::span<const int> ordering) {
@@ -381,12 +554,6 @@ void Eliminator::ResetPositions(std::span<const int> ordering) {
   for (int v : ordering) {
     if (v >= 0 && v < n) pos_[v] = -1;
   }
-}
-
-void Eliminator::Rollback(BayesTree* tree, std::span<const int> created) {
-  // Detach everything first: the created cliques' children are all created cliques.
-  for (int id : created) tree->Detach(id);
-  for (int id : created) tree->FreeClique(id);
 }
 
 }  // namespace slamd::core

@@ -39,7 +39,8 @@
 //
 // Complexity: O(work of the cliques created) — nothing proportional to the total number of
 // variables once the Eliminator's workspace has grown to it, so small top re-eliminations are
-// cheap. Thread safety: one Eliminator per thread (it owns scratch buffers).
+// cheap. Thread safety: one Eliminator per thread (it owns scratch buffers); a call may use
+// several threads of its own (Eliminator's `threads`).
 #pragma once
 
 #include <span>
@@ -101,45 +102,76 @@ struct EliminationResult {
   std::vector<int> hessian_cliques;
   // On kNumericalFailure: the variable whose pivot failed; otherwise -1.
   int failed_variable = -1;
+  // Threads that eliminated the cliques (1, or the Eliminator's `threads` for a large call).
+  int threads_used = 1;
 };
 
 class Eliminator {
  public:
-  explicit Eliminator(EliminationParams params = {}) : params_(params) {}
+  // `threads` (>= 1; checked) eliminate the cliques of a large call in parallel: a clique needs
+  // only its children's cached factors, so disjoint subtrees are independent; each thread takes
+  // whole subtrees, then the calling thread the cliques above them. Each clique is computed
+  // exactly as by one thread (same assembly order), so the tree is bitwise the same for any
+  // thread count. Calls whose estimated work is below kParallelMinWork run on the
+  // calling thread alone (starting a thread costs more than they take).
+  explicit Eliminator(EliminationParams params = {}, int threads = 1);
+
+  // Estimated work (≈ multiply-adds of assembly and partial Cholesky) from which a call uses
+  // `threads`: about half a millisecond on one core.
+  static constexpr double kParallelMinWork = 1.5e6;
 
   // Eliminates problem.ordering into *tree (see the file comment). *result is overwritten.
   Status Eliminate(const EliminationProblem& problem, BayesTree* tree, EliminationResult* result);
 
   const EliminationParams& params() const { return params_; }
+  int threads() const { return threads_; }
 
  private:
+  // One thread's scratch for eliminating cliques.
+  struct Workspace {
+    std::vector<int> offset;  // per variable id: scalar offset inside the clique being assembled
+    std::vector<int> frontal_ids, frontal_dims, sep_ids, sep_dims;
+    std::vector<double> ref;     // pivot references of the clique's scalars
+    std::vector<double> matrix;  // the clique's dense augmented matrix
+    std::vector<internal::ScatterBlock> scatter_blocks;
+    int failed_variable = -1;  // set by a failing EliminateClique
+  };
+
   Status Prepare(const EliminationProblem& problem, const BayesTree& tree);
+  // Fills the pre-created clique tree_id_[sym] (no links: LinkCliques does them). Touches only
+  // that clique, *ws and hessian_cliques entries of its own Hessian factors.
   Status EliminateClique(const EliminationProblem& problem, int sym, BayesTree* tree,
+                         Workspace* ws, std::vector<int>* hessian_cliques) const;
+  Status EliminateSerial(const EliminationProblem& problem, BayesTree* tree,
                          EliminationResult* result);
-  void Scatter(const JacobianFactor& f, int n, double* M);
-  void Scatter(const HessianFactor& h, int n, double* M);
+  // Returns false when some clique failed (nothing is reported: the caller re-runs serially,
+  // so that the failure named is the first in creation order, as with one thread).
+  bool EliminateParallel(const EliminationProblem& problem, BayesTree* tree,
+                         EliminationResult* result);
+  // Fills work_ and subtree_work_ of the forest; returns the total.
+  double EstimateWork(const EliminationProblem& problem);
+  // Fills owner_: the thread that eliminates each clique, or -1 for the top (see the .cc).
+  void AssignSubtrees();
   void ResetPositions(std::span<const int> ordering);
-  void Rollback(BayesTree* tree, std::span<const int> created);
 
   EliminationParams params_;
+  int threads_;
   // Per variable id (sized to the largest var_dims seen; entries reset after each call).
-  std::vector<int> pos_;     // position in the current ordering, or -1
-  std::vector<int> offset_;  // scalar offset inside the clique being assembled
+  std::vector<int> pos_;  // position in the current ordering, or -1
   // Per position / per scalar of the current call.
   std::vector<int> jac_ptr_, jac_list_, hes_ptr_, hes_list_;  // factors assigned per position
   std::vector<int> first_;                                    // per factor: first position
   std::vector<int> cursor_, structure_cursor_;                // CSR fill cursors
   std::vector<int> structure_ptr_, structure_pos_;            // their variables' positions
   std::vector<int> tree_id_;                                  // symbolic clique -> tree id
-  std::vector<int> frontal_ids_, frontal_dims_, sep_ids_, sep_dims_;
-  std::vector<double> ref_;     // pivot references of the clique's scalars
-  std::vector<double> matrix_;  // the clique's dense augmented matrix
-  std::vector<internal::ScatterBlock> scatter_blocks_;
+  std::vector<double> work_, subtree_work_;                   // per clique: estimated work
+  std::vector<int> owner_;                                    // per clique: thread or -1
+  std::vector<Workspace> workspaces_;                         // one per thread
   internal::SymbolicForest forest_;
   internal::SymbolicWorkspace symbolic_workspace_;
 };
 
-// One-shot convenience: Eliminator(params).Eliminate(problem, tree, result).
+// One-shot convenience: Eliminator(params).Eliminate(problem, tree, result), one thread.
 Status Eliminate(const EliminationProblem& problem, BayesTree* tree, EliminationResult* result,
                  const EliminationParams& params = {});
 

@@ -12,7 +12,7 @@ Result<std::unique_ptr<Isam2>> Isam2::Create(const Isam2Params& params) {
 }
 
 Isam2::Isam2(const Isam2Params& params)
-    : params_(params), offsets_{0}, eliminator_(params.elimination) {}
+    : params_(params), offsets_{0}, eliminator_(params.elimination, params.threads) {}
 
 Isam2Result Isam2::Update(const FactorGraph& new_factors, const Values& new_values,
                           const Isam2UpdateOptions& options) {

@@ -45,9 +45,12 @@ struct Isam2Params {
   // entries). > 0.
   double refine_threshold = 1e-6;
 
-  // Threads that relinearise factors when an update relinearises many (512+ per thread), as the
-  // slowest steps do. 1 = the calling thread only. >= 1.
-  int linearization_threads = 2;
+  // Threads for the slowest steps, which relinearise most of the graph and re-eliminate the
+  // whole tree: they relinearise factors (when there are 512+ per thread) and eliminate
+  // independent subtrees in parallel (Eliminator, when the work is large enough). Results do not
+  // depend on it (each factor and clique is computed as by one thread). 1 = the calling thread
+  // only. >= 1.
+  int threads = 2;
 
   // Every `batch_every` updates, relinearise every variable and re-eliminate the whole graph
   // with a fresh COLAMD ordering (the iSAM1-style batch step). 0 = never. >= 0.

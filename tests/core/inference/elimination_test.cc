@@ -246,6 +246,68 @@ TEST(EliminationTest, IndeterminateSystemNamesTheVariable) {
   }
 }
 
+// A SLAM-like system large enough for the parallel path: a chain of 6-dim poses with loop
+// closures to poses up to 40 back, and (optionally) one variable no factor touches.
+RandomLinearSystem MakeLoopySystem(int n, bool with_unconstrained) {
+  std::mt19937 rng(5);
+  RandomLinearSystem s;
+  s.dims.assign(n, 6);
+  testing::AddFactor(&s, {0}, 6, &rng);
+  for (int i = 1; i < n; ++i) {
+    testing::AddFactor(&s, {i - 1, i}, 6, &rng);
+    if (i % 3 == 0 && i > 40) testing::AddFactor(&s, {i - 10 - static_cast<int>(rng() % 30), i}, 6, &rng);
+  }
+  if (with_unconstrained) s.dims.push_back(3);
+  return s;
+}
+
+// Several threads give bitwise the tree of one (same ids, links, conditionals, cached factors),
+// and a failure names the same variable and leaves the tree as it was.
+TEST(EliminationTest, ThreadsGiveTheSameTreeAndTheSameFailure) {
+  for (bool fail : {false, true}) {
+    const RandomLinearSystem s = MakeLoopySystem(600, fail);
+    auto order = ColamdOrdering(s.NumVars(), s.Incidence());
+    ASSERT_TRUE(order.ok());
+    const std::vector<const JacobianFactor*> factors = s.Pointers();
+    const EliminationProblem problem{.var_dims = s.dims, .factors = factors, .ordering = *order};
+    BayesTree trees[2];
+    EliminationResult results[2];
+    Status status[2];
+    for (int t = 0; t < 2; ++t) {
+      Eliminator eliminator({}, t + 1);
+      status[t] = eliminator.Eliminate(problem, &trees[t], &results[t]);
+    }
+    ASSERT_EQ(status[0].ok(), !fail) << status[0].ToString();
+    EXPECT_EQ(status[1].ToString(), status[0].ToString());
+    EXPECT_EQ(results[1].failed_variable, results[0].failed_variable);
+    if (fail) {
+      EXPECT_EQ(results[0].failed_variable, s.NumVars() - 1);
+      for (const BayesTree& tree : trees) {
+        EXPECT_EQ(tree.NumCliques(), 0);
+        EXPECT_TRUE(CheckConsistency(tree).ok());
+      }
+      continue;
+    }
+    EXPECT_EQ(results[0].threads_used, 1);
+    EXPECT_EQ(results[1].threads_used, 2) << "too small for the parallel path";
+    ASSERT_EQ(results[1].cliques, results[0].cliques);
+    EXPECT_TRUE(CheckConsistency(trees[1]).ok());
+    for (int id : results[0].cliques) {
+      const Clique& a = trees[0].clique(id);
+      const Clique& b = trees[1].clique(id);
+      ASSERT_TRUE(std::equal(a.frontals().begin(), a.frontals().end(), b.frontals().begin(),
+                             b.frontals().end()));
+      ASSERT_TRUE(std::equal(a.separator().begin(), a.separator().end(), b.separator().begin(),
+                             b.separator().end()));
+      EXPECT_EQ(a.parent(), b.parent());
+      EXPECT_EQ(a.children(), b.children());
+      // Bitwise: == on the matrices, no tolerance.
+      EXPECT_TRUE(a.conditional() == b.conditional()) << "clique " << id;
+      EXPECT_TRUE(a.cached_factor().info() == b.cached_factor().info()) << "clique " << id;
+    }
+  }
+}
+
 // Round-off accumulates along a chain; with weights varying by 1e5 a pivot test relative to a
 // variable's own factors only would miss the deficiency (pivots up to ~1e-11 of them). The
 // propagated references catch every case.

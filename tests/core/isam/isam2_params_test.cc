@@ -29,7 +29,7 @@ TEST(Isam2ParamsTest, EachViolationNamesTheField) {
       {{.wildfire_threshold = -0.1}, "wildfire_threshold"},
       {{.refine_threshold = 0.0}, "refine_threshold"},
       {{.batch_every = -2}, "batch_every"},
-      {{.linearization_threads = 0}, "linearization_threads"},
+      {{.threads = 0}, "threads"},
       {{.elimination = {.relative_pivot_tolerance = 2.0}}, "relative_pivot_tolerance"},
   };
   for (const Case& c : cases) {
