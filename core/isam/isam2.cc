@@ -83,7 +83,7 @@ Isam2Result Isam2::UpdateWith(const FactorGraph& new_factors, const Values& new_
     // Capped by max_variables: what is left over is taken at the next update, not `skip` later.
     relinearization_backlog_ = SelectRelinearization(options, batch, relinearization, &relin);
     result.relinearized_variables = static_cast<int>(relin.size());
-    result.status = Relinearize(relin, &affected, &result.relinearized_factors);
+    Relinearize(relin, &affected, &result.relinearized_factors);
   }
   if (batch) {
     affected.resize(theta_.size());
@@ -98,6 +98,9 @@ Isam2Result Isam2::UpdateWith(const FactorGraph& new_factors, const Values& new_
   std::vector<int> new_cliques;
   if (result.status.ok()) result.status = ReEliminate(affected, last, &new_cliques, &result);
   phase.Lap();  // ReEliminate timed its own steps
+  // A failure before step 7 leaves step 3's threads running: they must stop before Rollback.
+  const Status relinearized = FinishRelinearization();
+  if (result.status.ok()) result.status = relinearized;
   if (!result.status.ok()) {
     Rollback();
     --num_updates_;

@@ -24,11 +24,15 @@
 // error screen's per-factor caches, which only steer what a later check evaluates).
 //
 // Thread safety: not thread-safe; one thread drives a solver (the server's estimator thread).
+// Large steps use Isam2Params::threads internally; results do not depend on their number.
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <limits>
 #include <memory>
+#include <mutex>
+#include <thread>
 #include <vector>
 
 #include "core/factors/factor_graph.h"
@@ -140,7 +144,16 @@ class Isam2 {
   double StepSize(int f) const;
   // Evaluates probe_factors_ (see above).
   void ProbeLinearizations(double threshold);
-  Status Relinearize(const std::vector<int>& relin, std::vector<int>* affected, int* num_factors);
+  // Moves θ of `relin` to θ ⊕ δ and appends the variables of their factors to *affected. The
+  // factors are linearised there by the threads (params_.threads) in the background while the
+  // top is removed and ordered (steps 4-6, which read only the structure, factor_vars_); the
+  // calling thread joins in and waits in FinishRelinearization, before eliminating.
+  void Relinearize(const std::vector<int>& relin, std::vector<int>* affected, int* num_factors);
+  // Linearises the relinearised factors not yet taken, waits for the threads; the first error.
+  // Idempotent: without a relinearisation in progress it returns Ok at once.
+  Status FinishRelinearization();
+  // Takes chunks of relin_factors_ until none is left (one thread's share of the work).
+  void LinearizeChunks();
   Status ReEliminate(const std::vector<int>& affected, const std::vector<int>& last,
                      std::vector<int>* new_cliques, Isam2Result* result);
   // Eliminates `vars` (ids) with every factor inside them and the cached factors of `orphans_`,
@@ -207,6 +220,13 @@ class Isam2 {
   std::vector<Variable> probe_saved_;
   WildfireWorkspace wildfire_;
   Undo undo_;
+  // Relinearisation in progress (Relinearize .. FinishRelinearization): the factors, the next
+  // chunk to take, the threads and the first failure (guarded by relin_mutex_).
+  std::vector<int> relin_factors_;
+  std::atomic<int> relin_next_{0};
+  std::vector<std::thread> relin_threads_;
+  std::mutex relin_mutex_;
+  Status relin_status_;
 };
 
 }  // namespace slamd::core

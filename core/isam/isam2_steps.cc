@@ -103,8 +103,13 @@ Status Isam2::LinearizeFactor(int index) {
   LinearizedFactor lf;
   const Factor& factor = *factors_[index];
   factor.Linearize(theta_, &lf);
+  // The slots are known once the factor has been added (factor_vars_); a new factor looks them
+  // up (a hash lookup per key, which relinearising thousands of factors would repeat).
   int ids[kMaxFactorKeys];
-  for (int k = 0; k < lf.num_keys; ++k) ids[k] = theta_.SlotOf(factor.keys()[k]);
+  const bool known = factor_vars_[index][0] >= 0;
+  for (int k = 0; k < lf.num_keys; ++k) {
+    ids[k] = known ? factor_vars_[index][k] : theta_.SlotOf(factor.keys()[k]);
+  }
   const Status s = linearized_[index].Assign(lf, std::span<const int>(ids, lf.num_keys));
   if (!s.ok()) {
     return NumericalFailure("factor " + std::to_string(index) + " (" + factor.Name() + ") on " +
@@ -352,8 +357,8 @@ void Isam2::ProbeLinearizations(double threshold) {
   }
 }
 
-Status Isam2::Relinearize(const std::vector<int>& relin, std::vector<int>* affected,
-                          int* num_factors) {
+void Isam2::Relinearize(const std::vector<int>& relin, std::vector<int>* affected,
+                        int* num_factors) {
   for (int v : relin) {
     Eigen::Map<Eigen::VectorXd> d(delta_.data() + offsets_[v], dims_[v]);
     undo_.theta.emplace_back(v, theta_.VariableAt(v));
@@ -361,34 +366,55 @@ Status Isam2::Relinearize(const std::vector<int>& relin, std::vector<int>* affec
     RetractInPlace(&theta_.MutableVariableAt(v), d.data());
     d.setZero();
   }
-  std::vector<int> factors;
-  variable_index_.CollectFactors(relin, &factors);
-  *num_factors = static_cast<int>(factors.size());
-  undo_.relinearized_factors.insert(undo_.relinearized_factors.end(), factors.begin(),
-                                    factors.end());
-  // Each factor's linearisation is independent (θ is only read, each writes its own cache), so a
-  // large relinearisation — the slowest steps relinearise most of the graph — is split across
-  // threads. Below kFactorsPerThread factors a thread costs more than it saves.
-  constexpr int kFactorsPerThread = 512;
-  const int n = static_cast<int>(factors.size());
-  const int threads = std::max(1, std::min(params_.threads, n / kFactorsPerThread));
-  std::vector<Status> status(threads);
-  auto linearize_share = [&](int t) {
-    for (int i = t * n / threads; i < (t + 1) * n / threads; ++i) {
-      status[t] = LinearizeFactor(factors[i]);
-      if (!status[t].ok()) return;
+  variable_index_.CollectFactors(relin, &relin_factors_);
+  *num_factors = static_cast<int>(relin_factors_.size());
+  undo_.relinearized_factors.insert(undo_.relinearized_factors.end(), relin_factors_.begin(),
+                                    relin_factors_.end());
+  for (int f : relin_factors_) {
+    for (int v : factor_vars_[f]) {
+      if (v < 0) break;
+      affected->push_back(v);
     }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(linearize_share, t);
-  linearize_share(0);
-  for (std::thread& th : pool) th.join();
-  for (const Status& s : status) SLAMD_RETURN_IF_ERROR(s);
-  for (int f : factors) {
-    const std::span<const int> vars = linearized_[f].vars();
-    affected->insert(affected->end(), vars.begin(), vars.end());
   }
-  return Status::Ok();
+  // Each factor's linearisation is independent (θ is only read, each writes its own cache), so
+  // a large relinearisation — the slowest steps relinearise most of the graph — is shared
+  // between threads, which start now and overlap steps 4-6 on the calling thread. Below
+  // kFactorsPerThread factors a thread costs more than it saves.
+  constexpr int kFactorsPerThread = 512;
+  const int n = static_cast<int>(relin_factors_.size());
+  const int helpers = std::min(params_.threads, n / kFactorsPerThread) - 1;
+  relin_next_.store(0, std::memory_order_relaxed);
+  for (int t = 0; t < helpers; ++t) relin_threads_.emplace_back([this] { LinearizeChunks(); });
+  if (helpers <= 0) LinearizeChunks();  // small: at once, on this thread
+}
+
+void Isam2::LinearizeChunks() {
+  constexpr int kChunk = 64;
+  const int n = static_cast<int>(relin_factors_.size());
+  for (;;) {
+    const int begin = relin_next_.fetch_add(kChunk, std::memory_order_relaxed);
+    if (begin >= n) return;
+    for (int i = begin; i < std::min(n, begin + kChunk); ++i) {
+      Status s = LinearizeFactor(relin_factors_[i]);
+      if (!s.ok()) {
+        const std::lock_guard<std::mutex> lock(relin_mutex_);
+        if (relin_status_.ok()) relin_status_ = std::move(s);
+        relin_next_.store(n, std::memory_order_relaxed);  // stop everyone
+        return;
+      }
+    }
+  }
+}
+
+Status Isam2::FinishRelinearization() {
+  if (!relin_threads_.empty()) {
+    LinearizeChunks();
+    for (std::thread& t : relin_threads_) t.join();
+    relin_threads_.clear();
+  }
+  Status s = std::move(relin_status_);
+  relin_status_ = Status::Ok();
+  return s;
 }
 
 Status Isam2::ReEliminate(const std::vector<int>& affected, const std::vector<int>& last,
@@ -431,9 +457,11 @@ Status Isam2::EliminateTop(const std::vector<int>& vars, const std::vector<int>&
   // The factors entirely inside the eliminated set (the others are summarised by orphans).
   elim_factors_.clear();
   variable_index_.CollectFactors(vars, &elim_factors_);
+  // The structure comes from factor_vars_: relinearised factors may still be being written.
   elim_factors_.erase(std::remove_if(elim_factors_.begin(), elim_factors_.end(),
                                      [&](int f) {
-                                       for (int v : linearized_[f].vars()) {
+                                       for (int v : factor_vars_[f]) {
+                                         if (v < 0) break;
                                          if (!mark_[v]) return true;
                                        }
                                        return false;
@@ -445,7 +473,10 @@ Status Isam2::EliminateTop(const std::vector<int>& vars, const std::vector<int>&
   for (int f : elim_factors_) {
     elim_jacobians_.push_back(&linearized_[f]);
     local.clear();
-    for (int v : linearized_[f].vars()) local.push_back(mark_[v] - 1);
+    for (int v : factor_vars_[f]) {
+      if (v < 0) break;
+      local.push_back(mark_[v] - 1);
+    }
     incidence.AddFactor(local);
   }
   elim_hessians_.clear();
@@ -469,7 +500,10 @@ Status Isam2::EliminateTop(const std::vector<int>& vars, const std::vector<int>&
   for (int i : *order) order_.push_back(vars[i]);
   result->seconds.order = phase.Lap();
 
-  // 7. Eliminate into the tree and re-attach the orphans under the cliques that absorbed them.
+  // 7. Eliminate into the tree and re-attach the orphans under the cliques that absorbed them,
+  // once the relinearised factors are all linearised (step 3's threads).
+  SLAMD_RETURN_IF_ERROR(FinishRelinearization());
+  result->seconds.relinearize += phase.Lap();
   const EliminationProblem problem{.var_dims = dims_,
                                    .factors = elim_jacobians_,
                                    .hessians = elim_hessians_,

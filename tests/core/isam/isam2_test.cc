@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
+#include <memory>
 #include <map>
 #include <set>
 
@@ -122,6 +124,92 @@ TEST(Isam2Test, IndeterminateUpdateNamesTheVariableAndChangesNothing) {
   // And it keeps working.
   const ExampleProblem q = testing::MakePlanarProblem(10, 0, 2);
   EXPECT_TRUE(isam->Update({}, {}, {.force_relinearize = true}).status.ok());
+}
+
+// A stiff position prior (sigma 0.01 m, folded into the residual) on a Pose2 that cannot be
+// linearised (NaN Jacobian) once its variable has moved more than 0.5 m from where it started:
+// it fails only when relinearised.
+class TrapFactor : public Factor {
+ public:
+  TrapFactor(Key key, double start_x, double target_x)
+      : Factor({key}, NoiseModel::Unit(1), RobustKernel()), start_x_(start_x), target_x_(target_x) {}
+  const char* Name() const override { return "Trap"; }
+  VariableType KeyType(int) const override { return VariableType::kPose2; }
+  NoiseModel::Vector Error(const Values& values) const override {
+    NoiseModel::Vector e(1);
+    e(0) = kWeight * (values.At<Pose2>(keys()[0]).x() - target_x_);
+    return e;
+  }
+  void Linearize(const Values& values, LinearizedFactor* out) const override {
+    const Pose2& x = values.At<Pose2>(keys()[0]);
+    out->rows = 1;
+    out->num_keys = 1;
+    out->b = Error(values);
+    out->A[0].setZero(1, 3);
+    // d x / d δ for the right perturbation x ⊕ δ: the rotated translation's first row.
+    out->A[0](0, 0) = kWeight * std::cos(x.theta());
+    out->A[0](0, 1) = -kWeight * std::sin(x.theta());
+    if (std::abs(x.x() - start_x_) > 0.5) out->A[0](0, 0) = std::numeric_limits<double>::quiet_NaN();
+  }
+
+ private:
+  static constexpr double kWeight = 100.0;
+  double start_x_, target_x_;
+};
+
+// A factor that fails to linearise at the new linearisation point: the update reports it and
+// leaves everything as before, also when the relinearisation runs on threads (1200 factors:
+// two threads share them while the top is ordered).
+TEST(Isam2Test, AFactorFailingToRelinearizeChangesNothing) {
+  for (int threads : {1, 2}) {
+    const ExampleProblem p = testing::MakePlanarProblem(1200, 0, 3);
+    auto isam = MakeIsam2({.threads = threads});
+    for (const testing::ExampleStep& step : testing::StreamByPose(p)) {
+      ASSERT_TRUE(isam->Update(step.factors, step.values).status.ok());
+    }
+    // The trap pulls pose 600 by 2 m: the solve moves it, so relinearising it trips the trap.
+    const Key key = isam->linearization_point().KeyAt(600);
+    const double x0 = std::get<Pose2>(isam->CalculateEstimate(key)).x();
+    FactorGraph trap;
+    trap.Add(std::make_shared<TrapFactor>(key, isam->linearization_point().At<Pose2>(key).x(),
+                                          x0 + 2.0));
+    const Isam2Result added = isam->Update(trap, {}, {.force_full_solve = true});
+    ASSERT_TRUE(added.status.ok()) << added.status.ToString();
+    const int trap_index = added.new_factor_indices[0];
+    const Values before = isam->CalculateEstimate();
+    const std::size_t factors_before = isam->Factors().size();
+    const Isam2Result r = isam->Update({}, {}, {.force_full = true});
+    ASSERT_EQ(r.status.code(), StatusCode::kNumericalFailure) << r.status.ToString();
+    EXPECT_NE(r.status.message().find("Trap"), std::string::npos) << r.status.message();
+    EXPECT_TRUE(CheckConsistency(isam->tree()).ok()) << CheckConsistency(isam->tree()).ToString();
+    EXPECT_EQ(isam->Factors().size(), factors_before);
+    EXPECT_EQ(testing::MaxDifference(isam->CalculateEstimate(), before), 0.0);
+    // Without the trap it goes on, and relinearises everything as asked.
+    const Isam2Result removed = isam->Update({}, {}, {.remove_factors = {trap_index}});
+    ASSERT_TRUE(removed.status.ok()) << removed.status.ToString();
+    const Isam2Result full = isam->Update({}, {}, {.force_full = true});
+    ASSERT_TRUE(full.status.ok()) << full.status.ToString();
+    EXPECT_EQ(full.relinearized_variables, 1200);
+  }
+}
+
+// The threads (relinearisation, elimination of subtrees) change nothing: the same stream with
+// one and with two threads gives bitwise the same estimate after every update. The batch step
+// every 50 updates makes whole-graph relinearisations and eliminations, large enough for both.
+TEST(Isam2Test, ThreadsGiveBitwiseTheSameEstimates) {
+  const ExampleProblem p = testing::MakeSpatialProblem(1200, 4);
+  auto one = MakeIsam2({.threads = 1, .batch_every = 50});
+  auto two = MakeIsam2({.threads = 2, .batch_every = 50});
+  for (const testing::ExampleStep& step : testing::StreamByPose(p)) {
+    const Isam2Result a = one->Update(step.factors, step.values);
+    const Isam2Result b = two->Update(step.factors, step.values);
+    ASSERT_TRUE(a.status.ok() && b.status.ok()) << a.status.ToString() << b.status.ToString();
+    ASSERT_EQ(a.relinearized_variables, b.relinearized_variables);
+    const Values x = one->CalculateEstimate(), y = two->CalculateEstimate();
+    for (Key key : x.keys()) {
+      ASSERT_TRUE(x.At<Pose3>(key).Equals(y.At<Pose3>(key), 0.0)) << KeyToString(key);  // exact
+    }
+  }
 }
 
 TEST(Isam2Test, EmptyUpdatesAreHarmless) {
