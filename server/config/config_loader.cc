@@ -87,6 +87,7 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   if (i.has_wildfire_threshold()) p->isam2.wildfire_threshold = i.wildfire_threshold();
   if (i.has_refine_threshold()) p->isam2.refine_threshold = i.refine_threshold();
   if (i.has_batch_every()) p->isam2.batch_every = i.batch_every();
+  if (i.has_threads()) p->isam2.threads = i.threads();
   const proto::JournalConfig& j = config.journal();
   if (j.has_sync()) {
     p->journal.sync = j.sync() == proto::JournalConfig::ALWAYS     ? SyncPolicy::kAlways
@@ -205,6 +206,8 @@ std::string DefaultConfigText() {
       << "  # Refine converged below this |delta|\n"
       << "  batch_every: " << d.isam2.batch_every
       << "  # periodic full relinearisation, 0 = never\n"
+      << "  threads: " << d.isam2.threads
+      << "  # for the large steps (relinearising, eliminating subtrees), >= 1\n"
       << "}\n\n"
       << "estimator {\n"
       << "  new_robot_anchor: "
