@@ -8,6 +8,7 @@
 #include <string>
 
 #include "core/base/check.h"
+#include "core/base/param_check.h"
 #include "core/marginals/clique_kernels.h"
 #include "core/isam/isam2.h"
 
@@ -61,16 +62,27 @@ TangentMatrix EstimateTangentJacobian(VariableType type, const double* delta) {
   return {};
 }
 
+Status MarginalsParams::Validate() const {
+  SLAMD_PARAM_CHECK(MarginalsParams, threads, >=, 1);
+  return Status::Ok();
+}
+
 // ------------------------------------------------------------------------------------------------
 // BayesTreeMarginals
 
+BayesTreeMarginals::BayesTreeMarginals(const BayesTree* tree, const MarginalsParams& params)
+    : tree_(tree), params_(params) {
+  const Status valid = params.Validate();
+  SLAMD_CHECK(valid.ok()) << valid.ToString();
+}
+
 void BayesTreeMarginals::Resize() {
   ++pass_;
-  positions_of_ = BayesTree::kNone;  // the tree may have changed since the last call
+  js_.positions_of = BayesTree::kNone;  // the tree may have changed since the last call
   if (static_cast<int>(entries_.size()) < tree_->NumSlots()) entries_.resize(tree_->NumSlots());
   if (static_cast<int>(depth_.size()) < tree_->NumSlots()) depth_.resize(tree_->NumSlots(), -1);
-  if (static_cast<int>(pos_.size()) < tree_->NumVariables()) {
-    pos_.resize(tree_->NumVariables(), 0);
+  if (static_cast<int>(js_.pos.size()) < tree_->NumVariables()) {
+    js_.pos.resize(tree_->NumVariables(), 0);
     row_.resize(tree_->NumVariables(), 0);
     frontal_block_.resize(tree_->NumVariables());
   }
@@ -109,15 +121,15 @@ bool BayesTreeMarginals::IsValid(int c, int parent, bool need_full) {
   // round-off (and the re-attached orphan may have a new parent id). Keeping `generation` then
   // spares the whole subtree. A Σ_FF-only entry cannot tell (it does not keep Σ_SS).
   if (!e.full || !pe.full) return false;
-  EnsurePositions(parent);
+  EnsurePositions(js_, parent);
   const Clique& cl = tree_->clique(c);
   const int ns = cl.SeparatorDim();
   const Eigen::Map<const Eigen::MatrixXd> P(pe.data, pe.n, pe.n);
   const Eigen::Map<const Eigen::MatrixXd> J(e.data, e.n, e.n);
   const double allowed = params_.reuse_tolerance * J.bottomRightCorner(ns, ns).cwiseAbs().maxCoeff();
-  SeparatorRuns(cl);
-  for (const Run& b : runs_) {
-    for (const Run& a : runs_) {
+  SeparatorRuns(js_, cl);
+  for (const Run& b : js_.runs) {
+    for (const Run& a : js_.runs) {
       const double diff = (P.block(a.parent, b.parent, a.size, b.size) - J.block(a.own, b.own, a.size, b.size))
                               .cwiseAbs()
                               .maxCoeff();
@@ -130,42 +142,43 @@ bool BayesTreeMarginals::IsValid(int c, int parent, bool need_full) {
   return true;
 }
 
-void BayesTreeMarginals::SeparatorRuns(const Clique& cl) {
+void BayesTreeMarginals::SeparatorRuns(JointScratch& js, const Clique& cl) const {
   // A separator is listed in elimination order and so is the parent's layout [F; S]: consecutive
   // separator variables are mostly adjacent in the parent too. Merging them into runs turns the
   // block-by-block copy of Σ_SS into a few large copies.
-  runs_.clear();
+  std::vector<Run>& runs = js.runs;
+  runs.clear();
   const std::span<const int> sep = cl.separator();
   const int nf = cl.FrontalDim();
   for (int k = 0; k < cl.num_separator(); ++k) {
-    const int own = nf + cl.separator_offset(k), in_parent = pos_[sep[k]], d = cl.separator_dim(k);
-    if (!runs_.empty() && runs_.back().own + runs_.back().size == own &&
-        runs_.back().parent + runs_.back().size == in_parent) {
-      runs_.back().size += d;
+    const int own = nf + cl.separator_offset(k), in_parent = js.pos[sep[k]], d = cl.separator_dim(k);
+    if (!runs.empty() && runs.back().own + runs.back().size == own &&
+        runs.back().parent + runs.back().size == in_parent) {
+      runs.back().size += d;
     } else {
-      runs_.push_back({own, in_parent, d});
+      runs.push_back({own, in_parent, d});
     }
   }
 }
 
-void BayesTreeMarginals::EnsurePositions(int c) {
-  if (positions_of_ != c) SetPositions(c);
+void BayesTreeMarginals::EnsurePositions(JointScratch& js, int c) const {
+  if (js.positions_of != c) SetPositions(js, c);
 }
 
-void BayesTreeMarginals::SetPositions(int c) {
+void BayesTreeMarginals::SetPositions(JointScratch& js, int c) const {
   const Clique& cl = tree_->clique(c);
-  for (int k = 0; k < cl.num_frontals(); ++k) pos_[cl.frontal(k)] = cl.frontal_offset(k);
+  for (int k = 0; k < cl.num_frontals(); ++k) js.pos[cl.frontal(k)] = cl.frontal_offset(k);
   const int nf = cl.FrontalDim();
-  for (int k = 0; k < cl.num_separator(); ++k) pos_[cl.separator()[k]] = nf + cl.separator_offset(k);
-  positions_of_ = c;
+  for (int k = 0; k < cl.num_separator(); ++k) js.pos[cl.separator()[k]] = nf + cl.separator_offset(k);
+  js.positions_of = c;
 }
 
-void BayesTreeMarginals::ComputeJoint(const Clique& cl, const double* parent_joint, int parent_n, bool with_fs,
-                                      double* out) {
+void BayesTreeMarginals::ComputeJoint(JointScratch& js, const Clique& cl, const double* parent_joint, int parent_n,
+                                      bool with_fs, double* out) const {
   const int nf = cl.FrontalDim(), ns = cl.SeparatorDim(), n = nf + ns;
   MatrixMap J(out, n, n);
   const auto R = cl.R();
-  MatrixMap Rinv = View(&rinv_, nf, nf);
+  MatrixMap Rinv = View(&js.rinv, nf, nf);
   Rinv.setIdentity();
   R.triangularView<Eigen::Upper>().solveInPlace(Rinv);
   // R⁻¹R⁻ᵀ: R⁻¹ is upper triangular; Eigen's triangular product is faster from ~24 rows up.
@@ -184,20 +197,21 @@ void BayesTreeMarginals::ComputeJoint(const Clique& cl, const double* parent_joi
   // joint is compared with its parent's through it), or, when only Σ_FF is wanted and the
   // separator is one contiguous block of the parent's joint, read in place.
   const Eigen::Map<const Eigen::MatrixXd> P(parent_joint, parent_n, parent_n);
-  SeparatorRuns(cl);
+  SeparatorRuns(js, cl);
+  const std::vector<Run>& runs = js.runs;
   const double* ss_data = out + nf + static_cast<std::size_t>(nf) * n;
   int ss_stride = n;
-  if (!with_fs && runs_.size() == 1) {
-    ss_data = parent_joint + runs_[0].parent + static_cast<std::size_t>(runs_[0].parent) * parent_n;
+  if (!with_fs && runs.size() == 1) {
+    ss_data = parent_joint + runs[0].parent + static_cast<std::size_t>(runs[0].parent) * parent_n;
     ss_stride = parent_n;
   } else {
-    for (const Run& b : runs_) {
-      for (const Run& a : runs_) J.block(a.own, b.own, a.size, b.size) = P.block(a.parent, b.parent, a.size, b.size);
+    for (const Run& b : runs) {
+      for (const Run& a : runs) J.block(a.own, b.own, a.size, b.size) = P.block(a.parent, b.parent, a.size, b.size);
     }
   }
   // K = R⁻¹S; Σ_SF = −Σ_SS Kᵀ; Σ_FF = R⁻¹R⁻ᵀ − K Σ_SF (= R⁻¹R⁻ᵀ + K Σ_SS Kᵀ).
   // Σ_SF (ns x nf) rather than Σ_FS: the long dimension as rows suits the kernel's packets.
-  MatrixMap K = View(&k_, nf, ns);
+  MatrixMap K = View(&js.k, nf, ns);
   K = cl.S();
   R.triangularView<Eigen::Upper>().solveInPlace(K);
   NegProductTransposed(ss_data, ss_stride, ns, K.data(), nf, out + nf, n);
@@ -215,8 +229,7 @@ void BayesTreeMarginals::ComputeJoint(const Clique& cl, const double* parent_joi
   if (with_fs) J.topRightCorner(nf, ns) = SF.transpose();
 }
 
-void BayesTreeMarginals::Record(int c, int parent) {
-  ++stats_.cliques_computed;
+void BayesTreeMarginals::Record(int c, int parent, std::uint64_t new_generation) {
   Entry& e = entries_[c];
   const Clique& cl = tree_->clique(c);
   const std::uint64_t parent_generation = parent == BayesTree::kNone ? 0 : entries_[parent].generation;
@@ -225,7 +238,7 @@ void BayesTreeMarginals::Record(int c, int parent) {
   // the same and the subtree below may keep theirs.
   const bool same = e.has_result && e.clique_generation == cl.generation() && e.parent == parent &&
                     e.parent_generation == parent_generation;
-  if (!same) e.generation = next_generation_++;
+  if (!same) e.generation = new_generation;
   e.valid = e.has_result = true;
   e.clique_generation = cl.generation();
   e.parent = parent;
@@ -247,7 +260,7 @@ void BayesTreeMarginals::Compute(int c, int parent) {
     SLAMD_CHECK(parent != BayesTree::kNone)
         << "clique " << c << " has a separator but no parent (tree between RemoveTop and re-attach?)";
     if (!entries_[parent].full) EnsureFull(parent);
-    EnsurePositions(parent);
+    EnsurePositions(js_, parent);
     parent_joint = entries_[parent].data;
     parent_n = entries_[parent].n;
   }
@@ -258,12 +271,13 @@ void BayesTreeMarginals::Compute(int c, int parent) {
     e.own.reset(new double[size]);
     e.capacity = size;
   }
-  ComputeJoint(cl, parent_joint, parent_n, true, e.own.get());
+  ComputeJoint(js_, cl, parent_joint, parent_n, true, e.own.get());
   e.data = e.own.get();
   e.n = n;
   e.nf = nf;
   e.full = true;
-  Record(c, parent);
+  ++stats_.cliques_computed;
+  Record(c, parent, next_generation_++);
 }
 
 void BayesTreeMarginals::EnsureFull(int c) {
@@ -279,105 +293,7 @@ void BayesTreeMarginals::EnsureFull(int c) {
   }
 }
 
-void BayesTreeMarginals::ComputeAllFresh() {
-  // 1. Σ_FF-only results of an earlier fresh pass point into the arena that is about to be
-  //    replaced: drop them (every live clique is recomputed below anyway).
-  for (Entry& e : entries_) {
-    if (!e.full) {
-      e.valid = e.has_result = false;
-      e.data = nullptr;
-    }
-  }
-  // 2. Sizes, in one walk over the tree: the arena holds Σ nf²; the scratch stack (see 3) is
-  //    sized exactly, as growing it would page-fault twice. Walk frames: `off` = where the
-  //    clique's joint is computed, `next_child` = where it stays while its subtree is computed.
-  std::size_t total = 0, deepest = 0;
-  for (int r : tree_->roots()) {
-    frames_.clear();
-    frames_.push_back({r, 0, 0, 0});
-    while (!frames_.empty()) {
-      const Frame f = frames_.back();
-      frames_.pop_back();
-      const Clique& cl = tree_->clique(f.clique);
-      const std::size_t nf = cl.FrontalDim(), n = nf + cl.SeparatorDim();
-      total += nf * nf;
-      deepest = std::max(deepest, f.off + n * n);
-      const std::vector<int>& children = cl.children();
-      const std::size_t base = f.next_child + n * n;
-      for (std::size_t k = 0; k < children.size(); ++k) {
-        frames_.push_back({children[k], 0, base, k + 1 == children.size() ? f.next_child : base});
-      }
-    }
-  }
-  if (diag_capacity_ < total) {
-    diag_arena_.reset(new double[total]);
-    diag_capacity_ = total;
-  }
-  if (scratch_capacity_ < deepest) {
-    scratch_.reset(new double[deepest]);
-    scratch_capacity_ = deepest;
-  }
-  std::size_t used = 0;
-  // 3. Depth first. A clique's full joint lives on the scratch stack while its subtree is
-  //    computed (children read their Σ_SS from it); only Σ_FF is kept. Scratch is at most the
-  //    sum of n² along one root-to-leaf path instead of the whole tree's, so a fresh cache
-  //    page-faults in a few MB instead of tens.
-  const auto compute = [&](int c, const Frame* parent, std::size_t off) -> Frame {
-    const Clique& cl = tree_->clique(c);
-    SLAMD_CHECK(parent != nullptr || cl.SeparatorDim() == 0)
-        << "clique " << c << " has a separator but no parent (tree between RemoveTop and re-attach?)";
-    ++stats_.cliques_checked;
-    // The conditionals are scattered over the heap and cold: ask for the next ones early (the
-    // first child is computed next; the next sibling is asked for by the loop below).
-    if (!cl.children().empty()) Prefetch(tree_->clique(cl.children()[0]));
-    const int nf = cl.FrontalDim(), n = nf + cl.SeparatorDim();
-    SLAMD_CHECK(off + static_cast<std::size_t>(n) * n <= scratch_capacity_) << "scratch sized wrongly";
-    const double* parent_joint = nullptr;
-    if (parent != nullptr) {
-      EnsurePositions(parent->clique);
-      parent_joint = scratch_.get() + parent->off;
-    }
-    double* joint = scratch_.get() + off;
-    ComputeJoint(cl, parent_joint, parent ? parent->n : 0, !cl.children().empty(), joint);
-    Entry& e = entries_[c];
-    e.data = diag_arena_.get() + used;
-    e.n = n;
-    e.nf = nf;
-    e.full = n == nf;  // a root's joint is its Σ_FF
-    Eigen::Map<Eigen::MatrixXd>(e.data, nf, nf) = Eigen::Map<const Eigen::MatrixXd>(joint, n, n).topLeftCorner(nf, nf);
-    used += static_cast<std::size_t>(nf) * nf;
-    Record(c, parent ? parent->clique : BayesTree::kNone);
-    return {c, n, off, 0};
-  };
-  for (int r : tree_->roots()) {
-    frames_.clear();
-    frames_.push_back(compute(r, nullptr, 0));
-    while (!frames_.empty()) {
-      Frame& f = frames_.back();
-      const std::vector<int>& children = tree_->clique(f.clique).children();
-      if (f.next_child == children.size()) {
-        frames_.pop_back();
-        continue;
-      }
-      const int child = children[f.next_child++];
-      if (f.next_child < children.size()) Prefetch(tree_->clique(children[f.next_child]));
-      const bool last = f.next_child == children.size();
-      const Frame top = f;  // frames_ may grow below
-      Frame cf = compute(child, &top, top.off + static_cast<std::size_t>(top.n) * top.n);
-      if (tree_->clique(child).children().empty()) continue;
-      if (last) {
-        // The parent's joint is not needed any more: the child's moves down into its place, so
-        // a chain of only children (the top of an iSAM2 tree) holds two joints, not a path's.
-        std::memmove(scratch_.get() + top.off, scratch_.get() + cf.off,
-                     sizeof(double) * static_cast<std::size_t>(cf.n) * cf.n);
-        cf.off = top.off;
-        frames_.back() = cf;
-      } else {
-        frames_.push_back(cf);
-      }
-    }
-  }
-}
+// ComputeAllFresh and its helpers: marginals_fresh.cc.
 
 void BayesTreeMarginals::ComputeAll() {
   Resize();
@@ -490,7 +406,7 @@ Status BayesTreeMarginals::JointMarginal(std::span<const int> vars, Eigen::Matri
     }
     if (!all) continue;
     EnsurePath(c);
-    EnsurePositions(c);
+    EnsurePositions(js_, c);
     const auto J = CliqueJoint(c);
     int oi = 0;
     for (int vi : vars) {
@@ -500,7 +416,7 @@ Status BayesTreeMarginals::JointMarginal(std::span<const int> vars, Eigen::Matri
       for (int vj : vars) {
         const int dj = tree_->clique(tree_->CliqueOf(vj)).frontal_dim(
             FrontalIndex(tree_->clique(tree_->CliqueOf(vj)), vj));
-        cov->block(oi, oj, di, dj) = J.block(pos_[vi], pos_[vj], di, dj);
+        cov->block(oi, oj, di, dj) = J.block(js_.pos[vi], js_.pos[vj], di, dj);
         oj += dj;
       }
       oi += di;
@@ -593,7 +509,8 @@ void BayesTreeMarginals::JointBySolving(std::span<const int> vars, Eigen::Matrix
 // ------------------------------------------------------------------------------------------------
 // Isam2Marginals
 
-Isam2Marginals::Isam2Marginals(const Isam2* isam) : isam_(isam), marginals_(&isam->tree()) {}
+Isam2Marginals::Isam2Marginals(const Isam2* isam, const MarginalsParams& params)
+    : isam_(isam), marginals_(&isam->tree(), params) {}
 
 namespace {
 

@@ -50,6 +50,18 @@
 // with the same generation. Consequence: the ComputeAll() after the first update that follows a
 // fresh pass recomputes the whole tree once (as a first pass did before); later ones are
 // incremental as described above.
+// THREADS. A fresh pass whose estimated work reaches kParallelMinWork (about 1 ms) uses
+// MarginalsParams::threads (marginals_fresh.cc): a subtree needs only the full joint of its
+// root's parent, so the tree is split as Eliminator splits it (the heaviest subtree's root moves
+// to the "top" while that lowers the estimated time), the top is computed first on the calling
+// thread (keeping, in a separate buffer, the full joints of the top cliques that have a child
+// below the top), then each thread walks its share of the subtrees depth first with its own path
+// stack and scratch, writing only its cliques' entries and Σ_FF blocks (no locks; std::thread per
+// pass). Every clique is computed by the same code from the same inputs as on one thread, so the
+// results are the same bit for bit for any thread count. Extra memory: that buffer (27-580 KB on
+// the benchmark datasets) and one path stack per thread (each at most the one-thread stack).
+// Everything else (a warm cache, Marginal(), JointMarginal(), small trees) runs on the calling
+// thread.
 //
 // COSTS (nF, nS: a clique's frontal and separator dimensions).
 //   * computing one clique's joint: K = R⁻¹S (nF²nS), Σ_SF = −Σ_SS Kᵀ (2nF nS², the bulk; a
@@ -68,7 +80,8 @@
 // *cov and in Isam2Marginals' frame conversion of a joint.
 // Measured with `slamctl bench FILE --solver isam2 --marginals all --marginals-every 100000
 // --json`, column marginals_final_all_ms (a fresh Isam2Marginals: ComputeAll, then CachedMarginal
-// of every key in the estimate's tangent), 2-core VM with load average 2-3 from other jobs.
+// of every key in the estimate's tangent), 2-core VM with load average 2-3 from other jobs
+// (figures before THREADS: one thread).
 // Earlier, the full-joint-per-clique layout -> the FRESH PASS layout: input_M3500 10.9 -> 4.7 ms,
 // manhattan 10.1 -> 5.2, intel 2.7 -> 1.2, parking-garage 13.2 -> 6.2, victoriaPark 11.7 -> 7.2.
 // Replacing the per-clique hash of [R S] by the stamp left it within noise (parking-garage 6.63 ->
@@ -79,9 +92,19 @@
 // input_M3500 0.30 -> 0.05 ms, manhattan 0.29 -> 0.05, intel 0.097 -> 0.016 (checking was most of
 // it), parking-garage 1.7 -> 1.7, victoriaPark ~1.5 -> 1.2 (recomputation dominates); newest pose
 // (--marginals latest) 0.75 µs median on input_M3500.
+// THREADS, `--threads T` (sets the marginals' threads too), marginals_final_all_ms, medians of
+// interleaved runs (parking-garage 9, others 3), load average 1.5-1.8 from other jobs; T = 1 -> 2
+// (the code before THREADS, same T: 1 / 2): parking-garage 6.44 -> 4.15 ms (5.99 / 5.56),
+// input_M3500 5.44 -> 4.16 (4.18 / 5.22), manhattan 5.41 -> 4.05 (5.83 / 4.47), victoriaPark
+// 6.19 -> 5.54 (6.37 / 6.00), intel 1.31 -> 1.29 (below kParallelMinWork; 1.25 / 1.23). The
+// old code depends on T through the tree's memory layout (iSAM2 eliminates on T threads). The
+// fresh ComputeAll() alone (in-process loop, idle machine, medians of 9): parking-garage 4.75 ->
+// 2.63 ms (top 7 cliques, 0.3 ms), input_M3500 2.62 -> 2.42 (top 38 cliques, 0.3-0.6 ms),
+// manhattan 3.05 -> 1.84, victoriaPark 3.52 -> 2.21; bitwise equal on all five.
 //
 // Thread safety: not thread-safe (queries update the cache). The tree must not change during a
-// call; it may change between calls (that is what the cache checks are for).
+// call; it may change between calls (that is what the cache checks are for). A large fresh pass
+// starts threads of its own (THREADS) and joins them before it returns.
 #pragma once
 
 #include <Eigen/Core>
@@ -117,6 +140,11 @@ struct MarginalsParams {
   // 1e-12 → ~400, 1e-11 → ~2, with a worst drift of cached vs fresh marginals of 8e-12 after
   // 3500 steps). A reused joint is stale by about this much (relative).
   double reuse_tolerance = 1e-11;
+  // Threads of a large fresh pass (see FRESH PASS; >= 1). The results do not depend on it (bit
+  // for bit); other calls always run on the calling thread.
+  int threads = 2;
+
+  Status Validate() const;
 };
 
 class BayesTreeMarginals {
@@ -126,11 +154,21 @@ class BayesTreeMarginals {
     int cliques_checked = 0;   // cached joints validated (stamp compared)
     int cliques_computed = 0;  // joints (re)computed
     int cliques_reused = 0;    // kept although the parent's joint was recomputed (see MarginalsParams)
+    int threads_used = 1;      // > 1 only for a fresh pass large enough to use MarginalsParams::threads
+    int top_cliques = 0;       // of such a pass: cliques computed first, on the calling thread
   };
 
-  // The tree must outlive this object.
-  explicit BayesTreeMarginals(const BayesTree* tree, const MarginalsParams& params = {})
-      : tree_(tree), params_(params) {}
+  // The tree must outlive this object. `params` must be valid (checked: call Validate() first on
+  // anything that came from a user).
+  explicit BayesTreeMarginals(const BayesTree* tree, const MarginalsParams& params = {});
+
+  // Estimated work of a fresh pass (flops of ComputeJoint, see COSTS, plus a fixed cost per
+  // clique) from which it uses MarginalsParams::threads: about 1 ms on one core here (≈ 0.07 ns
+  // per unit). Lower did not pay in `slamctl bench` on this VM: intel (1.3e7, 0.85 ms) was
+  // 0.3 ms faster with 2 threads in a warm in-process loop, but 0.25 ms slower (median of 7) in
+  // the bench, whose times were bimodal (1.3 or 1.6-1.7 ms; presumably the idle second core's
+  // wake-up: the helper started ~50 µs after the call in the loop).
+  static constexpr double kParallelMinWork = 1.5e7;
 
   // Brings every clique's joint marginal up to date in one top-down pass: the block diagonal of
   // Σ for all variables is then available through CachedMarginal() (O(1) each) or Marginal()
@@ -180,6 +218,34 @@ class BayesTreeMarginals {
     std::size_t capacity = 0;
   };
 
+  struct Run {
+    int own, parent, size;  // rows in this clique's joint, in the parent's joint, count
+  };
+  // One thread's scratch for computing joints.
+  struct JointScratch {
+    std::vector<int> pos;  // by variable id: row of the variable in the joint of `positions_of`
+    int positions_of = BayesTree::kNone;
+    std::vector<Run> runs;
+    std::vector<double> k, rinv;
+  };
+  struct Frame {
+    int clique;
+    int n;            // its joint is n x n ...
+    std::size_t off;  // ... at data[off]
+    std::size_t next_child;
+  };
+  // A depth-first walk's stack of full joints (the current path; see FRESH PASS).
+  struct WalkStack {
+    std::unique_ptr<double[]> data;
+    std::size_t capacity = 0;
+    std::vector<Frame> frames;
+  };
+  // A helper thread's share of a parallel fresh pass.
+  struct Helper {
+    JointScratch scratch;
+    WalkStack stack;
+  };
+
   // Grows the per-clique and per-variable arrays to the tree's current sizes; starts a pass.
   void Resize();
   // True if clique c's cached result may be used under `parent` (whose own entry is valid).
@@ -188,49 +254,54 @@ class BayesTreeMarginals {
   // Recomputes clique c's full joint into its own storage (upgrading the parent first if it
   // holds only Σ_FF).
   void Compute(int c, int parent);
-  // Bookkeeping common to both kinds of recomputation (generations, stats).
-  void Record(int c, int parent);
+  // Bookkeeping of a recomputation: generations (`new_generation` unless the result is the one
+  // it replaces), frontal blocks. Touches only clique c's entry and its frontals' blocks.
+  void Record(int c, int parent, std::uint64_t new_generation);
 
   // The n x n joint of clique `cl` into `out` (leading dimension n); `parent_joint` is the
-  // parent's full joint (parent_n square) with its layout in pos_ (ignored for a root).
+  // parent's full joint (parent_n square) with its layout in js.pos (ignored for a root).
   // Without with_fs only Σ_FF and Σ_SF are sure to be written (Σ_SS may be read in place).
-  void ComputeJoint(const Clique& cl, const double* parent_joint, int parent_n, bool with_fs, double* out);
-  // ComputeAll on a cache with no valid entry: depth-first, full joints only on a scratch stack
-  // (the current path), Σ_FF of each clique kept in one contiguous arena (see COSTS).
+  // Reads only the tree and its arguments: threads with their own `js` may run it at once.
+  void ComputeJoint(JointScratch& js, const Clique& cl, const double* parent_joint, int parent_n,
+                    bool with_fs, double* out) const;
+  // ComputeAll on a cache with no valid entry (see FRESH PASS), on several threads when large.
   void ComputeAllFresh();
+  // The fresh pass's plan: order_ (depth first, children in order), arena_off_, work_,
+  // serial_need_, max_*; returns the total work.
+  double PlanFresh();
+  // Scratch a WalkFresh from `root` needs (top_only: the walk of the top).
+  std::size_t WalkNeed(int root, bool top_only);
+  // Depth first from `root`, whose parent's full joint is `parent_joint` (parent_n square; null
+  // for a tree's root): each clique's Σ_FF into the arena. top_only: only the cliques in the top
+  // (in_top_), saving in boundary_ the joints of those with a child outside it. Touches only js,
+  // *st and the entries and frontal blocks of the cliques walked (so threads may walk disjoint
+  // subtrees at once).
+  void WalkFresh(JointScratch& js, WalkStack* st, int root, const double* parent_joint, int parent_n,
+                 bool top_only);
+  // Splits the tree into the top and subtrees for the threads (in_top_, subtrees_; see the .cc);
+  // returns the number of threads given subtrees.
+  int AssignSubtrees();
   // Recomputes the full joints of c and of those of its ancestors that hold only Σ_FF.
   void EnsureFull(int c);
-  // pos_[v] = row of v in clique c's joint, for its frontals and separator.
-  void SetPositions(int c);
-  void EnsurePositions(int c);
-  // runs_ = the separator of `cl` as maximal runs contiguous both in its joint and in the
-  // parent's (whose layout must be in pos_).
-  void SeparatorRuns(const Clique& cl);
+  // js.pos[v] = row of v in clique c's joint, for its frontals and separator.
+  void SetPositions(JointScratch& js, int c) const;
+  void EnsurePositions(JointScratch& js, int c) const;
+  // js.runs = the separator of `cl` as maximal runs contiguous both in its joint and in the
+  // parent's (whose layout must be in js.pos).
+  void SeparatorRuns(JointScratch& js, const Clique& cl) const;
   // Makes the joints on the path from clique c to its root valid and full.
   void EnsurePath(int c);
   // JointMarginal when the variables do not share a clique (see COSTS).
   void JointBySolving(std::span<const int> vars, Eigen::MatrixXd* cov);
 
-  struct Run {
-    int own, parent, size;  // rows in this clique's joint, in the parent's joint, count
-  };
-  struct Frame {
-    int clique;
-    int n;            // its joint is n x n ...
-    std::size_t off;  // ... at scratch_[off]
-    std::size_t next_child;
-  };
-
   const BayesTree* tree_;
   MarginalsParams params_;
   std::vector<Entry> entries_;  // by clique id
-  std::vector<int> pos_;        // by variable id, scratch
   struct FrontalBlock {
     std::uint64_t generation = 0;  // of the entry it was recorded with
     int offset = 0, dim = 0;       // of the variable's block in that entry's Σ_FF
   };
   std::vector<FrontalBlock> frontal_block_;  // by variable id
-  int positions_of_ = BayesTree::kNone;  // the clique whose layout pos_ holds (this call)
   std::uint64_t next_generation_ = 1;
   std::uint64_t pass_ = 0;
   Stats stats_;
@@ -238,15 +309,31 @@ class BayesTreeMarginals {
   // Σ_FF blocks of the cliques computed by ComputeAllFresh (not full), contiguous.
   std::unique_ptr<double[]> diag_arena_;
   std::size_t diag_capacity_ = 0;
-  // ComputeAllFresh's stack of full joints (the current root-to-clique path).
-  std::unique_ptr<double[]> scratch_;
-  std::size_t scratch_capacity_ = 0;
-  std::vector<Frame> frames_;
+  // The fresh pass: the calling thread's walk, the plan (by clique id unless said otherwise),
+  // the top's joints that subtrees start from, and the helper threads' scratch.
+  WalkStack walk_;
+  std::vector<int> order_;                // live cliques, depth first
+  std::vector<std::size_t> arena_off_;    // Σ_FF's offset in diag_arena_
+  std::vector<double> work_, subtree_work_;
+  std::vector<char> in_top_;              // computed first, on the calling thread
+  std::vector<std::size_t> boundary_off_;  // a top clique's joint in boundary_
+  std::unique_ptr<double[]> boundary_;
+  std::size_t boundary_capacity_ = 0;
+  std::vector<std::vector<int>> subtrees_;  // by thread (0: the calling one)
+  std::vector<Helper> helpers_;             // threads 1 .. threads - 1
+  std::uint64_t fresh_generation_ = 0;      // clique c's new generation is this + c
+  struct SizeFrame {
+    int clique, depth;
+    std::size_t off, stay;  // where its joint is computed, where it stays for its subtree
+  };
+  std::vector<SizeFrame> size_frames_;
+  std::size_t serial_need_ = 0;  // scratch of a one-thread walk of the whole forest
+  int max_nf_ = 0, max_ns_ = 0, max_depth_ = 0;  // over the forest
 
-  // Scratch, reused across calls.
-  std::vector<Run> runs_;
+  // Scratch of the calling thread, reused across calls.
+  JointScratch js_;
   std::vector<int> stack_, path_, depth_, cliques_, row_;
-  std::vector<double> k_, rinv_, y_, xs_;
+  std::vector<double> y_, xs_;
 };
 
 // Marginals of an Isam2 solver by key, in either tangent frame. The solver must outlive this.
@@ -257,7 +344,7 @@ class Isam2Marginals {
     kEstimate,            // tangent at the current estimate θ ⊕ δ (what slamd publishes)
   };
 
-  explicit Isam2Marginals(const Isam2* isam);
+  explicit Isam2Marginals(const Isam2* isam, const MarginalsParams& params = {});
 
   void ComputeAll() { marginals_.ComputeAll(); }
   // NotFound for an unknown key.

@@ -8,7 +8,9 @@
 #include <set>
 
 #include "core/inference/back_substitution.h"
+#include "core/inference/elimination.h"
 #include "core/isam/isam2.h"
+#include "core/linear/ordering.h"
 #include "tests/testing/example_graphs.h"
 #include "tests/testing/numerical_derivative.h"
 
@@ -445,6 +447,106 @@ TEST(MarginalsTest, ACliqueRedefinedWithTheSameStructureIsNotServedFromTheCache)
       EXPECT_TRUE(RelativelyNear(cov, after.Joint(one), 1e-9)) << "full " << full << " variable " << v;
     }
   }
+}
+
+// A fresh pass large enough for several threads (MarginalsParams::threads): the top on the
+// calling thread, then the subtrees in parallel, each clique computed from the same inputs as on
+// one thread. The marginals must be the same bit for bit, and the cache must behave afterwards as
+// after a one-thread fresh pass. The tree: a SLAM-like system (6-dim poses, odometry, loop
+// closures up to 40 poses back) eliminated in COLAMD order, which branches (iSAM2's constrained
+// order on the small examples above gives trees too small or too chain-like to split).
+TEST(MarginalsTest, ParallelFreshPassEqualsOneThreadBitForBit) {
+  std::mt19937 rng(131);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const int n = 1200;
+  const std::vector<int> dims(n, 6);
+  std::vector<JacobianFactor> jacobians;
+  FactorIncidence incidence;
+  const auto add = [&](std::vector<int> vars) {  // a random 6-row factor
+    std::vector<Eigen::MatrixXd> blocks;
+    for (std::size_t k = 0; k < vars.size(); ++k) blocks.push_back(Eigen::MatrixXd::NullaryExpr(6, 6, [&] { return n01(rng); }));
+    const Eigen::VectorXd b = Eigen::VectorXd::NullaryExpr(6, [&] { return n01(rng); });
+    Result<JacobianFactor> f = JacobianFactor::Create(vars, blocks, b);
+    ASSERT_TRUE(f.ok()) << f.status().ToString();
+    jacobians.push_back(std::move(f).value());
+    incidence.AddFactor(vars);
+  };
+  add({0});
+  for (int i = 1; i < n; ++i) {
+    add({i - 1, i});
+    if (i % 3 == 0 && i > 40) add({i - 10 - static_cast<int>(rng() % 30), i});
+  }
+  Result<std::vector<int>> order = ColamdOrdering(n, incidence);
+  ASSERT_TRUE(order.ok());
+  std::vector<const JacobianFactor*> factors;
+  for (const JacobianFactor& f : jacobians) factors.push_back(&f);
+  BayesTree tree;
+  EliminationResult eliminated;
+  ASSERT_TRUE(Eliminate({.var_dims = dims, .factors = factors, .ordering = *order}, &tree, &eliminated).ok());
+
+  BayesTreeMarginals one(&tree, {.threads = 1});
+  one.ComputeAll();
+  ASSERT_EQ(one.stats().threads_used, 1);
+  std::vector<Eigen::MatrixXd> expected(n);
+  for (int v = 0; v < n; ++v) ASSERT_TRUE(one.CachedMarginal(v, &expected[v]).ok());
+  // One thread's against an independent computation (JointMarginal of variables in different
+  // cliques solves with the conditionals; it does not use the cache).
+  for (int v = 0; v + 1 < n; v += 97) {
+    const int pair[] = {v, n - 1 - v};
+    if (tree.CliqueOf(pair[0]) == tree.CliqueOf(pair[1])) continue;
+    Eigen::MatrixXd joint;
+    ASSERT_TRUE(one.JointMarginal(pair, &joint).ok());
+    EXPECT_TRUE(RelativelyNear(expected[v], joint.topLeftCorner(6, 6), 1e-9)) << "variable " << v;
+  }
+  int deepest = 0, depth = 0;  // the variable whose clique is deepest
+  for (int v = 0; v < n; ++v) {
+    int d = 0;
+    for (int x = tree.CliqueOf(v); x != BayesTree::kNone; x = tree.clique(x).parent()) ++d;
+    if (d > depth) {
+      depth = d;
+      deepest = v;
+    }
+  }
+  ASSERT_GT(depth, 2);
+  for (int threads : {2, 3}) {
+    BayesTreeMarginals many(&tree, {.threads = threads});
+    many.ComputeAll();
+    const int used = many.stats().threads_used;
+    ASSERT_GE(used, 2) << "too small for the parallel path";
+    ASSERT_LE(used, threads);
+    EXPECT_GT(many.stats().top_cliques, 0);
+    EXPECT_EQ(many.stats().cliques_computed, tree.NumCliques());
+    Eigen::MatrixXd cov;
+    for (int v = 0; v < n; ++v) {
+      ASSERT_TRUE(many.CachedMarginal(v, &cov).ok());
+      ASSERT_EQ(cov.rows(), expected[v].rows());
+      ASSERT_TRUE((cov.array() == expected[v].array()).all())
+          << "threads " << threads << " variable " << v << "\n" << cov << "\nvs\n" << expected[v];
+    }
+    // Afterwards as after one thread: Σ_FF-only entries below the roots, upgraded by a query.
+    ASSERT_TRUE(many.Marginal(deepest, &cov).ok());
+    EXPECT_EQ(many.stats().cliques_computed, depth - 1);
+    EXPECT_TRUE((cov.array() == expected[deepest].array()).all());
+    many.ComputeAll();
+    EXPECT_EQ(many.stats().cliques_computed, 0);
+    EXPECT_EQ(many.stats().threads_used, 1);
+    many.InvalidateAll();  // a second fresh pass, reusing the threads' scratch
+    many.ComputeAll();
+    EXPECT_EQ(many.stats().threads_used, used);
+    for (int v = 0; v < n; ++v) {
+      ASSERT_TRUE(many.CachedMarginal(v, &cov).ok());
+      ASSERT_TRUE((cov.array() == expected[v].array()).all()) << "again: threads " << threads << " variable " << v;
+    }
+  }
+}
+
+TEST(MarginalsTest, ParamsAreValidated) {
+  EXPECT_TRUE(MarginalsParams{}.Validate().ok());
+  const Status bad = MarginalsParams{.threads = 0}.Validate();
+  EXPECT_EQ(bad.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(bad.message().find("MarginalsParams::threads"), std::string::npos) << bad.message();
+  auto isam = Solve(testing::MakePlanarProblem(10, 2, 121));
+  EXPECT_DEATH(BayesTreeMarginals(&isam->tree(), {.threads = 0}), "MarginalsParams::threads");
 }
 
 TEST(MarginalsTest, BadQueriesReturnErrors) {
