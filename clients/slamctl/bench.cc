@@ -152,7 +152,8 @@ void RegisterBench(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--threads", opt->isam2.threads,
                   "isam2: threads for the large steps (relinearising factors, eliminating "
-                  "independent subtrees); results do not depend on it")
+                  "independent subtrees) and for a fresh all-marginals pass; results do not "
+                  "depend on it")
       ->capture_default_str();
   cmd->add_option("--relinearize-max", opt->isam2.relinearization.max_variables,
                   "isam2: relinearise at most this many variables per update, most changed first "

@@ -258,7 +258,11 @@ void Eliminator::AssignSubtrees() {
   };
   double best = estimate();
   std::size_t best_splits = 0;
-  while (!heap.empty() && forest_.first_child[heap.front()] != -1 && top_work < best) {
+  // Also stops kPatience splits after the best one: on a wide tree each estimate costs
+  // O(subtrees), and a better split far beyond the best so far is unlikely.
+  constexpr std::size_t kPatience = 64;
+  while (!heap.empty() && forest_.first_child[heap.front()] != -1 && top_work < best &&
+         split.size() < best_splits + kPatience) {
     std::pop_heap(heap.begin(), heap.end(), lighter);
     const int c = heap.back();
     heap.pop_back();

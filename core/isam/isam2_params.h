@@ -49,7 +49,7 @@ struct Isam2Params {
   // whole tree: they relinearise factors (when there are 512+ per thread) and eliminate
   // independent subtrees in parallel (Eliminator, when the work is large enough). Results do not
   // depend on it (each factor and clique is computed as by one thread). 1 = the calling thread
-  // only. >= 1.
+  // only. >= 1. (slamd also gives it to its marginals, MarginalsParams::threads.)
   int threads = 2;
 
   // Every `batch_every` updates, relinearise every variable and re-eliminate the whole graph

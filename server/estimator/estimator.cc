@@ -95,7 +95,8 @@ Estimator::Estimator(const EstimatorParams& params, std::unique_ptr<core::Isam2>
     : params_(params),
       default_loop_kernel_(DefaultLoopKernel(params)),
       isam_(std::move(isam)),
-      marginals_(std::make_unique<core::Isam2Marginals>(isam_.get())) {
+      marginals_(std::make_unique<core::Isam2Marginals>(
+          isam_.get(), core::MarginalsParams{.threads = isam_->params().threads})) {
   PublishSnapshot(false);
 }
 
