@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "core/inference/partial_cholesky.h"
+#include "core/inference/subtree_split.h"
 
 namespace slamd::core {
 namespace {
@@ -218,93 +219,26 @@ double Eliminator::EstimateWork(const EliminationProblem& problem) {
 }
 
 void Eliminator::AssignSubtrees() {
-  // Subtree-to-thread mapping: the threads eliminate disjoint subtrees, each on its own with no
-  // synchronisation, then the calling thread eliminates the cliques above them (the "top").
-  // Starting from the roots, the heaviest subtree is split (its root moves to the top, its
-  // children become subtrees) while that lowers the estimated time: top + max(heaviest subtree,
-  // all subtrees / threads). SLAM trees are lopsided (a spine with short branches), so this may
-  // peel many cliques off the spine; a heap keeps each split O(log subtrees).
+  // Threads take disjoint subtrees (subtree_split.h); the top comes after them, on the calling
+  // thread. owner_: the thread, or -1 for the top.
   const int num = forest_.NumCliques();
-  auto lighter = [&](int a, int b) { return subtree_work_[a] < subtree_work_[b]; };
-  std::vector<int> heap;
-  double frontier_work = 0.0;
+  roots_.clear();
   for (int c = 0; c < num; ++c) {
-    if (forest_.Parent(c) < 0) {
-      heap.push_back(c);
-      frontier_work += subtree_work_[c];
-    }
+    if (forest_.Parent(c) < 0) roots_.push_back(c);
   }
-  std::make_heap(heap.begin(), heap.end(), lighter);
-  owner_.assign(num, 0);  // 0: below the frontier; 1: top; 2: a subtree root
-  std::vector<int> split;  // the cliques moved to the top, in order
-  double top_work = 0.0;
-  // Estimated time: top + the largest thread load when the kExact heaviest subtrees are given
-  // out whole (least loaded thread first, heaviest first) and the rest is poured in as if
-  // divisible. Splitting stops paying when the top grows more than the loads shrink.
-  const int exact = 4 * threads_;
-  std::vector<int> heaviest;
-  std::vector<double> load(threads_);
-  auto estimate = [&] {
-    heaviest = heap;
-    const int k = std::min<int>(exact, static_cast<int>(heaviest.size()));
-    std::partial_sort(heaviest.begin(), heaviest.begin() + k, heaviest.end(),
-                      [&](int a, int b) { return subtree_work_[a] > subtree_work_[b]; });
-    std::fill(load.begin(), load.end(), 0.0);
-    for (int i = 0; i < k; ++i) {
-      *std::min_element(load.begin(), load.end()) += subtree_work_[heaviest[i]];
-    }
-    const double largest = *std::max_element(load.begin(), load.end());
-    return top_work + std::max(largest, frontier_work / threads_);
-  };
-  double best = estimate();
-  std::size_t best_splits = 0;
-  // Also stops kPatience splits after the best one: on a wide tree each estimate costs
-  // O(subtrees), and a better split far beyond the best so far is unlikely.
-  constexpr std::size_t kPatience = 64;
-  while (!heap.empty() && forest_.first_child[heap.front()] != -1 && top_work < best &&
-         split.size() < best_splits + kPatience) {
-    std::pop_heap(heap.begin(), heap.end(), lighter);
-    const int c = heap.back();
-    heap.pop_back();
-    split.push_back(c);
-    top_work += work_[c];
-    frontier_work -= subtree_work_[c];
+  auto for_each_child = [&](int c, auto&& f) {
     for (int child = forest_.first_child[c]; child != -1; child = forest_.next_sibling[child]) {
-      heap.push_back(child);
-      std::push_heap(heap.begin(), heap.end(), lighter);
-      frontier_work += subtree_work_[child];
+      f(child);
     }
-    if (heap.empty()) break;
-    if (estimate() < best) {
-      best = estimate();
-      best_splits = split.size();
-    }
+  };
+  SplitSubtrees(roots_, work_, subtree_work_, for_each_child, threads_, &split_);
+  owner_.assign(num, -2);  // -2: not yet known
+  for (int c : split_.top) owner_[c] = -1;
+  for (int t = 0; t < threads_; ++t) {
+    for (int c : split_.subtrees[t]) owner_[c] = t;
   }
-  // The best split's subtrees go to the least loaded thread, heaviest first (LPT); a clique
-  // below goes where its subtree root went. owner_: thread, or -1 for the top.
-  for (std::size_t i = 0; i < best_splits; ++i) owner_[split[i]] = 1;
-  std::vector<int> subtrees;
-  for (int c = 0; c < num; ++c) {
-    const int parent = forest_.Parent(c);
-    if (owner_[c] != 1 && (parent < 0 || owner_[parent] == 1)) subtrees.push_back(c);
-  }
-  std::sort(subtrees.begin(), subtrees.end(),
-            [&](int a, int b) { return subtree_work_[a] > subtree_work_[b]; });
-  std::vector<int> thread_of(num, -1);
-  std::fill(load.begin(), load.end(), 0.0);
-  for (int c : subtrees) {
-    const int t = static_cast<int>(std::min_element(load.begin(), load.end()) - load.begin());
-    load[t] += subtree_work_[c];
-    thread_of[c] = t;
-  }
-  for (int c = num - 1; c >= 0; --c) {  // parents before children
-    if (owner_[c] == 1) {
-      owner_[c] = -1;
-    } else if (thread_of[c] >= 0) {
-      owner_[c] = thread_of[c];
-    } else {
-      owner_[c] = owner_[forest_.Parent(c)];
-    }
+  for (int c = num - 1; c >= 0; --c) {  // parents before children: inherit the subtree's thread
+    if (owner_[c] == -2) owner_[c] = owner_[forest_.Parent(c)];
   }
 }
 

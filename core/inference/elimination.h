@@ -50,6 +50,7 @@
 #include "core/inference/bayes_tree.h"
 #include "core/inference/hessian_factor.h"
 #include "core/inference/jacobian_factor.h"
+#include "core/inference/subtree_split.h"
 #include "core/inference/symbolic_elimination.h"
 
 namespace slamd::core {
@@ -166,6 +167,8 @@ class Eliminator {
   std::vector<int> tree_id_;                                  // symbolic clique -> tree id
   std::vector<double> work_, subtree_work_;                   // per clique: estimated work
   std::vector<int> owner_;                                    // per clique: thread or -1
+  std::vector<int> roots_;                                    // cliques without a parent
+  SubtreeSplit split_;
   std::vector<Workspace> workspaces_;                         // one per thread
   internal::SymbolicForest forest_;
   internal::SymbolicWorkspace symbolic_workspace_;

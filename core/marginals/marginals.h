@@ -117,6 +117,7 @@
 #include "core/base/status.h"
 #include "core/factors/variable.h"
 #include "core/inference/bayes_tree.h"
+#include "core/inference/subtree_split.h"
 
 namespace slamd::core {
 
@@ -320,6 +321,7 @@ class BayesTreeMarginals {
   std::unique_ptr<double[]> boundary_;
   std::size_t boundary_capacity_ = 0;
   std::vector<std::vector<int>> subtrees_;  // by thread (0: the calling one)
+  SubtreeSplit split_;  // AssignSubtrees' scratch
   std::vector<Helper> helpers_;             // threads 1 .. threads - 1
   std::uint64_t fresh_generation_ = 0;      // clique c's new generation is this + c
   struct SizeFrame {

@@ -11,6 +11,8 @@
 #include "core/marginals/clique_kernels.h"
 #include "core/marginals/marginals.h"
 
+#include "core/inference/subtree_split.h"
+
 namespace slamd::core {
 namespace {
 
@@ -178,85 +180,25 @@ void BayesTreeMarginals::WalkFresh(JointScratch& js, WalkStack* st, int root, co
 }
 
 int BayesTreeMarginals::AssignSubtrees() {
-  // The threads take disjoint subtrees; a subtree needs only its root's parent's joint, so the
-  // cliques above the subtrees (the "top") are computed first, on the calling thread (the reverse
-  // of elimination's order, Eliminator::AssignSubtrees). Starting from the roots, the heaviest
-  // subtree is split (its root moves to the top, its children become subtrees) while that lowers
-  // the estimated time: top + max(heaviest thread load, all subtrees / threads). SLAM trees are
-  // lopsided (a spine with short branches), so this peels cliques off the spine; a heap keeps
-  // each split O(log subtrees).
+  // The threads take disjoint subtrees (subtree_split.h); a subtree needs only its root's
+  // parent's joint, so the cliques above the subtrees (the "top") are computed first, on the
+  // calling thread (the reverse of elimination's order).
   const int threads = params_.threads;
   for (int c : order_) subtree_work_[c] = work_[c];
   for (auto it = order_.rbegin(); it != order_.rend(); ++it) {  // children before parents
     const int parent = tree_->clique(*it).parent();
     if (parent != BayesTree::kNone) subtree_work_[parent] += subtree_work_[*it];
   }
-  auto lighter = [&](int a, int b) { return subtree_work_[a] < subtree_work_[b]; };
-  std::vector<int> heap(tree_->roots().begin(), tree_->roots().end());
-  double frontier_work = 0.0, top_work = 0.0;
-  for (int r : heap) frontier_work += subtree_work_[r];
-  std::make_heap(heap.begin(), heap.end(), lighter);
-  std::vector<int> split;  // cliques moved to the top, in order
-  // Estimated time: top + the largest thread load when the `exact` heaviest subtrees are given
-  // out whole (least loaded thread first, heaviest first) and the rest is poured in as if
-  // divisible. The `exact` heaviest are read off the heap best first (a binary heap's children
-  // of position i are 2i + 1 and 2i + 2): O(exact log exact), not O(subtrees) (a wide tree, e.g.
-  // victoriaPark's, has thousands of subtrees after a few splits).
-  const std::size_t exact = 4 * threads;
-  std::vector<std::size_t> candidates;  // positions in `heap`, a max-heap by their subtree work
-  auto heavier_at = [&](std::size_t a, std::size_t b) { return subtree_work_[heap[a]] < subtree_work_[heap[b]]; };
-  std::vector<double> load(threads);
-  auto estimate = [&] {
-    std::fill(load.begin(), load.end(), 0.0);
-    candidates.clear();
-    if (!heap.empty()) candidates.push_back(0);
-    for (std::size_t taken = 0; taken < exact && !candidates.empty(); ++taken) {
-      std::pop_heap(candidates.begin(), candidates.end(), heavier_at);
-      const std::size_t i = candidates.back();
-      candidates.pop_back();
-      *std::min_element(load.begin(), load.end()) += subtree_work_[heap[i]];
-      for (std::size_t child = 2 * i + 1; child <= 2 * i + 2 && child < heap.size(); ++child) {
-        candidates.push_back(child);
-        std::push_heap(candidates.begin(), candidates.end(), heavier_at);
-      }
-    }
-    return top_work + std::max(*std::max_element(load.begin(), load.end()), frontier_work / threads);
+  auto for_each_child = [&](int c, auto&& f) {
+    for (int child : tree_->clique(c).children()) f(child);
   };
-  double best = estimate();
-  std::size_t best_splits = 0;
-  // Past the best split the estimate only grows as the top does (the heaviest subtree left is
-  // light); a wide tree would still take thousands of tries before the top outweighs the best,
-  // so a bounded run of tries without improvement ends the search.
-  constexpr std::size_t kTriesPastBest = 64;
-  while (!heap.empty() && !tree_->clique(heap.front()).children().empty() && top_work < best &&
-         split.size() < best_splits + kTriesPastBest) {
-    std::pop_heap(heap.begin(), heap.end(), lighter);
-    const int c = heap.back();
-    heap.pop_back();
-    split.push_back(c);
-    top_work += work_[c];
-    frontier_work -= subtree_work_[c];
-    for (int child : tree_->clique(c).children()) {
-      heap.push_back(child);
-      std::push_heap(heap.begin(), heap.end(), lighter);
-      frontier_work += subtree_work_[child];
-    }
-    const double t = estimate();
-    if (t < best) {
-      best = t;
-      best_splits = split.size();
-    }
-  }
-  // The best split's subtrees go to the least loaded thread, heaviest first (LPT), then each
-  // thread's in walk order (its Σ_FF blocks written front to back).
+  SplitSubtrees(tree_->roots(), work_, subtree_work_, for_each_child, threads, &split_);
+  // Each thread's subtrees in walk order (its Σ_FF blocks written front to back).
   for (int c : order_) in_top_[c] = 0;
-  for (std::size_t i = 0; i < best_splits; ++i) in_top_[split[i]] = 1;
-  std::vector<int> subtrees;
+  for (int c : split_.top) in_top_[c] = 1;
   std::size_t boundary = 0;
   for (int c : order_) {
     const Clique& cl = tree_->clique(c);
-    const int parent = cl.parent();
-    if (!in_top_[c] && (parent == BayesTree::kNone || in_top_[parent])) subtrees.push_back(c);
     boundary_off_[c] = kNoBoundary;
     if (in_top_[c] && !std::all_of(cl.children().begin(), cl.children().end(), [&](int x) { return in_top_[x]; })) {
       const std::size_t n = cl.FrontalDim() + cl.SeparatorDim();
@@ -268,22 +210,13 @@ int BayesTreeMarginals::AssignSubtrees() {
     boundary_.reset(new double[boundary]);
     boundary_capacity_ = boundary;
   }
-  std::stable_sort(subtrees.begin(), subtrees.end(),
-                   [&](int a, int b) { return subtree_work_[a] > subtree_work_[b]; });
-  subtrees_.resize(threads);
-  for (std::vector<int>& list : subtrees_) list.clear();
-  std::fill(load.begin(), load.end(), 0.0);
-  for (int c : subtrees) {
-    const int t = static_cast<int>(std::min_element(load.begin(), load.end()) - load.begin());
-    load[t] += subtree_work_[c];
-    subtrees_[t].push_back(c);
-  }
+  subtrees_.swap(split_.subtrees);
   int busy = 0;
   for (std::vector<int>& list : subtrees_) {
     std::sort(list.begin(), list.end(), [&](int a, int b) { return arena_off_[a] < arena_off_[b]; });
     busy += !list.empty();
   }
-  stats_.top_cliques = static_cast<int>(best_splits);
+  stats_.top_cliques = static_cast<int>(split_.top.size());
   return busy;
 }
 
