@@ -27,6 +27,40 @@ MatrixMap View(std::vector<double>* buffer, int rows, int cols) {
   return {buffer->data(), rows, cols};
 }
 
+// Below this frontal dimension, plain loops replace Eigen's triangular solve and product: at a
+// few poses (the cliques at the root, which every step changes) their blocking and packing cost
+// more than the arithmetic.
+constexpr int kSmallFrontal = 12;
+
+// X ← R⁻¹X in place, R upper triangular nf x nf (column-major, leading dimension ldr), X nf x m
+// contiguous column-major.
+void SolveUpperSmall(const double* r, int ldr, int nf, double* x, int m) {
+  for (int j = 0; j < m; ++j) {
+    double* col = x + static_cast<std::size_t>(j) * nf;
+    for (int i = nf - 1; i >= 0; --i) {
+      const double xi = col[i] / r[i + static_cast<std::size_t>(i) * ldr];
+      col[i] = xi;
+      const double* r_col = r + static_cast<std::size_t>(i) * ldr;
+      for (int k = 0; k < i; ++k) col[k] -= r_col[k] * xi;
+    }
+  }
+}
+
+// dst ← U Uᵀ for U upper triangular nf x nf (contiguous); dst has leading dimension ld.
+// Entry (i, j) sums over k >= max(i, j) only; both triangles are written.
+void UpperGramSmall(const double* u, int nf, double* dst, int ld) {
+  for (int j = 0; j < nf; ++j) {
+    for (int i = j; i < nf; ++i) {
+      double sum = 0.0;
+      for (int k = i; k < nf; ++k) {
+        sum += u[i + static_cast<std::size_t>(k) * nf] * u[j + static_cast<std::size_t>(k) * nf];
+      }
+      dst[i + static_cast<std::size_t>(j) * ld] = sum;
+      dst[j + static_cast<std::size_t>(i) * ld] = sum;
+    }
+  }
+}
+
 // Index of `var` among the clique's frontals (it must be one).
 int FrontalIndex(const Clique& c, int var) {
   for (int k = 0; k < c.num_frontals(); ++k) {
@@ -178,12 +212,19 @@ void BayesTreeMarginals::ComputeJoint(JointScratch& js, const Clique& cl, const 
   const int nf = cl.FrontalDim(), ns = cl.SeparatorDim(), n = nf + ns;
   MatrixMap J(out, n, n);
   const auto R = cl.R();
+  const bool small = nf <= kSmallFrontal;
   MatrixMap Rinv = View(&js.rinv, nf, nf);
   Rinv.setIdentity();
-  R.triangularView<Eigen::Upper>().solveInPlace(Rinv);
+  if (small) {
+    SolveUpperSmall(R.data(), static_cast<int>(R.outerStride()), nf, Rinv.data(), nf);
+  } else {
+    R.triangularView<Eigen::Upper>().solveInPlace(Rinv);
+  }
   // R⁻¹R⁻ᵀ: R⁻¹ is upper triangular; Eigen's triangular product is faster from ~24 rows up.
   const auto inverse_gram = [&](auto&& dst) {
-    if (nf >= 24) {
+    if (small) {
+      UpperGramSmall(Rinv.data(), nf, dst.data(), static_cast<int>(dst.outerStride()));
+    } else if (nf >= 24) {
       dst.noalias() = Rinv.triangularView<Eigen::Upper>() * Rinv.transpose();
     } else {
       dst.noalias() = Rinv * Rinv.transpose();
@@ -213,7 +254,11 @@ void BayesTreeMarginals::ComputeJoint(JointScratch& js, const Clique& cl, const 
   // Σ_SF (ns x nf) rather than Σ_FS: the long dimension as rows suits the kernel's packets.
   MatrixMap K = View(&js.k, nf, ns);
   K = cl.S();
-  R.triangularView<Eigen::Upper>().solveInPlace(K);
+  if (small) {
+    SolveUpperSmall(R.data(), static_cast<int>(R.outerStride()), nf, K.data(), ns);
+  } else {
+    R.triangularView<Eigen::Upper>().solveInPlace(K);
+  }
   NegProductTransposed(ss_data, ss_stride, ns, K.data(), nf, out + nf, n);
   auto SF = J.bottomLeftCorner(ns, nf);
   auto FF = J.topLeftCorner(nf, nf);
@@ -518,8 +563,25 @@ namespace {
 void ToEstimateFrame(const Isam2& isam, int slot, Eigen::MatrixXd* cov) {
   const TangentMatrix J =
       EstimateTangentJacobian(isam.linearization_point().TypeAt(slot), isam.Delta(slot));
-  const TangentMatrix JS = J * (*cov);
-  cov->noalias() = JS * J.transpose();
+  // Σ ← J Σ Jᵀ in plain loops: at most 6 x 6, where a general product's set-up outweighs the
+  // arithmetic (this runs after every step for the newest pose).
+  const int d = static_cast<int>(J.rows());
+  double js[6 * 6];
+  double* c = cov->data();
+  for (int j = 0; j < d; ++j) {
+    for (int i = 0; i < d; ++i) {
+      double sum = 0.0;
+      for (int k = 0; k < d; ++k) sum += J(i, k) * c[k + j * d];
+      js[i + j * d] = sum;
+    }
+  }
+  for (int j = 0; j < d; ++j) {
+    for (int i = 0; i < d; ++i) {
+      double sum = 0.0;
+      for (int k = 0; k < d; ++k) sum += js[i + k * d] * J(j, k);
+      c[i + j * d] = sum;
+    }
+  }
 }
 
 }  // namespace
