@@ -263,13 +263,24 @@ void BayesTreeMarginals::ComputeJoint(JointScratch& js, const Clique& cl, const 
   auto SF = J.bottomLeftCorner(ns, nf);
   auto FF = J.topLeftCorner(nf, nf);
   inverse_gram(FF);
-  if (nf >= 12) {
+  if (small) {
+    // Σ_FF −= K Σ_SF: the lower triangle, mirrored (symmetric), in plain loops.
+    const double* k = K.data();
+    const double* sf = SF.data();
+    const std::size_t ld = static_cast<std::size_t>(n);
+    for (int j = 0; j < nf; ++j) {
+      for (int i = j; i < nf; ++i) {
+        double sum = 0.0;
+        for (int q = 0; q < ns; ++q) sum += k[i + static_cast<std::size_t>(q) * nf] * sf[q + j * ld];
+        FF(i, j) -= sum;
+        if (i != j) FF(j, i) = FF(i, j);
+      }
+    }
+  } else {
     // Large frontal blocks (3D, several poses): only the lower triangle of the symmetric
-    // update (half the flops), then mirrored. Below that size Eigen's full GEMM is faster.
+    // update (half the flops), then mirrored.
     FF.triangularView<Eigen::Lower>() -= K * SF;
     FF.triangularView<Eigen::StrictlyUpper>() = FF.transpose();
-  } else {
-    FF.noalias() -= K * SF;
   }
   if (with_fs) J.topRightCorner(nf, ns) = SF.transpose();
 }
