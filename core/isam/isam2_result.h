@@ -43,8 +43,9 @@ struct Isam2Result {
   // Seconds per step of the update (numbered as in isam2.cc).
   struct Seconds {
     double add = 0.0;          // 1-2: checks, new variables and factors, linearisation
-    double relinearize = 0.0;  // 3: fluid relinearisation (but the part its threads do
-                               // while the calling thread runs 4-6, i.e. its wait before 7)
+    // 3: fluid relinearisation: selecting, starting the threads, and waiting for them before 7
+    // (what they do while the calling thread runs 4-6 is not counted here).
+    double relinearize = 0.0;
     double remove_top = 0.0;   // 4-5: affected set and detaching the top
     double order = 0.0;        // 6: constrained COLAMD
     double eliminate = 0.0;    // 7: dense elimination and re-attaching orphans

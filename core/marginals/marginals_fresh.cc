@@ -8,10 +8,9 @@
 #include <thread>
 
 #include "core/base/check.h"
+#include "core/inference/subtree_split.h"
 #include "core/marginals/clique_kernels.h"
 #include "core/marginals/marginals.h"
-
-#include "core/inference/subtree_split.h"
 
 namespace slamd::core {
 namespace {

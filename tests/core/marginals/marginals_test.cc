@@ -87,6 +87,22 @@ DenseReference Dense(const Isam2& isam) {
                                        << a << "\nvs\n" << b;
 }
 
+// The variable among 0..n-1 whose clique is deepest in the tree, and that depth (cliques on its
+// path to the root, itself included).
+int DeepestVariable(const BayesTree& tree, int n, int* depth) {
+  int deepest = 0;
+  *depth = 0;
+  for (int v = 0; v < n; ++v) {
+    int d = 0;
+    for (int x = tree.CliqueOf(v); x != BayesTree::kNone; x = tree.clique(x).parent()) ++d;
+    if (d > *depth) {
+      *depth = d;
+      deepest = v;
+    }
+  }
+  return deepest;
+}
+
 bool IsAncestorOrSelf(const BayesTree& tree, int a, int c) {
   for (int x = c; x != BayesTree::kNone; x = tree.clique(x).parent()) {
     if (x == a) return true;
@@ -284,15 +300,8 @@ TEST(MarginalsTest, FreshComputeAllKeepsTheBlockDiagonalAndQueriesUpgradeIt) {
     }
     // A deep variable: its path is recomputed as full joints, reproducing the same values, so
     // a ComputeAll() right after has nothing to do.
-    int deepest = 0, depth_max = 0;
-    for (int v = 0; v < n; ++v) {
-      int d = 0;
-      for (int x = tree.CliqueOf(v); x != BayesTree::kNone; x = tree.clique(x).parent()) ++d;
-      if (d > depth_max) {
-        depth_max = d;
-        deepest = v;
-      }
-    }
+    int depth_max = 0;
+    const int deepest = DeepestVariable(tree, n, &depth_max);
     ASSERT_GT(depth_max, 2);
     ASSERT_TRUE(marginals.Marginal(deepest, &cov).ok());
     EXPECT_EQ(marginals.stats().cliques_computed, depth_max - 1);  // all but the root
@@ -498,15 +507,8 @@ TEST(MarginalsTest, ParallelFreshPassEqualsOneThreadBitForBit) {
     ASSERT_TRUE(one.JointMarginal(pair, &joint).ok());
     EXPECT_TRUE(RelativelyNear(expected[v], joint.topLeftCorner(6, 6), 1e-9)) << "variable " << v;
   }
-  int deepest = 0, depth = 0;  // the variable whose clique is deepest
-  for (int v = 0; v < n; ++v) {
-    int d = 0;
-    for (int x = tree.CliqueOf(v); x != BayesTree::kNone; x = tree.clique(x).parent()) ++d;
-    if (d > depth) {
-      depth = d;
-      deepest = v;
-    }
-  }
+  int depth = 0;
+  const int deepest = DeepestVariable(tree, n, &depth);
   ASSERT_GT(depth, 2);
   for (int threads : {2, 3}) {
     BayesTreeMarginals many(&tree, {.threads = threads});
