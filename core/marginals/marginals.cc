@@ -46,11 +46,12 @@ void SolveUpperSmall(const double* r, int ldr, int nf, double* x, int m) {
   }
 }
 
-// dst ← U Uᵀ for U upper triangular nf x nf (contiguous); dst has leading dimension ld.
-// Entry (i, j) sums over k >= max(i, j) only; both triangles are written.
-void UpperGramSmall(const double* u, int nf, double* dst, int ld) {
-  for (int j = 0; j < nf; ++j) {
-    for (int i = j; i < nf; ++i) {
+// dst ← U' U'ᵀ for U' the first `rows` rows of U, upper triangular nf x nf (contiguous); dst
+// (rows x rows) has leading dimension ld. Entry (i, j) sums over k >= max(i, j) only; both
+// triangles are written.
+void UpperGramSmall(const double* u, int nf, int rows, double* dst, int ld) {
+  for (int j = 0; j < rows; ++j) {
+    for (int i = j; i < rows; ++i) {
       double sum = 0.0;
       for (int k = i; k < nf; ++k) {
         sum += u[i + static_cast<std::size_t>(k) * nf] * u[j + static_cast<std::size_t>(k) * nf];
@@ -223,7 +224,7 @@ void BayesTreeMarginals::ComputeJoint(JointScratch& js, const Clique& cl, const 
   // R⁻¹R⁻ᵀ: R⁻¹ is upper triangular; Eigen's triangular product is faster from ~24 rows up.
   const auto inverse_gram = [&](auto&& dst) {
     if (small) {
-      UpperGramSmall(Rinv.data(), nf, dst.data(), static_cast<int>(dst.outerStride()));
+      UpperGramSmall(Rinv.data(), nf, nf, dst.data(), static_cast<int>(dst.outerStride()));
     } else if (nf >= 24) {
       dst.noalias() = Rinv.triangularView<Eigen::Upper>() * Rinv.transpose();
     } else {
@@ -393,12 +394,31 @@ Status BayesTreeMarginals::Marginal(int var, Eigen::MatrixXd* cov) {
   if (c == BayesTree::kNone) {
     return NotFound("variable " + std::to_string(var) + " is not in the Bayes tree");
   }
-  EnsurePath(c);
   const Clique& cl = tree_->clique(c);
   const int k = FrontalIndex(cl, var);
   const int o = cl.frontal_offset(k), d = cl.frontal_dim(k);
+  if (cl.parent() == BayesTree::kNone && cl.FrontalDim() - o <= kSmallFrontal &&
+      !IsValid(c, BayesTree::kNone, false)) {
+    RootTrailingMarginal(cl, o, d, cov);
+    return Status::Ok();
+  }
+  EnsurePath(c);
   *cov = CliqueJoint(c).block(o, o, d, d);
   return Status::Ok();
+}
+
+void BayesTreeMarginals::RootTrailingMarginal(const Clique& cl, int o, int d, Eigen::MatrixXd* cov) {
+  // Σ = R⁻¹R⁻ᵀ in a root. R⁻¹ is upper triangular, so its rows from o on are the inverse of R's
+  // trailing block T = R[o:, o:], and the variable's block is T⁻¹[0:d, :] T⁻¹[0:d, :]ᵀ.
+  const int m = cl.FrontalDim() - o;
+  const auto R = cl.R();
+  MatrixMap Tinv = View(&js_.rinv, m, m);
+  Tinv.setIdentity();
+  const int ldr = static_cast<int>(R.outerStride());
+  SolveUpperSmall(R.data() + o + static_cast<std::size_t>(o) * ldr, ldr, m, Tinv.data(), m);
+  cov->resize(d, d);
+  UpperGramSmall(Tinv.data(), m, d, cov->data(), d);
+  ++stats_.cliques_computed;
 }
 
 Status BayesTreeMarginals::CachedMarginal(int var, Eigen::MatrixXd* cov) const {

@@ -292,6 +292,10 @@ class BayesTreeMarginals {
   void SeparatorRuns(JointScratch& js, const Clique& cl) const;
   // Makes the joints on the path from clique c to its root valid and full.
   void EnsurePath(int c);
+  // Marginal() of the frontal block at offset o (dimension d) of a root clique from its R alone,
+  // without computing or caching the root's joint: after an update the newest pose, eliminated
+  // last, is the root's trailing block, so its marginal costs one d x d inversion.
+  void RootTrailingMarginal(const Clique& cl, int o, int d, Eigen::MatrixXd* cov);
   // JointMarginal when the variables do not share a clique (see COSTS).
   void JointBySolving(std::span<const int> vars, Eigen::MatrixXd* cov);
 

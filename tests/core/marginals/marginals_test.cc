@@ -149,6 +149,33 @@ TEST_P(MarginalsParityTest, EveryVariableMarginalEqualsTheDenseInverse) {
   }
 }
 
+// A root's variables before anything is cached come from the root's trailing block of R alone
+// (BayesTreeMarginals::RootTrailingMarginal): each equals the dense inverse, and nothing is
+// cached, so a later full pass still computes the root.
+TEST_P(MarginalsParityTest, RootVariablesFromTheTrailingBlockEqualTheDenseInverse) {
+  auto isam = Solve(Problem());
+  const BayesTree& tree = isam->tree();
+  const DenseReference ref = Dense(*isam);
+  BayesTreeMarginals marginals(&tree);
+  Eigen::MatrixXd cov;
+  int checked = 0;
+  for (int root : tree.roots()) {
+    const Clique& cl = tree.clique(root);
+    for (int k = 0; k < cl.num_frontals(); ++k) {
+      if (cl.FrontalDim() - cl.frontal_offset(k) > 12) continue;  // the general path's
+      const int v = cl.frontal(k);
+      ASSERT_TRUE(marginals.Marginal(v, &cov).ok());
+      EXPECT_EQ(marginals.stats().cliques_computed, 1);
+      const int one[] = {v};
+      EXPECT_TRUE(RelativelyNear(cov, ref.Joint(one), 1e-9)) << "variable " << v;
+      ++checked;
+    }
+  }
+  EXPECT_GE(checked, 2);
+  marginals.ComputeAll();
+  EXPECT_EQ(marginals.stats().cliques_computed, tree.NumCliques());
+}
+
 TEST_P(MarginalsParityTest, JointMarginalsEqualTheDenseInverse) {
   auto isam = Solve(Problem());
   const BayesTree& tree = isam->tree();
