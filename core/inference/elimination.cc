@@ -6,6 +6,7 @@
 #include <string>
 #include <thread>
 
+#include "core/base/param_check.h"
 #include "core/inference/partial_cholesky.h"
 #include "core/inference/subtree_split.h"
 
@@ -112,6 +113,23 @@ void ScatterFactor(const HessianFactor& h, const int* offset, int n, double* M, 
   }
 }
 
+// The strict upper triangle of the n x n column-major matrix a from its lower triangle, in
+// tiles: a plain loop writes along rows, one cache line per entry, which made the cached
+// factor's copy the costliest part of a large clique's assembly.
+void MirrorLowerToUpper(double* a, int n) {
+  constexpr int kTile = 8;
+  const size_t ld = static_cast<size_t>(n);
+  for (int jb = 0; jb < n; jb += kTile) {
+    const int je = std::min(n, jb + kTile);
+    for (int ib = jb; ib < n; ib += kTile) {
+      const int ie = std::min(n, ib + kTile);
+      for (int j = jb; j < je; ++j) {
+        for (int i = std::max(ib, j + 1); i < ie; ++i) a[j + i * ld] = a[i + j * ld];
+      }
+    }
+  }
+}
+
 }  // namespace
 
 Status EliminationParams::Validate() const {
@@ -119,6 +137,8 @@ Status EliminationParams::Validate() const {
     return InvalidArgument("EliminationParams::relative_pivot_tolerance = " +
                            std::to_string(relative_pivot_tolerance) + "; violates range [0, 1)");
   }
+  SLAMD_PARAM_CHECK(EliminationParams, relaxed_new_variables, >=, 0);
+  SLAMD_PARAM_CHECK(EliminationParams, relaxed_max_frontals, >=, 1);
   return Status::Ok();
 }
 
@@ -147,8 +167,11 @@ Status Eliminator::Eliminate(const EliminationProblem& problem, BayesTree* tree,
   }
   // 2. Symbolic phase: separators and supernodes.
   const int k = static_cast<int>(problem.ordering.size());
-  internal::BuildSymbolicForest(k, structure_ptr_, structure_pos_, hes_ptr_,
-                                params_.merge_supernodes, &forest_, &symbolic_workspace_);
+  const internal::SupernodeRule rule{.merge = params_.merge_supernodes,
+                                     .relaxed_new_variables = params_.relaxed_new_variables,
+                                     .relaxed_max_frontals = params_.relaxed_max_frontals};
+  internal::BuildSymbolicForest(k, structure_ptr_, structure_pos_, hes_ptr_, rule, &forest_,
+                                &symbolic_workspace_);
   // 3. Numeric phase into cliques created up front (so that threads only fill them), children
   //    before parents; then the links, in creation order.
   const int num = forest_.NumCliques();
@@ -481,8 +504,9 @@ Status Eliminator::EliminateClique(const EliminationProblem& problem, int sym, B
   const int ns1 = n - nf + 1;
   for (int c = 0; c < ns1; ++c) {
     const double* col = M + static_cast<size_t>(nf + c) * ld + nf;
-    for (int r = c; r < ns1; ++r) info(r, c) = info(c, r) = col[r];
+    std::copy(col + c, col + ns1, &info(c, c));
   }
+  MirrorLowerToUpper(info.data(), ns1);
   std::copy_n(&ref[nf], n - nf, cached.mutable_reference().data());
   return Status::Ok();
 }

@@ -8,7 +8,7 @@ namespace slamd::core::internal {
 
 void BuildSymbolicForest(int k, std::span<const int> structure_ptr,
                          std::span<const int> structure_pos, std::span<const int> hessian_ptr,
-                         bool merge_supernodes, SymbolicForest* forest,
+                         const SupernodeRule& rule, SymbolicForest* forest,
                          SymbolicWorkspace* workspace) {
   SymbolicForest& f = *forest;
   f.first_frontal.clear();
@@ -63,13 +63,25 @@ void BuildSymbolicForest(int k, std::span<const int> structure_ptr,
       }
     }
 
-    // 2. Fundamental supernode: the single child's separator is exactly {j} ∪ sep(j), so j
-    //    joins that clique and the clique's separator loses its first entry (j). A Hessian
-    //    factor is an orphan's summary, i.e. another child: no merge then.
+    // 2. Supernodes. Fundamental: the single child's separator is exactly {j} ∪ sep(j), so j
+    //    joins that clique and the clique's separator loses its first entry (j). Relaxed: j's
+    //    own factors add a few positions, so the clique's separator becomes sep(j) (written
+    //    anew at the end of sep_data). A Hessian factor is an orphan's summary, i.e. another
+    //    child: no merge then.
     const bool has_hessians = hessian_ptr[j + 1] > hessian_ptr[j];
-    if (merge_supernodes && num_children == 1 && !has_hessians && own_new == 0) {
-      const int c = head_child[j];
-      ++f.sep_begin[c];
+    const int only_child = num_children == 1 ? head_child[j] : -1;
+    const bool relaxed = only_child >= 0 && own_new <= rule.relaxed_new_variables &&
+                         f.num_frontals[only_child] < rule.relaxed_max_frontals;
+    if (rule.merge && only_child >= 0 && !has_hessians && (own_new == 0 || relaxed)) {
+      const int c = only_child;
+      if (own_new == 0) {
+        ++f.sep_begin[c];
+      } else {
+        std::sort(gather.begin(), gather.end());
+        f.sep_begin[c] = static_cast<int>(f.sep_data.size());
+        f.sep_data.insert(f.sep_data.end(), gather.begin(), gather.end());
+        f.sep_end[c] = static_cast<int>(f.sep_data.size());
+      }
       f.next_frontal[f.last_frontal[c]] = j;
       f.last_frontal[c] = j;
       ++f.num_frontals[c];

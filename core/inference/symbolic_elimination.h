@@ -10,13 +10,19 @@
 // Output (SymbolicForest): cliques numbered in creation order, which is a topological order
 // (every clique after all its children). Variable j's separator is
 //     sep(j) = (structure(j) ∪ ⋃_{child cliques c of j} sep(c)) \ {j}
-// (positions > j, ascending). j is merged into its child clique c when c is its only child and
-// sep(c) = {j} ∪ sep(j) (a fundamental supernode: no fill is added and R keeps its sparsity
-// inside the dense clique) and no Hessian factor is assigned to j. A Hessian factor stands for
-// an orphaned subtree (iSAM2), i.e. a child clique outside this call, so it blocks the merge as a
-// second child would: re-eliminating a top then yields exactly the cliques of a full
-// elimination. A clique's children all hang off its first frontal, because a later frontal was
-// merged only if the clique itself was its single child.
+// (positions > j, ascending). j is merged into its child clique c when c is its only child, no
+// Hessian factor is assigned to j, and either
+//   - sep(c) = {j} ∪ sep(j): a fundamental supernode (no fill; R keeps its sparsity inside the
+//     dense clique), or
+//   - relaxed (SupernodeRule): j's own factors add at most `relaxed_new_variables` positions to
+//     sep(c) \ {j}, and c has fewer than `relaxed_max_frontals` frontals. c's earlier frontal
+//     rows then hold explicit zeros in those columns: a little more arithmetic, for fewer and
+//     larger cliques (less assembly and copying per variable, fewer cliques to solve).
+// The clique's separator is always sep(j) of its last frontal j. A Hessian factor stands for an
+// orphaned subtree (iSAM2), i.e. a child clique outside this call, so it blocks the merge as a
+// second child would (the orphan was not merged with j when it was made either). A clique's
+// children all hang off its first frontal, because a later frontal was merged only if the
+// clique itself was its single child.
 //
 // Cost: O(Σ |structure| + Σ |sep| log |sep|), no allocation once the buffers are warm.
 #pragma once
@@ -57,10 +63,15 @@ struct SymbolicWorkspace {
 // structure_pos); hessian_ptr has k + 1 entries, position j has hessian_ptr[j + 1] -
 // hessian_ptr[j] Hessian factors assigned (their variables are in structure(j) too).
 // Preconditions (SLAMD_DCHECK): every entry of structure(j) is in [j, k).
-// merge_supernodes = false gives one clique per variable (the elimination tree itself).
+// rule.merge = false gives one clique per variable (the elimination tree itself).
+struct SupernodeRule {
+  bool merge = true;
+  int relaxed_new_variables = 0;  // 0: fundamental supernodes only
+  int relaxed_max_frontals = 1;
+};
 void BuildSymbolicForest(int k, std::span<const int> structure_ptr,
                          std::span<const int> structure_pos, std::span<const int> hessian_ptr,
-                         bool merge_supernodes, SymbolicForest* forest,
+                         const SupernodeRule& rule, SymbolicForest* forest,
                          SymbolicWorkspace* workspace);
 
 }  // namespace slamd::core::internal

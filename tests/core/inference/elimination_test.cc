@@ -83,21 +83,37 @@ void DenseConditionals(const BayesTree& tree, const EliminationResult& result,
   }
 }
 
+// Clique rules: one per variable, fundamental supernodes, relaxed supernodes (the default).
+enum class Supernodes { kNone, kFundamental, kRelaxed };
+
+EliminationParams WithSupernodes(Supernodes rule) {
+  EliminationParams params;
+  params.merge_supernodes = rule != Supernodes::kNone;
+  if (rule == Supernodes::kFundamental) params.relaxed_new_variables = 0;
+  return params;
+}
+
 class FullEliminationTest
-    : public ::testing::TestWithParam<std::tuple<OrderKind, unsigned, bool, bool>> {};
+    : public ::testing::TestWithParam<std::tuple<OrderKind, unsigned, Supernodes, bool>> {};
 
 TEST_P(FullEliminationTest, MatchesDenseSolveAndHessian) {
-  const auto [kind, seed, merge, priors_on_all] = GetParam();
+  const auto [kind, seed, rule, priors_on_all] = GetParam();
+  const bool merge = rule != Supernodes::kNone;
   const RandomLinearSystem s = MakeRandomSystem(30, 25, priors_on_all, seed);
   const std::vector<int> order = MakeOrder(s, kind, seed);
   BayesTree tree;
   EliminationResult result;
-  ASSERT_NO_FATAL_FAILURE(
-      EliminateAll(s, order, &tree, &result, EliminationParams{.merge_supernodes = merge}));
+  ASSERT_NO_FATAL_FAILURE(EliminateAll(s, order, &tree, &result, WithSupernodes(rule)));
   ASSERT_TRUE(CheckConsistency(tree).ok()) << CheckConsistency(tree).ToString();
   EXPECT_EQ(static_cast<int>(result.cliques.size()), tree.NumCliques());
   if (!merge) {
     EXPECT_EQ(tree.NumCliques(), s.NumVars());
+  }
+  if (rule == Supernodes::kRelaxed) {  // never more cliques than fundamental (fewer in 23 of 24)
+    BayesTree fundamental;
+    EliminationResult r;
+    ASSERT_NO_FATAL_FAILURE(EliminateAll(s, order, &fundamental, &r, WithSupernodes(Supernodes::kFundamental)));
+    EXPECT_LE(tree.NumCliques(), fundamental.NumCliques());
   }
 
   // Back-substitution equals the dense solve of AᵀA x = −Aᵀb.
@@ -136,7 +152,9 @@ INSTANTIATE_TEST_SUITE_P(
     Orders, FullEliminationTest,
     ::testing::Combine(::testing::Values(OrderKind::kNatural, OrderKind::kColamd,
                                          OrderKind::kReversed, OrderKind::kRandom),
-                       ::testing::Values(1u, 2u, 3u), ::testing::Bool(), ::testing::Bool()));
+                       ::testing::Values(1u, 2u, 3u),
+                       ::testing::Values(Supernodes::kNone, Supernodes::kFundamental, Supernodes::kRelaxed),
+                       ::testing::Bool()));
 
 TEST(EliminationTest, HessianFactorsGiveTheSameSolution) {
   const RandomLinearSystem s = MakeRandomSystem(20, 15, false, 7);

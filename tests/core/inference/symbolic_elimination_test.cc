@@ -18,7 +18,13 @@ struct Built {
   std::vector<int> ptr, pos, hessian_ptr;
 };
 
-Built Build(int k, const Factors& factors, bool merge, const std::vector<int>& hessians_at = {}) {
+// The rules under test: one clique per variable, fundamental supernodes, relaxed supernodes.
+const SupernodeRule kNoMerge{.merge = false};
+const SupernodeRule kFundamental{};
+const SupernodeRule kRelaxed{.relaxed_new_variables = 1, .relaxed_max_frontals = 4};
+
+Built Build(int k, const Factors& factors, const SupernodeRule& rule,
+            const std::vector<int>& hessians_at = {}) {
   Built b;
   std::vector<std::vector<int>> structure(k);
   for (const auto& f : factors) {
@@ -35,7 +41,7 @@ Built Build(int k, const Factors& factors, bool merge, const std::vector<int>& h
     for (int i = j + 1; i <= k; ++i) ++b.hessian_ptr[i];
   }
   SymbolicWorkspace ws;
-  BuildSymbolicForest(k, b.ptr, b.pos, b.hessian_ptr, merge, &b.forest, &ws);
+  BuildSymbolicForest(k, b.ptr, b.pos, b.hessian_ptr, rule, &b.forest, &ws);
   return b;
 }
 
@@ -84,7 +90,7 @@ TEST(SymbolicEliminationTest, ChainInNaturalOrder) {
   // x0 - x1 - ... - x9: clique i = {x_i | x_{i+1}}; only the root pair is a fundamental
   // supernode ({x8, x9}), so n - 1 cliques.
   const int n = 10;
-  const Built b = Build(n, Chain(n), true);
+  const Built b = Build(n, Chain(n), kFundamental);
   ASSERT_EQ(b.forest.NumCliques(), n - 1);
   const int root = b.forest.NumCliques() - 1;
   EXPECT_EQ(Frontals(b.forest, root), (std::vector<int>{n - 2, n - 1}));
@@ -95,7 +101,29 @@ TEST(SymbolicEliminationTest, ChainInNaturalOrder) {
     EXPECT_EQ(b.forest.Parent(c), c + 1);
   }
   // Without merging: one clique per variable.
-  EXPECT_EQ(Build(n, Chain(n), false).forest.NumCliques(), n);
+  EXPECT_EQ(Build(n, Chain(n), kNoMerge).forest.NumCliques(), n);
+}
+
+TEST(SymbolicEliminationTest, RelaxedSupernodesGroupAChainUpToTheFrontalCap) {
+  // Each x_i brings x_{i+1} into the separator (one new variable): relaxed merging takes up to
+  // 4 frontals per clique, then the root pair is a fundamental supernode.
+  const int n = 10;
+  const Built b = Build(n, Chain(n), kRelaxed);
+  ASSERT_EQ(b.forest.NumCliques(), 3);
+  EXPECT_EQ(Frontals(b.forest, 0), (std::vector<int>{0, 1, 2, 3}));
+  EXPECT_EQ(Separator(b.forest, 0), std::vector<int>{4});
+  EXPECT_EQ(Frontals(b.forest, 1), (std::vector<int>{4, 5, 6, 7}));
+  EXPECT_EQ(Separator(b.forest, 1), std::vector<int>{8});
+  EXPECT_EQ(Frontals(b.forest, 2), (std::vector<int>{8, 9}));
+  EXPECT_TRUE(Separator(b.forest, 2).empty());
+  EXPECT_EQ(b.forest.Parent(0), 1);
+  EXPECT_EQ(b.forest.Parent(1), 2);
+  // x1 brings two new variables (x2, x3): over an allowance of one.
+  const Factors two_new = {{0}, {0, 1}, {1, 2, 3}};
+  EXPECT_EQ(Build(4, two_new, kRelaxed).forest.NumCliques(), 2);
+  EXPECT_EQ(Build(4, two_new, {.relaxed_new_variables = 2, .relaxed_max_frontals = 4}).forest.NumCliques(), 1);
+  // A Hessian factor still blocks the merge.
+  EXPECT_EQ(Build(n, Chain(n), kRelaxed, {1}).forest.num_frontals[0], 1);
 }
 
 TEST(SymbolicEliminationTest, ChainEliminatedFromBothEndsMeetsInTheMiddle) {
@@ -106,7 +134,7 @@ TEST(SymbolicEliminationTest, ChainEliminatedFromBothEndsMeetsInTheMiddle) {
   Factors f;
   for (int i = 0; i + 1 < n; ++i) f.push_back({position[i], position[i + 1]});
   f.push_back({position[0]});
-  const Built b = Build(n, f, true);
+  const Built b = Build(n, f, kFundamental);
   // Every variable adds its next neighbour to its separator, and the last one has two children
   // (one per half): nothing merges.
   EXPECT_EQ(b.forest.NumCliques(), n);
@@ -118,7 +146,7 @@ TEST(SymbolicEliminationTest, DenseGraphIsOneClique) {
   for (int a = 0; a < 6; ++a) {
     for (int b = a + 1; b < 6; ++b) f.push_back({a, b});
   }
-  const Built b = Build(6, f, true);
+  const Built b = Build(6, f, kFundamental);
   ASSERT_EQ(b.forest.NumCliques(), 1);
   EXPECT_EQ(Frontals(b.forest, 0), (std::vector<int>{0, 1, 2, 3, 4, 5}));
 }
@@ -128,10 +156,10 @@ TEST(SymbolicEliminationTest, StarMergesOnlyTheHub) {
   // so it is a clique of its own.
   Factors f;
   for (int i = 0; i < 5; ++i) f.push_back({i, 5});
-  const Built b = Build(6, f, true);
+  const Built b = Build(6, f, kFundamental);
   EXPECT_EQ(b.forest.NumCliques(), 6);
   // Landmark-like: a 3-variable factor merges a clique of 3.
-  const Built t = Build(3, {{0, 1, 2}}, true);
+  const Built t = Build(3, {{0, 1, 2}}, kFundamental);
   EXPECT_EQ(t.forest.NumCliques(), 1);
 }
 
@@ -139,8 +167,8 @@ TEST(SymbolicEliminationTest, HessianFactorsBlockMerging) {
   // Chain with a Hessian factor assigned to the last-but-one position: it stands for another
   // child, so the root pair is not merged.
   const int n = 5;
-  EXPECT_EQ(Build(n, Chain(n), true).forest.NumCliques(), n - 1);
-  EXPECT_EQ(Build(n, Chain(n), true, {n - 1}).forest.NumCliques(), n);
+  EXPECT_EQ(Build(n, Chain(n), kFundamental).forest.NumCliques(), n - 1);
+  EXPECT_EQ(Build(n, Chain(n), kFundamental, {n - 1}).forest.NumCliques(), n);
 }
 
 TEST(SymbolicEliminationTest, RandomGraphsMatchBruteForce) {
@@ -160,22 +188,29 @@ TEST(SymbolicEliminationTest, RandomGraphsMatchBruteForce) {
       fac.erase(std::unique(fac.begin(), fac.end()), fac.end());
     }
     const auto ref = ReferenceSeparators(k, f);
-    for (bool merge : {false, true}) {
-      const Built b = Build(k, f, merge);
+    for (const SupernodeRule& rule : {kNoMerge, kFundamental, kRelaxed}) {
+      const Built b = Build(k, f, rule);
       const SymbolicForest& forest = b.forest;
       std::vector<int> seen(k, 0);
       for (int c = 0; c < forest.NumCliques(); ++c) {
         const std::vector<int> fr = Frontals(forest, c);
         ASSERT_EQ(static_cast<int>(fr.size()), forest.num_frontals[c]);
         // The clique's separator is that of its last frontal; consecutive frontals form a
-        // fundamental supernode: sep(f_i) = {f_{i+1}} ∪ sep(f_{i+1}).
+        // fundamental supernode, sep(f_i) = {f_{i+1}} ∪ sep(f_{i+1}), or a relaxed one:
+        // sep(f_i) ⊆ {f_{i+1}} ∪ sep(f_{i+1}), with at most relaxed_new_variables more, added
+        // while the clique had fewer than relaxed_max_frontals frontals.
         const std::vector<int> sep = Separator(forest, c);
         EXPECT_EQ(std::set<int>(sep.begin(), sep.end()), ref[fr.back()]);
         EXPECT_TRUE(std::is_sorted(sep.begin(), sep.end()));
         for (size_t i = 0; i + 1 < fr.size(); ++i) {
-          std::set<int> expected = ref[fr[i + 1]];
-          expected.insert(fr[i + 1]);
-          EXPECT_EQ(ref[fr[i]], expected);
+          std::set<int> next = ref[fr[i + 1]];
+          next.insert(fr[i + 1]);
+          EXPECT_TRUE(std::includes(next.begin(), next.end(), ref[fr[i]].begin(), ref[fr[i]].end()));
+          const int added = static_cast<int>(next.size() - ref[fr[i]].size());
+          if (added > 0) {
+            EXPECT_LE(added, rule.relaxed_new_variables);
+            EXPECT_LT(static_cast<int>(i) + 1, rule.relaxed_max_frontals);
+          }
         }
         for (int p : fr) {
           ++seen[p];
@@ -191,7 +226,7 @@ TEST(SymbolicEliminationTest, RandomGraphsMatchBruteForce) {
         }
       }
       for (int p = 0; p < k; ++p) EXPECT_EQ(seen[p], 1);
-      if (!merge) {
+      if (!rule.merge) {
         EXPECT_EQ(forest.NumCliques(), k);
       }
     }
