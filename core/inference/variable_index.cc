@@ -23,6 +23,7 @@ Status VariableIndex::AddFactor(int factor, std::span<const int> vars) {
     max_var = std::max(max_var, vars[i]);
   }
   Reserve(max_var + 1);
+  factor_end_ = std::max(factor_end_, factor + 1);
   for (int v : vars) factors_[v].push_back(factor);
   num_entries_ += static_cast<long>(vars.size());
   return Status::Ok();
@@ -53,12 +54,26 @@ Status VariableIndex::RemoveFactor(int factor, std::span<const int> vars) {
 
 void VariableIndex::CollectFactors(std::span<const int> vars, std::vector<int>* out) const {
   out->clear();
-  for (int v : vars) {
-    const std::span<const int> list = FactorsOf(v);
-    out->insert(out->end(), list.begin(), list.end());
+  size_t entries = 0;
+  for (int v : vars) entries += FactorsOf(v).size();
+  if (entries * 8 < static_cast<size_t>(factor_end_)) {
+    // A few variables (an odometry step): sort what they list, O(k log k).
+    for (int v : vars) {
+      const std::span<const int> list = FactorsOf(v);
+      out->insert(out->end(), list.begin(), list.end());
+    }
+    std::sort(out->begin(), out->end());
+    out->erase(std::unique(out->begin(), out->end()), out->end());
+    return;
   }
-  std::sort(out->begin(), out->end());
-  out->erase(std::unique(out->begin(), out->end()), out->end());
+  // Much of the graph (a large relinearisation): mark, then scan every factor index, O(factors).
+  std::vector<unsigned char> listed(factor_end_, 0);
+  for (int v : vars) {
+    for (int f : FactorsOf(v)) listed[f] = 1;
+  }
+  for (int f = 0; f < factor_end_; ++f) {
+    if (listed[f]) out->push_back(f);
+  }
 }
 
 }  // namespace slamd::core

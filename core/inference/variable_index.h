@@ -4,7 +4,8 @@
 // Factors are named by the caller's factor index (any int >= 0, e.g. a slot in the solver's
 // factor list); variables by dense ids. Each variable's list is unordered (removal swaps with the
 // last entry); CollectFactors returns sorted, duplicate-free results.
-// Complexity: AddFactor O(|vars|) amortised, RemoveFactor O(Σ degree of its vars).
+// Complexity: AddFactor O(|vars|) amortised, RemoveFactor O(Σ degree of its vars),
+// CollectFactors O(k log k) for k listed entries, or O(largest factor index) when that is less.
 // Thread safety: const methods may run concurrently.
 #pragma once
 
@@ -45,6 +46,7 @@ class VariableIndex {
  private:
   std::vector<std::vector<int>> factors_;
   long num_entries_ = 0;
+  int factor_end_ = 0;  // one past the largest factor index ever added
 };
 
 }  // namespace slamd::core

@@ -73,6 +73,25 @@ TEST(VariableIndexTest, RandomAgainstBruteForce) {
     }
     EXPECT_EQ(Sorted(index.FactorsOf(v)), expected);
   }
+  // CollectFactors on a few variables (sorted lists) and on most (a scan of all factor indices).
+  for (const std::vector<int>& vars : {std::vector<int>{3, 7}, std::vector<int>{5}, std::vector<int>{}}) {
+    std::set<int> expected;
+    for (int v : vars) expected.insert(index.FactorsOf(v).begin(), index.FactorsOf(v).end());
+    std::vector<int> out;
+    index.CollectFactors(vars, &out);
+    EXPECT_EQ(out, std::vector<int>(expected.begin(), expected.end()));
+  }
+  std::vector<int> most;
+  for (int v = 0; v < 45; ++v) most.push_back(v);
+  std::set<int> expected;
+  for (int f : live) {
+    for (int v : factors[f]) {
+      if (v < 45) expected.insert(f);
+    }
+  }
+  std::vector<int> out;
+  index.CollectFactors(most, &out);
+  EXPECT_EQ(out, std::vector<int>(expected.begin(), expected.end()));
 }
 
 }  // namespace
