@@ -4,7 +4,6 @@
 #include <cmath>
 #include <sstream>
 #include <string>
-#include <thread>
 
 #include "core/base/param_check.h"
 #include "core/inference/partial_cholesky.h"
@@ -149,7 +148,7 @@ Status Eliminate(const EliminationProblem& problem, BayesTree* tree, Elimination
 }
 
 Eliminator::Eliminator(EliminationParams params, int threads)
-    : params_(params), threads_(threads), workspaces_(std::max(threads, 1)) {
+    : params_(params), threads_(threads), workspaces_(std::max(threads, 1)), pool_(std::max(threads, 1) - 1) {
   SLAMD_CHECK(threads >= 1) << "Eliminator: threads = " << threads << "; must be >= 1";
 }
 
@@ -280,10 +279,9 @@ bool Eliminator::EliminateParallel(const EliminationProblem& problem, BayesTree*
       }
     }
   };
-  std::vector<std::thread> helpers;
-  for (int t = 1; t < threads_; ++t) helpers.emplace_back(eliminate_own, t, t);
+  pool_.Run(threads_ - 1, [&](int i) { eliminate_own(i + 1, i + 1); });
   eliminate_own(0, 0);
-  for (std::thread& t : helpers) t.join();
+  pool_.Wait();
   if (std::find(failed.begin(), failed.end(), 1) != failed.end()) return false;
   eliminate_own(-1, 0);  // the top, on the calling thread
   return !failed[0];

@@ -47,6 +47,7 @@
 #include <vector>
 
 #include "core/base/status.h"
+#include "core/base/worker_pool.h"
 #include "core/inference/bayes_tree.h"
 #include "core/inference/hessian_factor.h"
 #include "core/inference/jacobian_factor.h"
@@ -181,6 +182,7 @@ class Eliminator {
   std::vector<int> roots_;                                    // cliques without a parent
   SubtreeSplit split_;
   std::vector<Workspace> workspaces_;                         // one per thread
+  WorkerPool pool_;                                           // threads_ - 1 helpers
   internal::SymbolicForest forest_;
   internal::SymbolicWorkspace symbolic_workspace_;
 };

@@ -12,7 +12,10 @@ Result<std::unique_ptr<Isam2>> Isam2::Create(const Isam2Params& params) {
 }
 
 Isam2::Isam2(const Isam2Params& params)
-    : params_(params), offsets_{0}, eliminator_(params.elimination, params.threads) {}
+    : params_(params),
+      offsets_{0},
+      eliminator_(params.elimination, params.threads),
+      relin_pool_(params.threads - 1) {}
 
 Isam2Result Isam2::Update(const FactorGraph& new_factors, const Values& new_values,
                           const Isam2UpdateOptions& options) {

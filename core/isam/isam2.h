@@ -32,9 +32,9 @@
 #include <limits>
 #include <memory>
 #include <mutex>
-#include <thread>
 #include <vector>
 
+#include "core/base/worker_pool.h"
 #include "core/factors/factor_graph.h"
 #include "core/inference/back_substitution.h"
 #include "core/inference/bayes_tree.h"
@@ -221,12 +221,13 @@ class Isam2 {
   WildfireWorkspace wildfire_;
   Undo undo_;
   // Relinearisation in progress (Relinearize .. FinishRelinearization): the factors, the next
-  // chunk to take, the threads and the first failure (guarded by relin_mutex_).
+  // chunk to take, whether helpers are on it, and the first failure (guarded by relin_mutex_).
   std::vector<int> relin_factors_;
   std::atomic<int> relin_next_{0};
-  std::vector<std::thread> relin_threads_;
+  bool relin_running_ = false;
   std::mutex relin_mutex_;
   Status relin_status_;
+  WorkerPool relin_pool_;  // threads - 1 helpers; last, so that it stops before the rest goes
 };
 
 }  // namespace slamd::core

@@ -384,8 +384,12 @@ void Isam2::Relinearize(const std::vector<int>& relin, std::vector<int>* affecte
   const int n = static_cast<int>(relin_factors_.size());
   const int helpers = std::min(params_.threads, n / kFactorsPerThread) - 1;
   relin_next_.store(0, std::memory_order_relaxed);
-  for (int t = 0; t < helpers; ++t) relin_threads_.emplace_back([this] { LinearizeChunks(); });
-  if (helpers <= 0) LinearizeChunks();  // small: at once, on this thread
+  if (helpers > 0) {
+    relin_pool_.Run(helpers, [this](int) { LinearizeChunks(); });
+    relin_running_ = true;
+  } else {
+    LinearizeChunks();  // small: at once, on this thread
+  }
 }
 
 void Isam2::LinearizeChunks() {
@@ -407,10 +411,10 @@ void Isam2::LinearizeChunks() {
 }
 
 Status Isam2::FinishRelinearization() {
-  if (!relin_threads_.empty()) {
+  if (relin_running_) {
     LinearizeChunks();
-    for (std::thread& t : relin_threads_) t.join();
-    relin_threads_.clear();
+    relin_pool_.Wait();
+    relin_running_ = false;
   }
   Status s = std::move(relin_status_);
   relin_status_ = Status::Ok();
