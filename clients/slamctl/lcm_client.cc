@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <thread>
 
 #include "server/transport/lcm_bus.h"
 
@@ -46,8 +47,16 @@ core::Result<bool> LcmClient::HandleUntil(const std::function<bool()>& done, dou
       const auto left =
           std::chrono::duration_cast<std::chrono::microseconds>(deadline - Clock::now());
       if (left.count() <= 0) return done();
-      wait_ms =
-          static_cast<int>(std::min<long long>((left.count() + 999) / 1000, 100));  // round up
+      // LCM waits in whole milliseconds. The last one is spent in short naps with the incoming
+      // messages handled in between, so that a deadline that is a send time (replay --rate) is
+      // kept to ~50 µs, and what arrives meanwhile is timed as closely.
+      if (left.count() < 1000) {
+        SLAMD_RETURN_IF_ERROR(Drain().status());
+        if (done()) return true;
+        std::this_thread::sleep_for(std::chrono::microseconds(std::min<long long>(left.count(), 50)));
+        continue;
+      }
+      wait_ms = static_cast<int>(std::min<long long>(left.count() / 1000, 100));
     }
     core::Result<int> n = bus_->HandleOnce(wait_ms);
     if (!n.ok()) return n.status();

@@ -197,8 +197,10 @@ int Run(const ReplayOptions& opt, const std::vector<ReplayItem>& items,
       target = t0 + static_cast<double>(poses_sent) / opt.rate_hz;
     if (opt.pacing == Pacing::kSpeed)
       target = t0 + static_cast<double>(item.log_utime - log_t0) * 1e-6 / opt.speed;
-    if (target > 0 && Now() < target)
-      handle_until([&] { return Now() >= target; }, target - Now() + 1.0);
+    // Until the send time itself: incoming messages are handled meanwhile, but do not decide
+    // when it ends (a later deadline made the wait end only with the next message to arrive,
+    // so poses went out in bursts).
+    if (target > 0 && Now() < target) handle_until([&] { return Now() >= target; }, target - Now());
     check(client->PublishBytes(item.channel, item.bytes));
     tracker.OnSent(item, Now());
     if (pose) ++poses_sent;
