@@ -286,11 +286,12 @@ int Daemon::StepEstimator(double timeout_s) {
   }
   if (n > 0) last_input_us_ = SteadyMicros();
   std::shared_ptr<const EstimateSnapshot> snap;
+  std::vector<std::int64_t> applied_received_us;
   if (!batch.empty()) {
     for (const Inbound& in : batch) {
       processed_sequence_ = std::max(processed_sequence_, in.journal_sequence);
     }
-    const ProcessResult r = estimator_->Process(batch);
+    ProcessResult r = estimator_->Process(batch);
     JournalUpdate(batch);
     for (const core::Isam2Result& u : r.updates) {
       Record(&update_us_, &update_us_next_, LatencyWindow(), u.seconds.total * 1e6);
@@ -298,6 +299,7 @@ int Daemon::StepEstimator(double timeout_s) {
     }
     if (!r.status.ok()) log_->warn("solver update failed: {}", r.status.ToString());
     for (const Rejection& rej : r.rejections) PublishRejection(rej);
+    applied_received_us = std::move(r.applied_received_us);
   } else if (queries.empty() && RefineDue() && IdleMicros() >= params_.refine.idle_s * 1e6) {
     const core::Isam2::RefineResult r = estimator_->Refine(params_.refine.budget_s);
     if (!r.status.ok()) log_->warn("refine failed: {}", r.status.ToString());
@@ -319,7 +321,15 @@ int Daemon::StepEstimator(double timeout_s) {
     std::lock_guard lock(snapshot_mutex_);
     snapshot_ = snap;
   }
-  PublishEstimates(*snap);
+  const std::int64_t published_us = SteadyMicros();
+  PublishEstimates(*snap, published_us);
+  // Ingest-to-publish latency of every message that took effect: the first of several that
+  // shared an update waited longest.
+  for (std::int64_t received_us : applied_received_us) {
+    if (received_us > 0) {
+      Record(&publish_us_, &publish_us_next_, LatencyWindow(), static_cast<double>(published_us - received_us));
+    }
+  }
   for (const QueryRequest& q : queries) AnswerAndPublish(q, snap->update_sequence);
   MaybePublishMaps(*snap);
   MaybePublishStatus(*snap);
@@ -458,9 +468,8 @@ void Daemon::MaybePublishMaps(const EstimateSnapshot& snap) {
   PublishMaps("*", params_.publish.map_covariance, 0, snap.update_sequence, &partial);
 }
 
-void Daemon::PublishEstimates(const EstimateSnapshot& snap) {
+void Daemon::PublishEstimates(const EstimateSnapshot& snap, std::int64_t now_steady) {
   if (snap.update_sequence <= published_sequence_) return;
-  const std::int64_t now_steady = SteadyMicros();
   const std::int64_t now = WallMicros();
   for (const RobotEstimate& r : snap.robots) {
     if (r.moved_sequence <= published_sequence_) continue;
@@ -485,13 +494,6 @@ void Daemon::PublishEstimates(const EstimateSnapshot& snap) {
     out.num_covariance = static_cast<std::int32_t>(out.covariance.size());
     out.measurement_utime = r.measurement_utime;
     out.latency_us = r.received_us > 0 ? now_steady - r.received_us : 0;
-    // Ingest-to-publish latency counts the first publish after new data only: a re-publish
-    // after a refinement moved the pose would count the idle time since the last message.
-    if (r.received_us > 0 && r.received_us != latency_recorded_us_[r.id]) {
-      latency_recorded_us_[r.id] = r.received_us;
-      Record(&publish_us_, &publish_us_next_, LatencyWindow(),
-             static_cast<double>(out.latency_us));
-    }
     const core::Status s = server::Publish(*bus_, channels_.Estimate(), out);
     if (!s.ok()) log_->warn("cannot publish estimate_t: {}", s.ToString());
   }

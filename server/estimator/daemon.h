@@ -100,7 +100,8 @@ class Daemon {
   void PublishReject(const Verdict& verdict, std::string_view channel, std::string_view type,
                      std::string_view robot, std::int64_t utime);
   std::string InboundChannel(const Inbound& in) const;
-  void PublishEstimates(const EstimateSnapshot& snap);
+  // now_steady: the publication time that latency_us counts to.
+  void PublishEstimates(const EstimateSnapshot& snap, std::int64_t now_steady);
   void PublishStatus(const EstimateSnapshot& snap);
   void MaybePublishStatus(const EstimateSnapshot& snap);
   void MaybePublishMaps(const EstimateSnapshot& snap);
@@ -140,7 +141,6 @@ class Daemon {
   std::vector<double> update_us_;
   size_t update_us_next_ = 0;
   std::vector<double> publish_us_;
-  std::array<std::int64_t, 256> latency_recorded_us_{};  // per robot id: receipt time recorded
   size_t publish_us_next_ = 0;
   std::int64_t last_map_us_ = 0, last_map_sequence_ = -1;
   std::int64_t last_input_us_ = 0;       // steady clock

@@ -472,6 +472,7 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
   num_factors_ += static_cast<std::int64_t>(s.factors.size());
   for (const core::FactorPtr& f : s.factors.factors()) residual_dimension_ += f->dim();
   result.applied += static_cast<int>(applied.size());
+  for (size_t i : applied) result.applied_received_us.push_back(pending[i].message.received_us);
   counters_.applied += static_cast<std::int64_t>(applied.size());
   ++counters_.updates;
   settled_ = false;
@@ -538,6 +539,7 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
   residual_dimension_ -= it->second.dim;
   applied_.erase(it);
   ++result->applied;
+  result->applied_received_us.push_back(in.received_us);
   ++counters_.applied;
   ++counters_.updates;
   settled_ = false;

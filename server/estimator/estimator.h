@@ -90,6 +90,9 @@ struct Rejection {
 struct ProcessResult {
   core::Status status;  // of the first failed Isam2 update (ok when none failed)
   int applied = 0;      // measurements and retractions that took effect
+  // When each of them was received (Inbound::received_us), for the ingest-to-publish latency of
+  // every message, not only the newest of a robot.
+  std::vector<std::int64_t> applied_received_us;
   std::vector<Rejection> rejections;
   std::vector<core::Isam2Result> updates;  // every Isam2::Update that ran, in order
 };

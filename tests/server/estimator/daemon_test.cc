@@ -207,6 +207,31 @@ TEST(DaemonTest, StatusLatencyPercentilesCoverTheConfiguredWindow) {
   }
 }
 
+// Messages that share an update each count: the first waited for the second.
+TEST(DaemonTest, EveryMessageOfAnUpdateCountsInTheLatencyPercentiles) {
+  InProcessBus bus;
+  ServerParams p = Params();
+  p.publish.status_rate_hz = 1000.0;
+  auto daemon = Daemon::Create(p, &bus).value();
+  Client client(bus);
+  ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", Prior()).ok());
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+  ASSERT_EQ(daemon->StepEstimator(0.0), 1);
+  ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(0, 1)).ok());
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(1, 2)).ok());
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));  // a status is due
+  ASSERT_EQ(daemon->StepEstimator(0.0), 2);  // one update of both
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+  ASSERT_EQ(client.estimates.size(), 2u);  // the prior's, then x2's
+  ASSERT_FALSE(client.statuses.empty());
+  const std::int64_t newest = client.estimates.back().latency_us;  // from x1 -> x2's receipt
+  EXPECT_LT(newest, 20000);
+  EXPECT_GE(client.statuses.back().publish_latency_p99_us, newest + 20000);  // x0 -> x1's
+}
+
 TEST(DaemonTest, ThreadsProcessEverythingAndStopCleanly) {
   InProcessBus bus;
   ServerParams p = Params();
