@@ -53,7 +53,8 @@ core::Result<bool> LcmClient::HandleUntil(const std::function<bool()>& done, dou
       if (left.count() < 1000) {
         SLAMD_RETURN_IF_ERROR(Drain().status());
         if (done()) return true;
-        std::this_thread::sleep_for(std::chrono::microseconds(std::min<long long>(left.count(), 50)));
+        std::this_thread::sleep_for(
+            std::chrono::microseconds(std::min<long long>(left.count(), 50)));
         continue;
       }
       wait_ms = static_cast<int>(std::min<long long>(left.count() / 1000, 100));

@@ -148,7 +148,10 @@ Status Eliminate(const EliminationProblem& problem, BayesTree* tree, Elimination
 }
 
 Eliminator::Eliminator(EliminationParams params, int threads)
-    : params_(params), threads_(threads), workspaces_(std::max(threads, 1)), pool_(std::max(threads, 1) - 1) {
+    : params_(params),
+      threads_(threads),
+      workspaces_(std::max(threads, 1)),
+      pool_(std::max(threads, 1) - 1) {
   SLAMD_CHECK(threads >= 1) << "Eliminator: threads = " << threads << "; must be >= 1";
 }
 

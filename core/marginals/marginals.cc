@@ -407,7 +407,8 @@ Status BayesTreeMarginals::Marginal(int var, Eigen::MatrixXd* cov) {
   return Status::Ok();
 }
 
-void BayesTreeMarginals::RootTrailingMarginal(const Clique& cl, int o, int d, Eigen::MatrixXd* cov) {
+void BayesTreeMarginals::RootTrailingMarginal(const Clique& cl, int o, int d,
+                                              Eigen::MatrixXd* cov) {
   // Σ = R⁻¹R⁻ᵀ in a root. R⁻¹ is upper triangular, so its rows from o on are the inverse of R's
   // trailing block T = R[o:, o:], and the variable's block is T⁻¹[0:d, :] T⁻¹[0:d, :]ᵀ.
   const int m = cl.FrontalDim() - o;

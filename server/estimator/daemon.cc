@@ -327,7 +327,8 @@ int Daemon::StepEstimator(double timeout_s) {
   // shared an update waited longest.
   for (std::int64_t received_us : applied_received_us) {
     if (received_us > 0) {
-      Record(&publish_us_, &publish_us_next_, LatencyWindow(), static_cast<double>(published_us - received_us));
+      Record(&publish_us_, &publish_us_next_, LatencyWindow(),
+             static_cast<double>(published_us - received_us));
     }
   }
   for (const QueryRequest& q : queries) AnswerAndPublish(q, snap->update_sequence);

@@ -31,13 +31,16 @@ TEST(ReplayPacingNetnsTest, RateSendsEveryPoseAtItsTime) {
   constexpr double kRate = 1000.0;
   std::ostringstream chain;
   for (int i = 0; i < kPoses; ++i) chain << "VERTEX_SE2 " << i << " " << i << " 0 0\n";
-  for (int i = 0; i + 1 < kPoses; ++i) chain << "EDGE_SE2 " << i << " " << i + 1 << " 1 0 0 1 0 0 1 0 1\n";
+  for (int i = 0; i + 1 < kPoses; ++i)
+    chain << "EDGE_SE2 " << i << " " << i + 1 << " 1 0 0 1 0 0 1 0 1\n";
   const std::string data = testing::WriteTempFile("chain300.g2o", chain.str());
-  const std::string config = testing::WriteTempFile("pacing.textproto", "publish { status_rate_hz: 20 }\n");
-  const pid_t slamd = testing::Spawn({SLAMD_PATH, "--config", config, "--lcm-url", kUrl, "--log-level", "warn"});
+  const std::string config =
+      testing::WriteTempFile("pacing.textproto", "publish { status_rate_hz: 20 }\n");
+  const pid_t slamd =
+      testing::Spawn({SLAMD_PATH, "--config", config, "--lcm-url", kUrl, "--log-level", "warn"});
   const testing::CommandRun run = testing::RunCommand(
-      {SLAMCTL_PATH, "replay", data, "--lcm-url", kUrl, "--rate", std::to_string(kRate), "--wait-server", "10",
-       "--settle-timeout", "10", "-q", "--json"},
+      {SLAMCTL_PATH, "replay", data, "--lcm-url", kUrl, "--rate", std::to_string(kRate),
+       "--wait-server", "10", "--settle-timeout", "10", "-q", "--json"},
       testing::Streams::kStdout, 60);
   kill(slamd, SIGTERM);
   EXPECT_EQ(testing::WaitExit(slamd), 0);

@@ -34,7 +34,8 @@ TEST(WorkerPoolTest, TheCallerWorksWhileHelpersRun) {
   std::atomic<bool> caller_done{false};
   std::atomic<bool> helper_saw_caller{false};
   pool.Run(1, [&](int) {
-    while (!caller_done.load()) std::this_thread::yield();  // returns only once the caller has gone on
+    while (!caller_done.load())
+      std::this_thread::yield();  // returns only once the caller has gone on
     helper_saw_caller = true;
   });
   caller_done = true;  // Run did not wait for the task

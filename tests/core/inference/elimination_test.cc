@@ -112,7 +112,8 @@ TEST_P(FullEliminationTest, MatchesDenseSolveAndHessian) {
   if (rule == Supernodes::kRelaxed) {  // never more cliques than fundamental (fewer in 23 of 24)
     BayesTree fundamental;
     EliminationResult r;
-    ASSERT_NO_FATAL_FAILURE(EliminateAll(s, order, &fundamental, &r, WithSupernodes(Supernodes::kFundamental)));
+    ASSERT_NO_FATAL_FAILURE(
+        EliminateAll(s, order, &fundamental, &r, WithSupernodes(Supernodes::kFundamental)));
     EXPECT_LE(tree.NumCliques(), fundamental.NumCliques());
   }
 
@@ -153,7 +154,8 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Combine(::testing::Values(OrderKind::kNatural, OrderKind::kColamd,
                                          OrderKind::kReversed, OrderKind::kRandom),
                        ::testing::Values(1u, 2u, 3u),
-                       ::testing::Values(Supernodes::kNone, Supernodes::kFundamental, Supernodes::kRelaxed),
+                       ::testing::Values(Supernodes::kNone, Supernodes::kFundamental,
+                                         Supernodes::kRelaxed),
                        ::testing::Bool()));
 
 TEST(EliminationTest, HessianFactorsGiveTheSameSolution) {

@@ -121,7 +121,9 @@ TEST(SymbolicEliminationTest, RelaxedSupernodesGroupAChainUpToTheFrontalCap) {
   // x1 brings two new variables (x2, x3): over an allowance of one.
   const Factors two_new = {{0}, {0, 1}, {1, 2, 3}};
   EXPECT_EQ(Build(4, two_new, kRelaxed).forest.NumCliques(), 2);
-  EXPECT_EQ(Build(4, two_new, {.relaxed_new_variables = 2, .relaxed_max_frontals = 4}).forest.NumCliques(), 1);
+  EXPECT_EQ(Build(4, two_new, {.relaxed_new_variables = 2, .relaxed_max_frontals = 4})
+                .forest.NumCliques(),
+            1);
   // A Hessian factor still blocks the merge.
   EXPECT_EQ(Build(n, Chain(n), kRelaxed, {1}).forest.num_frontals[0], 1);
 }
@@ -205,7 +207,8 @@ TEST(SymbolicEliminationTest, RandomGraphsMatchBruteForce) {
         for (size_t i = 0; i + 1 < fr.size(); ++i) {
           std::set<int> next = ref[fr[i + 1]];
           next.insert(fr[i + 1]);
-          EXPECT_TRUE(std::includes(next.begin(), next.end(), ref[fr[i]].begin(), ref[fr[i]].end()));
+          EXPECT_TRUE(
+              std::includes(next.begin(), next.end(), ref[fr[i]].begin(), ref[fr[i]].end()));
           const int added = static_cast<int>(next.size() - ref[fr[i]].size());
           if (added > 0) {
             EXPECT_LE(added, rule.relaxed_new_variables);

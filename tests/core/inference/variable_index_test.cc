@@ -74,7 +74,8 @@ TEST(VariableIndexTest, RandomAgainstBruteForce) {
     EXPECT_EQ(Sorted(index.FactorsOf(v)), expected);
   }
   // CollectFactors on a few variables (sorted lists) and on most (a scan of all factor indices).
-  for (const std::vector<int>& vars : {std::vector<int>{3, 7}, std::vector<int>{5}, std::vector<int>{}}) {
+  for (const std::vector<int>& vars :
+       {std::vector<int>{3, 7}, std::vector<int>{5}, std::vector<int>{}}) {
     std::set<int> expected;
     for (int v : vars) expected.insert(index.FactorsOf(v).begin(), index.FactorsOf(v).end());
     std::vector<int> out;

@@ -223,7 +223,7 @@ TEST(DaemonTest, EveryMessageOfAnUpdateCountsInTheLatencyPercentiles) {
   ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(1, 2)).ok());
   ASSERT_TRUE(daemon->PumpIntake(0).ok());
   std::this_thread::sleep_for(std::chrono::milliseconds(2));  // a status is due
-  ASSERT_EQ(daemon->StepEstimator(0.0), 2);  // one update of both
+  ASSERT_EQ(daemon->StepEstimator(0.0), 2);                   // one update of both
   ASSERT_TRUE(daemon->PumpIntake(0).ok());
   ASSERT_EQ(client.estimates.size(), 2u);  // the prior's, then x2's
   ASSERT_FALSE(client.statuses.empty());
