@@ -84,8 +84,8 @@ struct EliminationParams {
   // (symbolic_elimination.h). Pose graphs with many loop closures add one such variable per
   // pose, so their cliques stay at one pose each otherwise; the merged cliques carry a few
   // explicit zeros but need less assembly and copying per variable, and there are fewer of
-  // them to solve. iSAM2 on parking-garage (3D): ~10% less elimination time, p99 step -15%;
-  // victoriaPark -10%; 2D pose graphs about even (BENCHMARKS.md). The cap keeps the cliques
+  // them to solve. iSAM2 on parking-garage (3D): total -12%, p99 step -23%; victoriaPark total
+  // -12%; 2D pose graphs about even (BENCHMARKS.md, session 5). The cap keeps the cliques
   // that every update re-eliminates (at the root) small. 0 = fundamental supernodes only.
   int relaxed_new_variables = 1;
   int relaxed_max_frontals = 4;  // >= 1

@@ -106,7 +106,7 @@ Status MarginalsParams::Validate() const {
 // BayesTreeMarginals
 
 BayesTreeMarginals::BayesTreeMarginals(const BayesTree* tree, const MarginalsParams& params)
-    : tree_(tree), params_(params) {
+    : tree_(tree), params_(params), pool_(std::max(params.threads, 1) - 1) {
   const Status valid = params.Validate();
   SLAMD_CHECK(valid.ok()) << valid.ToString();
 }

@@ -56,8 +56,8 @@
 // to the "top" while that lowers the estimated time), the top is computed first on the calling
 // thread (keeping, in a separate buffer, the full joints of the top cliques that have a child
 // below the top), then each thread walks its share of the subtrees depth first with its own path
-// stack and scratch, writing only its cliques' entries and Σ_FF blocks (no locks; std::thread per
-// pass). Every clique is computed by the same code from the same inputs as on one thread, so the
+// stack and scratch, writing only its cliques' entries and Σ_FF blocks (no locks; the helper
+// threads are kept: core/base/worker_pool.h). Every clique is computed by the same code from the same inputs as on one thread, so the
 // results are the same bit for bit for any thread count. Extra memory: that buffer (27-580 KB on
 // the benchmark datasets) and one path stack per thread (each at most the one-thread stack).
 // Everything else (a warm cache, Marginal(), JointMarginal(), small trees) runs on the calling
@@ -115,6 +115,7 @@
 
 #include "core/base/key.h"
 #include "core/base/status.h"
+#include "core/base/worker_pool.h"
 #include "core/factors/variable.h"
 #include "core/inference/bayes_tree.h"
 #include "core/inference/subtree_split.h"
@@ -327,6 +328,7 @@ class BayesTreeMarginals {
   std::vector<std::vector<int>> subtrees_;  // by thread (0: the calling one)
   SubtreeSplit split_;  // AssignSubtrees' scratch
   std::vector<Helper> helpers_;             // threads 1 .. threads - 1
+  WorkerPool pool_;                         // runs them (threads - 1 helpers)
   std::uint64_t fresh_generation_ = 0;      // clique c's new generation is this + c
   struct SizeFrame {
     int clique, depth;

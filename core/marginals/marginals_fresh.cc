@@ -4,8 +4,6 @@
 #include <cstddef>
 #include <cstring>
 #include <limits>
-#include <system_error>
-#include <thread>
 
 #include "core/base/check.h"
 #include "core/inference/subtree_split.h"
@@ -282,18 +280,12 @@ void BayesTreeMarginals::ComputeAllFresh() {
       }
     }
   };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < params_.threads; ++t) {
-    if (subtrees_[t].empty()) continue;
-    Helper& h = helpers_[t - 1];
-    try {
-      pool.emplace_back(walk_subtrees, std::ref(h.scratch), &h.stack, std::cref(subtrees_[t]));
-    } catch (const std::system_error&) {
-      walk_subtrees(h.scratch, &h.stack, subtrees_[t]);  // no thread to be had: the same, here
-    }
-  }
+  pool_.Run(params_.threads - 1, [&](int i) {
+    Helper& h = helpers_[i];
+    walk_subtrees(h.scratch, &h.stack, subtrees_[i + 1]);
+  });
   walk_subtrees(js_, &walk_, subtrees_[0]);
-  for (std::thread& t : pool) t.join();
+  pool_.Wait();
 }
 
 }  // namespace slamd::core
