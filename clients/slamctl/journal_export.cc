@@ -31,6 +31,7 @@ const char* RecordKind(const journal::JournalRecord& r) {
   if (r.has_message()) return "message";
   if (r.has_boundary()) return "boundary";
   if (r.has_refinement()) return "refinement";
+  if (r.has_rebuild_swap()) return "rebuild";
   return "unknown";
 }
 
@@ -366,6 +367,9 @@ core::Result<JournalInspection> InspectJournal(const std::string& path, bool sal
                     } else if (r.has_refinement()) {
                       info.detail = "rounds=" + std::to_string(r.refinement().rounds());
                       ++out.refinements;
+                    } else if (r.has_rebuild_swap()) {
+                      info.sequence = r.rebuild_swap().update_sequence();
+                      ++out.rebuild_swaps;
                     }
                     out.records.push_back(std::move(info));
                   });
@@ -387,7 +391,8 @@ std::string FormatInspection(const JournalInspection& in) {
     os << line;
   }
   os << "records: " << in.records.size() << " (messages " << in.messages << ", boundaries "
-     << in.boundaries << ", refinements " << in.refinements << ")\n";
+     << in.boundaries << ", refinements " << in.refinements << ", rebuild swaps "
+     << in.rebuild_swaps << ")\n";
   if (!in.messages_by_type.empty()) {
     os << "messages by type:";
     for (const auto& [type, n] : in.messages_by_type) os << ' ' << type << '=' << n;
@@ -434,6 +439,7 @@ std::string InspectionJson(const JournalInspection& in) {
   w.Add("messages", static_cast<long long>(in.messages))
       .Add("boundaries", static_cast<long long>(in.boundaries))
       .Add("refinements", static_cast<long long>(in.refinements))
+      .Add("rebuild_swaps", static_cast<long long>(in.rebuild_swaps))
       .Add("messages_by_type", by_type)
       .Add("file_size", static_cast<long long>(in.file_size))
       .Add("valid_end_offset", static_cast<long long>(in.valid_end_offset))

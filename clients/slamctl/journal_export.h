@@ -42,8 +42,8 @@ namespace slamd::clients {
 struct JournalRecordInfo {
   std::int64_t offset = 0;  // frame offset in the file [bytes]
   std::int64_t size = 0;    // frame size: header + payload [bytes]
-  std::string kind = "";    // "message", "boundary" or "refinement"
-  // message: its sequence; boundary: the update sequence; refinement: 0.
+  std::string kind = "";    // "message", "boundary", "refinement" or "rebuild" (swap)
+  // message: its sequence; boundary and rebuild: the update sequence; refinement: 0.
   std::int64_t sequence = 0;
   std::string type = "";     // message: LCM type name ("odometry_t"); "" otherwise
   std::string channel = "";  // message: channel as journaled
@@ -55,7 +55,7 @@ struct JournalRecordInfo {
 
 struct JournalInspection {
   std::vector<JournalRecordInfo> records;
-  std::int64_t messages = 0, boundaries = 0, refinements = 0;
+  std::int64_t messages = 0, boundaries = 0, refinements = 0, rebuild_swaps = 0;
   std::map<std::string, std::int64_t> messages_by_type;
   std::int64_t file_size = 0;          // [bytes]
   std::int64_t valid_end_offset = 0;   // end of the last valid record [bytes]

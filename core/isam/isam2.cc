@@ -69,6 +69,10 @@ Isam2Result Isam2::UpdateWith(const FactorGraph& new_factors, const Values& new_
     for (int v : linearized_[f].vars()) last.push_back(v);
   }
   affected = last;
+  if (!options.order_last.empty()) {
+    last.clear();
+    for (Key key : options.order_last) last.push_back(theta_.SlotOf(key));
+  }
   // Removed factors: their variables are affected (their cliques hold the factor).
   RemoveFactors(options.remove_factors, &affected);
   for (Key key : options.extra_reeliminate) affected.push_back(theta_.SlotOf(key));
@@ -83,8 +87,15 @@ Isam2Result Isam2::UpdateWith(const FactorGraph& new_factors, const Values& new_
   if (result.status.ok() && (batch || options.force_relinearize || relinearization_backlog_ ||
                              num_updates_ % relinearization.skip == 0)) {
     std::vector<int> relin;
-    // Capped by max_variables: what is left over is taken at the next update, not `skip` later.
-    relinearization_backlog_ = SelectRelinearization(options, batch, relinearization, &relin);
+    // Capped by max_variables or deferred: what is left is checked at the next update, not
+    // `skip` later.
+    const int due = SelectRelinearization(options, batch, relinearization, &relin);
+    if (!batch && options.defer_relinearization_above > 0 &&
+        due > options.defer_relinearization_above) {
+      result.relinearization_deferred = due;
+      relin.clear();
+    }
+    relinearization_backlog_ = due > static_cast<int>(relin.size());
     result.relinearized_variables = static_cast<int>(relin.size());
     Relinearize(relin, &affected, &result.relinearized_factors);
   }

@@ -119,10 +119,11 @@ class Isam2 {
   void AddVariables(const Values& new_values);
   Status AddFactors(const FactorGraph& new_factors, std::vector<int>* indices);
   void RemoveFactors(const std::vector<int>& indices, std::vector<int>* affected);
-  // Returns true when max_variables left some variables over the threshold for later.
-  bool SelectRelinearization(const Isam2UpdateOptions& options, bool all,
-                             const Isam2Params::Relinearization& thresholds,
-                             std::vector<int>* relin);
+  // Lists in *relin the variables to relinearise now (at most max_variables, most changed
+  // first); returns how many are due (over the threshold), before that cap.
+  int SelectRelinearization(const Isam2UpdateOptions& options, bool all,
+                            const Isam2Params::Relinearization& thresholds,
+                            std::vector<int>* relin);
   // Linearisation-error check (Relinearization::error_threshold). The error of a factor's
   // linearisation at the estimate, d_f = |r_f(θ ⊕ δ) − (A_f·δ + b_f)| (whitened), is second
   // order in δ_f: d_f ≈ κ_f·s_f with s_f = StepSize(f). Each factor keeps κ_f from its last
@@ -204,7 +205,7 @@ class Isam2 {
   BayesTree tree_;
   Eliminator eliminator_;
   int num_updates_ = 0;
-  bool relinearization_backlog_ = false;  // the last check was capped by max_variables
+  bool relinearization_backlog_ = false;  // the last check left due variables (cap, deferral)
 
   // Scratch reused across updates (no allocation per step once warm).
   std::vector<int> mark_;  // per var id: 0, or 1 + position in the current elimination set

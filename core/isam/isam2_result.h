@@ -17,6 +17,11 @@ struct Isam2UpdateOptions {
   std::vector<int> remove_factors = {};
   // Variables to re-eliminate even though no new factor touches them.
   std::vector<Key> extra_reeliminate = {};
+  // Variables to order last (nearest the root) among those this update re-eliminates, in place
+  // of the variables of the new factors. A solver given a whole graph in one update (slamd's
+  // rebuild) would otherwise order it freely, and a newest pose could land deep in the tree, where
+  // each following update, which touches it, re-eliminates the path to the root.
+  std::vector<Key> order_last = {};
   // Variables that must not be relinearised in this update.
   std::vector<Key> no_relinearize = {};
   // Relinearise every variable whose update exceeds the threshold now, whatever the skip count.
@@ -25,6 +30,14 @@ struct Isam2UpdateOptions {
   bool force_full = false;
   // Back-substitute into every clique (ignore the wildfire threshold).
   bool force_full_solve = false;
+  // When more variables than this are due for relinearisation, relinearise none of them and
+  // report how many in Isam2Result::relinearization_deferred (they stay due: the check runs
+  // again at the next update). For a caller that relinearises everything elsewhere: slamd
+  // rebuilds the solver at the current estimate on another thread rather than stall its message
+  // stream for the largest steps. Such steps relinearise most of the graph; left undone, the
+  // linearisation point falls behind, so a caller must not defer without rebuilding.
+  // 0 = never defer. Ignored by the batch step (force_full, batch_every).
+  int defer_relinearization_above = 0;
 };
 
 struct Isam2Result {
@@ -36,6 +49,9 @@ struct Isam2Result {
   int new_variables = 0;
   int relinearized_variables = 0;
   int relinearized_factors = 0;
+  // Variables due for relinearisation that were left as they are
+  // (Isam2UpdateOptions::defer_relinearization_above).
+  int relinearization_deferred = 0;
   int reeliminated_variables = 0;
   int reeliminated_cliques = 0;
   int solved_cliques = 0;  // cliques back-substituted

@@ -66,7 +66,8 @@ Status Isam2::CheckInput(const FactorGraph& new_factors, const Values& new_value
       return InvalidArgument("factor " + std::to_string(f) + " is listed twice for removal");
     }
   }
-  for (const std::vector<Key>* keys : {&options.extra_reeliminate, &options.no_relinearize}) {
+  for (const std::vector<Key>* keys :
+       {&options.extra_reeliminate, &options.no_relinearize, &options.order_last}) {
     for (Key key : *keys) {
       if (!theta_.Contains(key) && !new_values.Contains(key)) {
         return NotFound("update option names unknown variable " + KeyToString(key));
@@ -157,9 +158,9 @@ void Isam2::RemoveFactors(const std::vector<int>& indices, std::vector<int>* aff
   }
 }
 
-bool Isam2::SelectRelinearization(const Isam2UpdateOptions& options, bool all,
-                                  const Isam2Params::Relinearization& thresholds,
-                                  std::vector<int>* relin) {
+int Isam2::SelectRelinearization(const Isam2UpdateOptions& options, bool all,
+                                 const Isam2Params::Relinearization& thresholds,
+                                 std::vector<int>* relin) {
   const int n = static_cast<int>(theta_.size());
   std::unordered_set<int> frozen;
   for (Key key : options.no_relinearize) frozen.insert(theta_.SlotOf(key));
@@ -194,16 +195,15 @@ bool Isam2::SelectRelinearization(const Isam2UpdateOptions& options, bool all,
   for (int v = 0; v < n; ++v) {
     if ((all || ratio_[v] > 1.0) && !frozen.count(v)) over.emplace_back(ratio_[v], v);
   }
+  const int due = static_cast<int>(over.size());
   const int limit = thresholds.max_variables;
-  bool capped = false;
-  if (!all && limit > 0 && static_cast<int>(over.size()) > limit) {
+  if (!all && limit > 0 && due > limit) {
     std::nth_element(over.begin(), over.begin() + limit, over.end(),
                      [](const auto& a, const auto& b) { return a.first > b.first; });
     over.resize(limit);
-    capped = true;
   }
   for (const auto& [ratio, v] : over) relin->push_back(v);
-  return capped;
+  return due;
 }
 
 void Isam2::FindStaleLinearizations(double threshold) {

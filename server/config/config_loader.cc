@@ -112,6 +112,9 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   if (e.has_loop_closure_kernel_parameter()) {
     p->estimator.loop_closure_kernel_parameter = e.loop_closure_kernel_parameter();
   }
+  if (e.has_background_relinearization_above()) {
+    p->estimator.background_relinearization_above = e.background_relinearization_above();
+  }
 }
 
 std::string Quote(const std::string& s) { return "\"" + s + "\""; }
@@ -226,6 +229,8 @@ std::string DefaultConfigText() {
       << "  # default for loop closures naming none: none huber cauchy gemanmcclure dcs\n"
       << "  loop_closure_kernel_parameter: " << Num(d.estimator.loop_closure_kernel_parameter)
       << "  # its parameter, > 0\n"
+      << "  background_relinearization_above: " << d.estimator.background_relinearization_above
+      << "  # larger relinearisations rebuild the solver on a helper thread, 0 = never\n"
       << "}\n\n"
       << "journal {\n"
       << "  sync: "

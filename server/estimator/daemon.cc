@@ -132,9 +132,10 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
     if (r.salvaged_bytes > 0) log->warn("recovery: skipped {} corrupt bytes", r.salvaged_bytes);
     log->info(
         "recovered '{}' in {:.3f} s: snapshot '{}' (message {}), then {} messages in {} updates "
-        "and {} refinements from the journal; {} accepted messages still to process",
+        "and {} refinements and {} rebuild swaps from the journal; {} accepted messages still to "
+        "process",
         params.data_dir, r.seconds, r.snapshot_path, r.snapshot_sequence, r.replayed_messages,
-        r.replayed_updates, r.replayed_refinements, r.pending.size());
+        r.replayed_updates, r.replayed_refinements, r.replayed_rebuild_swaps, r.pending.size());
     estimator = std::move(r.estimator);
     pending = std::move(r.pending);
     core::Result<std::unique_ptr<Journal>> opened = Journal::Open(
@@ -334,7 +335,32 @@ int Daemon::StepEstimator(double timeout_s) {
   for (const QueryRequest& q : queries) AnswerAndPublish(q, snap->update_sequence);
   MaybePublishMaps(*snap);
   MaybePublishStatus(*snap);
+  // After this step's estimates went out: bringing a rebuilt solver up to date takes an update.
+  if (estimator_->RebuildReady()) SwapRebuild();
   return n;
+}
+
+void Daemon::SwapRebuild() {
+  const std::int64_t sequence = estimator_->snapshot()->update_sequence;
+  core::Stopwatch timer;
+  const core::Result<bool> swapped = estimator_->FinishRebuild();
+  if (!swapped.ok()) log_->warn("{}", swapped.status().ToString());
+  log_->debug("rebuilt solver swapped in after update {}: {:.3f} ms", sequence,
+              timer.Seconds() * 1e3);
+  // Journaled failed or not: a replay fails the same way, and relinearises the same way after.
+  if (journal_) {
+    const core::Status s = journal_->AppendRebuildSwap(sequence);
+    if (!s.ok()) {
+      ++journal_errors_;
+      log_->error("journal: {}", s.ToString());
+    }
+  }
+  std::shared_ptr<const EstimateSnapshot> snap = estimator_->snapshot();
+  {
+    std::lock_guard lock(snapshot_mutex_);
+    snapshot_ = snap;
+  }
+  PublishEstimates(*snap, SteadyMicros());
 }
 
 void Daemon::NoteReject(std::string_view type, const Verdict& verdict) {
@@ -564,7 +590,7 @@ void Daemon::EstimatorLoop() {
   // Waits at most 50 ms for messages so status keeps going when idle; not at all while a
   // refinement is still due, so the map converges between messages.
   while (!stop_estimator_) {
-    double wait_s = 0.05;
+    double wait_s = estimator_->Rebuilding() ? 0.001 : 0.05;  // a rebuild is swapped in promptly
     if (RefineDue()) {
       wait_s = std::clamp(params_.refine.idle_s - IdleMicros() * 1e-6, 0.0, wait_s);
     }
@@ -576,7 +602,8 @@ void Daemon::EstimatorLoop() {
 }
 
 bool Daemon::RefineDue() const {
-  return params_.refine.enabled && !estimator_->snapshot()->settled;
+  // Not while a rebuild is in flight: the swap would discard the refinement.
+  return params_.refine.enabled && !estimator_->snapshot()->settled && !estimator_->Rebuilding();
 }
 
 std::int64_t Daemon::IdleMicros() const { return SteadyMicros() - last_input_us_; }

@@ -22,7 +22,8 @@
 // accepted message to the journal before queueing it (a message the journal cannot take is
 // rejected with REASON_STORAGE_ERROR: nothing unjournaled is ever accepted); the estimator
 // appends an update boundary after each update and commits (journal.sync) before publishing;
-// refinements are journaled by round count; a background thread writes snapshots from an
+// refinements are journaled by round count, swaps of a solver rebuilt in the background
+// (Estimator::FinishRebuild) by a record; a background thread writes snapshots from an
 // exported copy of the estimator every journal.snapshot_every_updates / _s.
 //
 // Either Start() the two threads, or drive the same steps by hand (no threads) with
@@ -82,6 +83,8 @@ class Daemon {
  private:
   Daemon(const ServerParams& params, Bus* bus, std::unique_ptr<Estimator> estimator,
          std::unique_ptr<Journal> journal);
+  // Swaps in the estimator's rebuilt solver (ready), journals the swap, publishes.
+  void SwapRebuild();
   // Journals what the estimator did (no-op without a journal).
   void JournalUpdate(const std::vector<Inbound>& batch);
   void PublishRejection(const Rejection& rejection);  // a stateful (estimator) rejection

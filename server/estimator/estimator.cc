@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <numeric>
 #include <utility>
 
 #include "core/factors/bearing_range_factor.h"
@@ -98,6 +99,116 @@ Estimator::Estimator(const EstimatorParams& params, std::unique_ptr<core::Isam2>
       marginals_(std::make_unique<core::Isam2Marginals>(
           isam_.get(), core::MarginalsParams{.threads = isam_->params().threads})) {
   PublishSnapshot(false);
+}
+
+Estimator::~Estimator() {
+  if (rebuild_) rebuild_->thread.join();
+  if (retire_thread_.joinable()) retire_thread_.join();
+}
+
+core::Isam2UpdateOptions Estimator::UpdateOptions() const {
+  return {.defer_relinearization_above =
+              rebuild_failed_ ? 0 : params_.background_relinearization_above};
+}
+
+void Estimator::AfterUpdate(const core::Isam2Result& update) {
+  if (update.relinearization_deferred > 0 && !rebuild_) StartRebuild();
+  if (update.relinearization_deferred == 0) rebuild_failed_ = false;
+}
+
+void Estimator::StartRebuild() {
+  // The helper reads only what is copied here (the factors are immutable and shared).
+  auto rebuild = std::make_unique<Rebuild>();
+  const std::vector<core::FactorPtr>& slots = isam_->factor_slots();
+  core::FactorGraph factors;
+  rebuild->position.assign(slots.size(), -1);
+  for (size_t i = 0; i < slots.size(); ++i) {
+    if (!slots[i]) continue;
+    rebuild->position[i] = static_cast<int>(factors.size());
+    factors.Add(slots[i]);
+  }
+  rebuild->num_variables = static_cast<int>(isam_->linearization_point().size());
+  Rebuild* r = rebuild.get();
+  rebuild->thread = std::thread([r, params = isam_->params(), factors = std::move(factors),
+                                 estimate = isam_->CalculateEstimate(), newest = NewestPoses()] {
+    core::Result<std::unique_ptr<core::Isam2>> made = core::Isam2::Create(params);
+    if (made.ok()) {
+      r->solver = std::move(made).value();
+      r->status = r->solver->Update(factors, estimate, {.order_last = newest}).status;
+    } else {
+      r->status = made.status();
+    }
+    r->done.store(true, std::memory_order_release);
+  });
+  rebuild_ = std::move(rebuild);
+}
+
+std::vector<Key> Estimator::NewestPoses() const {
+  std::vector<Key> keys;
+  for (std::uint8_t id : registry_.ids()) {
+    if (robots_[id].anchored) keys.push_back(MakeKey('x', robots_[id].newest, id));
+  }
+  return keys;
+}
+
+core::Result<bool> Estimator::FinishRebuild() {
+  if (!rebuild_) return false;
+  rebuild_->thread.join();
+  const std::unique_ptr<Rebuild> r = std::move(rebuild_);
+  if (!r->status.ok()) {
+    rebuild_failed_ = true;
+    return core::Status(r->status.code(), "background rebuild: " + r->status.message());
+  }
+  // What the live solver took since the start, in one update: the factors added since (in
+  // slot order), the variables added since (at the live estimate) and the removals.
+  const std::vector<core::FactorPtr>& slots = isam_->factor_slots();
+  const size_t before = r->position.size();
+  core::FactorGraph added;
+  std::vector<size_t> added_slots;
+  for (size_t i = before; i < slots.size(); ++i) {
+    if (!slots[i]) continue;
+    added.Add(slots[i]);
+    added_slots.push_back(i);
+  }
+  core::Isam2UpdateOptions options = UpdateOptions();
+  for (size_t i = 0; i < before; ++i) {
+    if (r->position[i] >= 0 && !slots[i]) options.remove_factors.push_back(r->position[i]);
+  }
+  const core::Values& theta = isam_->linearization_point();
+  core::Values values;
+  for (int v = r->num_variables; v < static_cast<int>(theta.size()); ++v) {
+    const core::Status s = values.Insert(theta.KeyAt(v), isam_->CalculateEstimate(theta.KeyAt(v)));
+    SLAMD_CHECK(s.ok()) << s.ToString();
+  }
+  core::Isam2Result update;
+  if (added.size() > 0 || !values.empty() || !options.remove_factors.empty()) {
+    update = r->solver->Update(added, values, options);
+    if (!update.status.ok()) {
+      rebuild_failed_ = true;
+      return core::Status(update.status.code(),
+                          "background rebuild: catching up: " + update.status.message());
+    }
+  }
+  // Each factor's index in the new solver (a pass over a vector, not over applied_).
+  std::vector<int> index(slots.size(), -1);
+  for (size_t i = 0; i < before; ++i) index[i] = slots[i] ? r->position[i] : -1;
+  for (size_t k = 0; k < added_slots.size(); ++k) {
+    index[added_slots[k]] = update.new_factor_indices[k];
+  }
+  for (int& slot : solver_index_) slot = slot >= 0 ? index[slot] : -1;
+  // The old solver is freed on a helper thread: thousands of blocks, up to 3.5 ms on
+  // victoriaPark, which the next message would wait for. (Its marginals first: they point to it.)
+  marginals_.reset();
+  if (retire_thread_.joinable()) retire_thread_.join();
+  retire_thread_ = std::thread([old = std::move(isam_)] {});
+  isam_ = std::move(r->solver);
+  marginals_ = std::make_unique<core::Isam2Marginals>(
+      isam_.get(), core::MarginalsParams{.threads = isam_->params().threads});
+  ++counters_.rebuilds;
+  settled_ = false;
+  PublishSnapshot(true);
+  AfterUpdate(update);
+  return true;
 }
 
 bool Estimator::Known(Key key, const Staged& s) const {
@@ -451,7 +562,7 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
     PublishSnapshot(false);
     return;
   }
-  result.updates.push_back(isam_->Update(s.factors, s.values));
+  result.updates.push_back(isam_->Update(s.factors, s.values, UpdateOptions()));
   const core::Isam2Result& update = result.updates.back();
   if (!update.status.ok()) {
     if (result.status.ok()) result.status = update.status;
@@ -467,7 +578,8 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
     return;
   }
   for (const auto& [position, id, first] : s.ids) {
-    applied_[id] = {update.new_factor_indices[position], first, s.factors[position]->dim()};
+    applied_[id] = {static_cast<int>(solver_index_.size()), first, s.factors[position]->dim()};
+    solver_index_.push_back(update.new_factor_indices[position]);
   }
   num_factors_ += static_cast<std::int64_t>(s.factors.size());
   for (const core::FactorPtr& f : s.factors.factors()) residual_dimension_ += f->dim();
@@ -477,6 +589,7 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
   ++counters_.updates;
   settled_ = false;
   PublishSnapshot(true);
+  AfterUpdate(update);
 }
 
 std::optional<Estimator::MeasurementId> Estimator::RemovalId(const RemoveFactorRequest& r,
@@ -525,8 +638,8 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
     Reject(in, RejectReason::kUnknownFactor, std::move(why), result);
     return;
   }
-  core::Isam2UpdateOptions options;
-  options.remove_factors = {it->second.factor};
+  core::Isam2UpdateOptions options = UpdateOptions();
+  options.remove_factors = {solver_index_[it->second.factor]};
   result->updates.push_back(isam_->Update({}, {}, options));
   const core::Isam2Result& update = result->updates.back();
   if (!update.status.ok()) {
@@ -537,6 +650,7 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
   }
   --num_factors_;
   residual_dimension_ -= it->second.dim;
+  solver_index_[it->second.factor] = -1;
   applied_.erase(it);
   ++result->applied;
   result->applied_received_us.push_back(in.received_us);
@@ -544,6 +658,7 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
   ++counters_.updates;
   settled_ = false;
   PublishSnapshot(true);
+  AfterUpdate(update);
 }
 
 std::vector<Rejection> Estimator::RejectHeld(const std::string& why) {
@@ -587,9 +702,10 @@ EstimatorState Estimator::ExportState() const {
   }
   state.linearization_point = isam_->linearization_point();
   for (const auto& [id, f] : applied_) {
-    SLAMD_CHECK(position[f.factor] >= 0) << "applied measurement on a removed factor";
+    const int slot = solver_index_[f.factor];
+    SLAMD_CHECK(slot >= 0 && position[slot] >= 0) << "applied measurement on a removed factor";
     state.applied.push_back({std::get<0>(id), std::get<1>(id), std::get<2>(id), std::get<3>(id),
-                             position[f.factor], f.first, f.dim});
+                             position[slot], f.first, f.dim});
   }
   for (std::uint8_t id : registry_.ids()) {
     const RobotState& r = robots_[id];
@@ -631,21 +747,25 @@ core::Result<std::unique_ptr<Estimator>> Estimator::Restore(const EstimatorParam
     }
     e->applied_[{a.type, a.a, a.b, a.kind}] = {a.factor, a.first, a.dim};
   }
-  if (!state.factors.empty() || !state.linearization_point.empty()) {
-    core::FactorGraph graph;
-    for (const core::FactorPtr& f : state.factors) graph.Add(f);
-    const core::Isam2Result r = e->isam_->Update(graph, state.linearization_point);
-    if (!r.status.ok()) return core::DataLoss("snapshot: " + r.status.ToString());
-  }
   // An anchored robot's newest pose is read after every update: it must be in the graph.
   for (const EstimatorState::Robot& r : state.robots) {
     if (!r.anchored) continue;
     if (r.newest > core::kMaxKeyIndex ||
-        !e->isam_->linearization_point().Contains(MakeKey('x', r.newest, r.id))) {
+        !state.linearization_point.Contains(MakeKey('x', r.newest, r.id))) {
       return core::DataLoss("snapshot: robot '" + r.name + "' is anchored but its newest pose " +
                             std::to_string(r.newest) + " is not in the graph");
     }
   }
+  if (!state.factors.empty() || !state.linearization_point.empty()) {
+    core::FactorGraph graph;
+    for (const core::FactorPtr& f : state.factors) graph.Add(f);
+    // The newest poses at the root, as an incremental run keeps them (see order_last).
+    const core::Isam2Result r =
+        e->isam_->Update(graph, state.linearization_point, {.order_last = e->NewestPoses()});
+    if (!r.status.ok()) return core::DataLoss("snapshot: " + r.status.ToString());
+  }
+  e->solver_index_.resize(state.factors.size());  // the state's factor i is the solver's i
+  std::iota(e->solver_index_.begin(), e->solver_index_.end(), 0);
   for (const EstimatorState::HeldMessage& h : state.held) e->held_.push_back({h.message, h.waited});
   e->counters_ = state.counters;
   e->sequence_ = state.update_sequence;

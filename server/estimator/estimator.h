@@ -29,15 +29,25 @@
 // (msgs/lcm/remove_factor_t.lcm); none matching is kUnknownFactor. A removed measurement may be
 // sent again. Origin anchors (kAnchorAtOrigin) cannot be removed.
 //
-// Exactness: with refinement off, each Process call is exactly one Isam2::Update of the factors
-// in message order and the values in creation order, so feeding the messages of one dataset step
-// per Process call reproduces an offline Isam2 run fed those steps (PrepareStep) bit for bit.
-// Coalescing k odometry messages into one call equals k lock-step calls when none of the
-// coalesced messages but the last closes a loop and relinearization.skip == 1 (the initial
-// guesses then equal the lock-step estimates: a chain's update does not move its poses), up to
-// rounding (tested to 1e-9).
+// Background relinearisation (EstimatorParams::background_relinearization_above): an update due
+// to relinearise many variables defers it and starts a rebuild: a new solver is made from the
+// live factors at the current estimate (one batch update, as Restore does) on a helper thread.
+// The live solver keeps taking messages meanwhile. FinishRebuild (the daemon calls it as soon as
+// RebuildReady) gives the new solver what the live one took since the rebuild started (new
+// factors and variables, at the live estimate, and removals) in one update and swaps it in.
+// Deterministic: the same messages, refinements and swaps in the same order give the same state
+// (the journal records the swaps), whatever the threads' timing.
+//
+// Exactness: with refinement and background relinearisation off, each Process call is exactly one
+// Isam2::Update of the factors in message order and the values in creation order, so feeding the
+// messages of one dataset step per Process call reproduces an offline Isam2 run fed those steps
+// (PrepareStep) bit for bit. Coalescing k odometry messages into one call equals k lock-step calls
+// when none of the coalesced messages but the last closes a loop and relinearization.skip == 1 (the
+// initial guesses then equal the lock-step estimates: a chain's update does not move its poses), up
+// to rounding (tested to 1e-9).
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <deque>
@@ -48,6 +58,7 @@
 #include <set>
 #include <span>
 #include <string>
+#include <thread>
 #include <tuple>
 #include <variant>
 #include <vector>
@@ -121,6 +132,15 @@ class Estimator {
   // Applies `batch` (see the file comment) with one Isam2::Update; publishes a new snapshot.
   ProcessResult Process(std::vector<Inbound> batch);
 
+  // Background relinearisation (file comment). A rebuild is in flight / done and waiting for
+  // FinishRebuild.
+  bool Rebuilding() const { return rebuild_ != nullptr; }
+  bool RebuildReady() const { return rebuild_ && rebuild_->done.load(std::memory_order_acquire); }
+  // Waits for the rebuild in flight, brings it up to date and swaps it in; a new snapshot.
+  // false when no rebuild was in flight. When the rebuild failed, the live solver stays (and the
+  // next update relinearises in the update) and the status says why.
+  core::Result<bool> FinishRebuild();
+
   // Isam2::Refine(budget_s, max_rounds); a new snapshot when anything moved.
   core::Isam2::RefineResult Refine(double budget_s,
                                    int max_rounds = std::numeric_limits<int>::max());
@@ -144,6 +164,8 @@ class Estimator {
   const core::Isam2& solver() const { return *isam_; }
   int held_messages() const { return static_cast<int>(held_.size()); }
 
+  ~Estimator();  // waits for a rebuild in flight
+
  private:
   Estimator(const EstimatorParams& params, std::unique_ptr<core::Isam2> isam);
 
@@ -165,7 +187,7 @@ class Estimator {
   // second key or 0, kind); loop closures with the smaller key first.
   using MeasurementId = std::tuple<char, core::Key, core::Key, int>;
   struct AppliedFactor {
-    int factor = 0;       // Isam2 factor index
+    int factor = 0;       // its number: the solver's factor index is solver_index_[factor]
     core::Key first = 0;  // the key the message named first (loop closures are directed)
     int dim = 0;
   };
@@ -204,6 +226,23 @@ class Estimator {
   void Touch(std::uint8_t robot, const Inbound& in, Staged* s);
   void Reject(const Inbound& in, RejectReason reason, std::string message, ProcessResult* result);
   void PublishSnapshot(bool bump);
+  // Options for every update from messages (the deferral), and what follows an update.
+  core::Isam2UpdateOptions UpdateOptions() const;
+  void AfterUpdate(const core::Isam2Result& update);
+  void StartRebuild();
+  // The newest pose of every anchored robot (what the next updates most likely touch).
+  std::vector<core::Key> NewestPoses() const;
+
+  // A solver being rebuilt on `thread`; the rest is read only after `done`.
+  struct Rebuild {
+    std::thread thread;
+    std::atomic<bool> done = false;
+    std::unique_ptr<core::Isam2> solver;
+    core::Status status;
+    // Per live factor slot at the start: its index in `solver` (-1: an empty slot).
+    std::vector<int> position;
+    int num_variables = 0;  // live variables at the start (slots [0, n) are in `solver`)
+  };
 
   EstimatorParams params_;
   core::RobustKernel default_loop_kernel_;  // params_.loop_closure_kernel
@@ -211,7 +250,13 @@ class Estimator {
   RobotRegistry registry_;
   RobotState robots_[256];
   std::map<MeasurementId, AppliedFactor> applied_;  // applied (not removed) measurements
+  // Per applied factor number (AppliedFactor::factor): its Isam2 factor index, -1 once removed.
+  // A rebuilt solver numbers its factors anew; this vector is all that changes then.
+  std::vector<int> solver_index_;
   std::unique_ptr<core::Isam2Marginals> marginals_;
+  std::unique_ptr<Rebuild> rebuild_;
+  bool rebuild_failed_ = false;  // the last rebuild failed: the next update relinearises inline
+  std::thread retire_thread_;    // frees the solver a rebuild replaced
   std::deque<Held> held_;
   EstimatorCounters counters_;
   std::int64_t sequence_ = 0;

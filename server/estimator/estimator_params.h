@@ -35,6 +35,17 @@ struct EstimatorParams {
   // parameter (> 0 unless "none"). Limits the pull of wrong loop closures.
   std::string loop_closure_kernel = "none";
   double loop_closure_kernel_parameter = 1.0;
+  // When an update is due to relinearise more variables than this, it relinearises none
+  // (core::Isam2UpdateOptions::defer_relinearization_above); the estimator instead rebuilds the
+  // solver from the live factors at the current estimate on a helper thread, while the live
+  // solver keeps taking messages, and swaps it in once it is ready and has taken what the live
+  // one took meanwhile. Such relinearisations re-eliminate most of the tree (1-5 ms on
+  // manhattan.g2o and victoriaPark.txt, against ~0.01 ms for an odometry step), and every
+  // message queued behind them waited: at 1 kHz the ingest-to-publish p99 went from 5.4 to
+  // 1.9 ms (manhattan) and 4.6 to 3.1 ms (victoriaPark) with 512 (256: more rebuilds, which
+  // compete for the 2 cores: 2.2 and 3.4 ms). 0 = never (every relinearisation in the update,
+  // as `slamctl bench` runs the solver). >= 0.
+  int background_relinearization_above = 512;
 
   core::Status Validate() const;
 };

@@ -118,6 +118,11 @@ core::Result<RecoveryResult> Recover(const std::string& data_dir, const Estimato
     } else if (record.has_refinement()) {
       out.estimator->Refine(std::numeric_limits<double>::infinity(), record.refinement().rounds());
       ++out.replayed_refinements;
+    } else if (record.has_rebuild_swap()) {
+      // None in flight when the rebuild started before the snapshot: then there is none to swap.
+      const core::Result<bool> swapped = out.estimator->FinishRebuild();
+      if (!swapped.ok()) out.notes.push_back(At(path, offset) + ": " + swapped.status().message());
+      if (swapped.ok() && swapped.value()) ++out.replayed_rebuild_swaps;
     }
   }
   out.salvaged_bytes = reader.skipped_bytes();

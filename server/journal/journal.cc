@@ -56,6 +56,13 @@ core::Status Journal::AppendRefinement(int rounds) {
   return AppendLocked(record);
 }
 
+core::Status Journal::AppendRebuildSwap(std::int64_t update_sequence) {
+  journal::JournalRecord record;
+  record.mutable_rebuild_swap()->set_update_sequence(update_sequence);
+  std::lock_guard lock(mutex_);
+  return AppendLocked(record);
+}
+
 core::Status Journal::Commit() {
   std::lock_guard lock(mutex_);
   return writer_->MaybeSync(JournalWriter::Clock::now());

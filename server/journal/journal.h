@@ -40,6 +40,8 @@ class Journal {
                               int count);
   // After a refinement that made `rounds` rounds.
   core::Status AppendRefinement(int rounds);
+  // After the estimator swapped in a rebuilt solver (Estimator::FinishRebuild).
+  core::Status AppendRebuildSwap(std::int64_t update_sequence);
   // Group commit per the sync policy (always: fdatasync now; interval: if due; never: no-op).
   core::Status Commit();
   // fdatasync now whatever the policy (shutdown).

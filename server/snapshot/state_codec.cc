@@ -276,6 +276,7 @@ std::string EncodeState(const EstimatorState& state, const JournalPosition& posi
   c->set_rejected(state.counters.rejected);
   c->set_updates(state.counters.updates);
   c->set_refinements(state.counters.refinements);
+  c->set_rebuilds(state.counters.rebuilds);
   for (std::int64_t n : state.counters.rejects_by_reason) c->add_rejects_by_reason(n);
   out.set_num_factors(state.num_factors);
   out.set_residual_dimension(state.residual_dimension);
@@ -328,6 +329,7 @@ core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition
   state.counters.rejected = c.rejected();
   state.counters.updates = c.updates();
   state.counters.refinements = c.refinements();
+  state.counters.rebuilds = c.rebuilds();
   for (int i = 0; i < c.rejects_by_reason_size() &&
                   i < static_cast<int>(state.counters.rejects_by_reason.size());
        ++i) {

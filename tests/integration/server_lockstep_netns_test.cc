@@ -1,5 +1,6 @@
 // Lock-step over udpm:// (ttl=0, private network namespace; issue 6, item 4): a client streams
-// all of input_M3500 into the real `slamd` (refinement off), one step per pose, waiting for each
+// all of input_M3500 into the real `slamd` (refinement off, and background relinearisation: its
+// swaps come when a helper thread is done), one step per pose, waiting for each
 // pose's estimate_t before the next step; every published estimate must equal offline Isam2 fed
 // the same updates to 1e-9.
 //
@@ -53,6 +54,7 @@ constexpr const char* kRobot = "m3500";
 constexpr double kAnchorSigma = 1e-3;  // the bench protocol's anchor
 constexpr const char* kConfig =
     "refine { enabled: false }\n"
+    "estimator { background_relinearization_above: 0 }\n"
     "publish { status_rate_hz: 5 estimate_covariance: false }\n"
     "journal { sync: NEVER snapshot_every_updates: 0 snapshot_every_s: 0 }\n"
     "log_level: \"warn\"\n";

@@ -112,6 +112,7 @@ std::string WriteSession(const std::string& dir, std::vector<Written>* written) 
         &br);
   Append(*j, "SLAMD_LANDMARK", "landmark_observation_t", br, written);
   EXPECT_TRUE(j->AppendRefinement(3).ok());
+  EXPECT_TRUE(j->AppendRebuildSwap(2).ok());
   slamd::remove_factor_t rm;
   ToLcm(RemoveFactorRequest{.utime = 24,
                             .target = RemoveTarget::kLoopClosure,
@@ -254,9 +255,17 @@ TEST(JournalExportTest, InspectListsRecordsAndReportsATornTail) {
   EXPECT_EQ(in.messages, static_cast<std::int64_t>(written.size()));
   EXPECT_EQ(in.boundaries, 2);
   EXPECT_EQ(in.refinements, 1);
+  EXPECT_EQ(in.rebuild_swaps, 1);
   EXPECT_EQ(in.end, "clean");
   EXPECT_EQ(in.messages_by_type.at("odometry_t"), 5);
-  ASSERT_EQ(in.records.size(), written.size() + 3);
+  ASSERT_EQ(in.records.size(), written.size() + 4);
+  int swaps = 0;
+  for (const JournalRecordInfo& rec : in.records) {
+    if (rec.kind != "rebuild") continue;
+    ++swaps;
+    EXPECT_EQ(rec.sequence, 2);
+  }
+  EXPECT_EQ(swaps, 1);
   EXPECT_EQ(in.records[0].offset, 16);
   EXPECT_EQ(in.records[0].kind, "message");
   EXPECT_EQ(in.records[0].sequence, 1);

@@ -336,5 +336,75 @@ TEST(Isam2Test, TheLinearizationErrorCheckHasNoSideEffects) {
       0.0);
 }
 
+// Isam2UpdateOptions::defer_relinearization_above: an update due to relinearise more variables
+// than that relinearises none (θ of every old variable stays bit for bit), reports how many were
+// due, and checks again at the next update; a limit above every due count changes nothing.
+TEST(Isam2Test, DeferredRelinearizationLeavesTheLinearizationPointAndIsReported) {
+  const ExampleProblem p = testing::MakePlanarProblem(60, 10, 7);
+  auto deferring = MakeIsam2({.relinearization = {.skip = 3}});
+  auto plain = MakeIsam2({.relinearization = {.skip = 3}});
+  auto unlimited = MakeIsam2({.relinearization = {.skip = 3}});
+  int deferred = 0, due_again = 0;
+  bool previous_deferred = false;
+  for (const testing::ExampleStep& step : testing::StreamByPose(p)) {
+    const Values before = deferring->linearization_point();
+    const Isam2Result r =
+        deferring->Update(step.factors, step.values, {.defer_relinearization_above = 2});
+    ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+    ASSERT_TRUE(CheckConsistency(deferring->tree()).ok());
+    if (r.relinearization_deferred > 0) {
+      ++deferred;
+      EXPECT_GT(r.relinearization_deferred, 2);
+      EXPECT_EQ(r.relinearized_variables, 0);
+      for (Key key : before.keys()) {
+        const Variable& now = deferring->linearization_point().Get(key);
+        ASSERT_EQ(LocalCoordinates(before.Get(key), now).lpNorm<Eigen::Infinity>(), 0.0)
+            << KeyToString(key);
+      }
+    } else {
+      EXPECT_LE(r.relinearized_variables, 2);
+    }
+    // Checked at every update after a deferral, not only every `skip`.
+    if (previous_deferred && (r.relinearization_deferred > 0 || r.relinearized_variables > 0)) {
+      ++due_again;
+    }
+    previous_deferred = r.relinearization_deferred > 0;
+
+    const Isam2Result a = plain->Update(step.factors, step.values);
+    const Isam2Result b =
+        unlimited->Update(step.factors, step.values, {.defer_relinearization_above = 1 << 30});
+    ASSERT_TRUE(a.status.ok() && b.status.ok());
+    EXPECT_EQ(b.relinearization_deferred, 0);
+    EXPECT_EQ(testing::MaxDifference(plain->CalculateEstimate(), unlimited->CalculateEstimate()),
+              0.0);
+  }
+  EXPECT_GT(deferred, 0);
+  EXPECT_GT(due_again, 0);
+  EXPECT_GT(plain->Chi2(), 0.0);
+}
+
+// Isam2UpdateOptions::order_last: a whole graph given in one update puts those variables in the
+// root clique, and the solution does not depend on the order.
+TEST(Isam2Test, OrderLastPutsTheVariablesInTheRootClique) {
+  const ExampleProblem p = testing::MakePlanarProblem(80, 12, 9);
+  const Key newest = MakeKey('x', 79);
+  ASSERT_TRUE(p.initial.Contains(newest));
+  auto constrained = MakeIsam2();
+  auto free = MakeIsam2();
+  Isam2Result r = constrained->Update(p.graph, p.initial, {.order_last = {newest}});
+  ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+  ASSERT_TRUE(free->Update(p.graph, p.initial).status.ok());
+  ASSERT_TRUE(CheckConsistency(constrained->tree()).ok());
+  const BayesTree& tree = constrained->tree();
+  const int root = tree.CliqueOf(constrained->linearization_point().SlotOf(newest));
+  EXPECT_EQ(tree.clique(root).parent(), Clique::kNone);
+  EXPECT_LT(testing::MaxDifference(constrained->CalculateEstimate(), free->CalculateEstimate()),
+            1e-9);
+  // An unknown key is refused before anything changes.
+  r = constrained->Update({}, {}, {.order_last = {MakeKey('x', 500)}});
+  EXPECT_EQ(r.status.code(), StatusCode::kNotFound);
+  EXPECT_NE(r.status.message().find("x500"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace slamd::core

@@ -29,6 +29,8 @@ TEST(ServerParamsTest, EachViolationNamesItsField) {
       {[](ServerParams* p) { p->estimator.anchor_sigma = 0; }, "estimator.anchor_sigma"},
       {[](ServerParams* p) { p->estimator.max_held_messages = -1; }, "estimator.max_held_messages"},
       {[](ServerParams* p) { p->estimator.max_hold_updates = 0; }, "estimator.max_hold_updates"},
+      {[](ServerParams* p) { p->estimator.background_relinearization_above = -1; },
+       "estimator.background_relinearization_above"},
   };
   for (const Case& c : cases) {
     ServerParams p;
