@@ -253,6 +253,7 @@ class Estimator {
   // Per applied factor number (AppliedFactor::factor): its Isam2 factor index, -1 once removed.
   // A rebuilt solver numbers its factors anew; this vector is all that changes then.
   std::vector<int> solver_index_;
+  int marginals_threads_;  // Isam2Params::threads as configured (a rebuilt solver has 1)
   std::unique_ptr<core::Isam2Marginals> marginals_;
   std::unique_ptr<Rebuild> rebuild_;
   bool rebuild_failed_ = false;  // the last rebuild failed: the next update relinearises inline
