@@ -141,7 +141,8 @@ class Estimator {
   // next update relinearises in the update) and the status says why.
   core::Result<bool> FinishRebuild();
 
-  // Isam2::Refine(budget_s, max_rounds); a new snapshot when anything moved.
+  // Isam2::Refine(budget_s, max_rounds); a new snapshot when anything moved. (While a rebuild is
+  // in flight, the swap discards what it did: the daemon refines only when none is.)
   core::Isam2::RefineResult Refine(double budget_s,
                                    int max_rounds = std::numeric_limits<int>::max());
 
