@@ -84,8 +84,10 @@ Isam2Result Isam2::UpdateWith(const FactorGraph& new_factors, const Values& new_
   const bool batch =
       options.force_full || (params_.batch_every > 0 && num_updates_ % params_.batch_every == 0);
   result.batch_step = batch;
-  if (result.status.ok() && (batch || options.force_relinearize || relinearization_backlog_ ||
-                             num_updates_ % relinearization.skip == 0)) {
+  const bool check = !options.skip_relinearization &&
+                     (options.force_relinearize || relinearization_backlog_ ||
+                      num_updates_ % relinearization.skip == 0);
+  if (result.status.ok() && (batch || check)) {
     std::vector<int> relin;
     // Capped by max_variables or deferred: what is left is checked at the next update, not
     // `skip` later.

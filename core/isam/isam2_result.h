@@ -38,6 +38,11 @@ struct Isam2UpdateOptions {
   // linearisation point falls behind, so a caller must not defer without rebuilding.
   // 0 = never defer. Ignored by the batch step (force_full, batch_every).
   int defer_relinearization_above = 0;
+  // No relinearisation check in this update (what is due stays due). slamd's estimator while
+  // its rebuild is in flight: the rebuild relinearises everything, and the check costs a scan of
+  // every δ and evaluations of factors (4-6 ms per update on victoriaPark with a large backlog).
+  // Ignored by the batch step.
+  bool skip_relinearization = false;
 };
 
 struct Isam2Result {

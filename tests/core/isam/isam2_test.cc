@@ -383,6 +383,30 @@ TEST(Isam2Test, DeferredRelinearizationLeavesTheLinearizationPointAndIsReported)
   EXPECT_GT(plain->Chi2(), 0.0);
 }
 
+// Isam2UpdateOptions::skip_relinearization: no check, nothing relinearised or deferred, even when
+// the skip count makes the update a checking one; what was due is due at the next update.
+TEST(Isam2Test, SkippedRelinearizationLeavesTheLinearizationPoint) {
+  const ExampleProblem p = testing::MakePlanarProblem(60, 10, 7);
+  auto isam = MakeIsam2({.relinearization = {.skip = 1}});
+  int skipped_due = 0;
+  for (const testing::ExampleStep& step : testing::StreamByPose(p)) {
+    const Values before = isam->linearization_point();
+    const Isam2Result r = isam->Update(step.factors, step.values, {.skip_relinearization = true});
+    ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+    EXPECT_EQ(r.relinearized_variables, 0);
+    EXPECT_EQ(r.relinearization_deferred, 0);
+    for (Key key : before.keys()) {
+      const Variable& now = isam->linearization_point().Get(key);
+      ASSERT_EQ(LocalCoordinates(before.Get(key), now).lpNorm<Eigen::Infinity>(), 0.0);
+    }
+    // The same update without the option would have relinearised: then the next one does.
+    const Isam2Result next = isam->Update({}, {});
+    ASSERT_TRUE(next.status.ok());
+    skipped_due += next.relinearized_variables > 0;
+  }
+  EXPECT_GT(skipped_due, 0);
+}
+
 // Isam2UpdateOptions::order_last: a whole graph given in one update puts those variables in the
 // root clique, and the solution does not depend on the order.
 TEST(Isam2Test, OrderLastPutsTheVariablesInTheRootClique) {
