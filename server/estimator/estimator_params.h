@@ -42,9 +42,9 @@ struct EstimatorParams {
   // one took meanwhile. Such relinearisations re-eliminate most of the tree (1-5 ms on
   // manhattan.g2o and victoriaPark.txt, against ~0.01 ms for an odometry step), and every
   // message queued behind them waited: at 1 kHz the ingest-to-publish p99 went from 5.4-6.3 to
-  // 2.1-2.4 ms (manhattan) and 4.5-5.4 to 3.4-4.5 ms (victoriaPark); BENCHMARKS.md. 256 made
-  // more rebuilds, which compete for the 2 cores. 0 = never (every relinearisation in the
-  // update, as `slamctl bench` runs the solver). >= 0.
+  // 1.9-2.3 ms (manhattan) and 4.5-5.4 to 2.5-3.5 ms (victoriaPark); BENCHMARKS.md. 256: no
+  // clear difference (more rebuilds, which compete for the 2 cores). 0 = never (every
+  // relinearisation in the update, as `slamctl bench` runs the solver). >= 0.
   int background_relinearization_above = 512;
 
   core::Status Validate() const;
