@@ -31,8 +31,9 @@
 //
 // Background relinearisation (EstimatorParams::background_relinearization_above): an update due
 // to relinearise many variables defers it and starts a rebuild: a new solver is made from the
-// live factors at the current estimate (one batch update, as Restore does) on a helper thread.
-// The live solver keeps taking messages meanwhile. FinishRebuild (the daemon calls it as soon as
+// live factors at the current estimate (one batch update, as Restore does, then the new solver's
+// first relinearisation check) on one helper thread. The live solver keeps taking messages
+// meanwhile, without relinearisation checks (the rebuild relinearises everything). FinishRebuild (the daemon calls it as soon as
 // RebuildReady) gives the new solver what the live one took since the rebuild started (new
 // factors and variables, at the live estimate, and removals) in one update and swaps it in.
 // Deterministic: the same messages, refinements and swaps in the same order give the same state
