@@ -54,14 +54,15 @@ std::string FormatStatus(const slamd::status_t& s) {
   std::string out;
   std::snprintf(
       buf, sizeof(buf),
-      "update %lld  robots %d  variables %lld  factors %lld  %s\n"
+      "update %lld  robots %d  variables %lld  factors %lld  %s  rebuilds %lld\n"
       "messages: received %lld  accepted %lld  rejected %lld  decode errors %lld\n"
       "queue %d / %d  update latency p50 %.2f ms  p90 %.2f ms  p99 %.2f ms  max %.2f ms\n"
       "publish latency p50 %.2f ms  p99 %.2f ms  journal %lld records, %lld bytes\n"
       "chi2 %.6g  residual dimension %lld  (chi2/dim %.4g)\n",
       static_cast<long long>(s.update_sequence), s.num_robots,
       static_cast<long long>(s.num_variables), static_cast<long long>(s.num_factors),
-      s.settled ? "settled" : "refining", static_cast<long long>(s.messages_received),
+      s.settled ? "settled" : "refining", static_cast<long long>(s.rebuilds),
+      static_cast<long long>(s.messages_received),
       static_cast<long long>(s.messages_accepted), static_cast<long long>(s.messages_rejected),
       static_cast<long long>(s.decode_errors), s.queue_depth, s.queue_capacity,
       s.update_latency_p50_us / 1e3, s.update_latency_p90_us / 1e3, s.update_latency_p99_us / 1e3,
@@ -94,6 +95,7 @@ JsonWriter StatusJson(const slamd::status_t& s) {
   JsonWriter j;
   j.Add("utime", static_cast<long long>(s.utime))
       .Add("update_sequence", static_cast<long long>(s.update_sequence))
+      .Add("rebuilds", static_cast<long long>(s.rebuilds))
       .Add("num_robots", s.num_robots)
       .Add("num_variables", static_cast<long long>(s.num_variables))
       .Add("num_factors", static_cast<long long>(s.num_factors))

@@ -543,6 +543,7 @@ void Daemon::PublishStatus(const EstimateSnapshot& snap) {
   slamd::status_t out;
   out.utime = WallMicros();
   out.update_sequence = snap.update_sequence;
+  out.rebuilds = snap.counters.rebuilds;
   out.num_robots = static_cast<std::int32_t>(snap.robots.size());
   out.num_variables = snap.num_variables;
   out.num_factors = snap.num_factors;

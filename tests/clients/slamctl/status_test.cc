@@ -25,6 +25,7 @@ TEST(StatusCommandTest, ArgumentErrorsAndTimeout) {
 TEST(StatusCommandTest, FormatsEveryField) {
   slamd::status_t s{};
   s.update_sequence = 42;
+  s.rebuilds = 7;
   s.num_robots = 2;
   s.messages_received = 1000;
   s.chi2 = 45.5;
@@ -38,10 +39,12 @@ TEST(StatusCommandTest, FormatsEveryField) {
   EXPECT_NE(text.find("settled"), std::string::npos) << text;
   EXPECT_NE(text.find("rejected duplicate: 3"), std::string::npos) << text;
   EXPECT_NE(text.find("chi2 45.5"), std::string::npos) << text;
+  EXPECT_NE(text.find("rebuilds 7"), std::string::npos) << text;
   const std::string json = StatusJson(s).str();
   EXPECT_NE(json.find("\"rejects_by_reason\": {\"duplicate\": 3}"), std::string::npos) << json;
   EXPECT_NE(json.find("\"settled\": true"), std::string::npos) << json;
   EXPECT_NE(json.find("\"update_sequence\": 42"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"rebuilds\": 7"), std::string::npos) << json;
 }
 
 }  // namespace

@@ -138,6 +138,50 @@ TEST(DaemonTest, BadMessagesGetTheirRejectAndChangeNothing) {
   EXPECT_TRUE(client.estimates.size() == 1u);  // only the first update's
 }
 
+// Background relinearisation through the daemon (estimator.background_relinearization_above):
+// rebuilds start, are swapped in when their thread is done, and status_t counts them; nothing is
+// rejected, and after the swaps the estimate still follows every message.
+TEST(DaemonTest, BackgroundRebuildsAreSwappedInAndCounted) {
+  InProcessBus bus;
+  ServerParams p = Params();
+  p.estimator.background_relinearization_above = 2;
+  p.isam2.relinearization.skip = 1;
+  p.publish.status_rate_hz = 1000.0;
+  auto daemon = Daemon::Create(p, &bus).value();
+  Client client(bus);
+  ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", Prior()).ok());
+  for (std::uint64_t i = 0; i < 60; ++i) {
+    ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(i, i + 1)).ok());
+    if (i >= 6 && i % 3 == 0) {  // loop closures far from what the odometry says
+      slamd::loop_closure_t lc;
+      ToLcm(LoopClosureMeasurement{20, "r", i + 1, "r", i - 5, core::Pose2(-4, 1.5, -0.3),
+                                   Noise(3, 0.1), {}},
+            &lc);
+      ASSERT_TRUE(Publish(bus, "SLAMD_LOOP_CLOSURE", lc).ok());
+    }
+    ASSERT_TRUE(daemon->PumpIntake(0).ok());
+    daemon->StepEstimator(0.0);
+    // Let a rebuild finish now and then, so that swaps happen between messages.
+    if (i % 5 == 4) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  for (int k = 0; k < 100 && daemon->estimator_for_tests().Rebuilding(); ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    daemon->StepEstimator(0.0);
+  }
+  ASSERT_FALSE(daemon->estimator_for_tests().Rebuilding());
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));  // a status_t is due again
+  daemon->StepEstimator(0.0);
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+  EXPECT_TRUE(client.rejects.empty());
+  const std::int64_t rebuilds = daemon->snapshot()->counters.rebuilds;
+  EXPECT_GT(rebuilds, 0);
+  ASSERT_FALSE(client.statuses.empty());
+  EXPECT_EQ(client.statuses.back().rebuilds, rebuilds);
+  EXPECT_EQ(daemon->snapshot()->counters.applied, 1 + 60 + 18);
+  ASSERT_FALSE(client.estimates.empty());
+  EXPECT_EQ(client.estimates.back().pose_index, 60);
+}
+
 TEST(DaemonTest, FullQueueRejectsAfterBlockingNeverDropsSilently) {
   InProcessBus bus;
   ServerParams p = Params();
