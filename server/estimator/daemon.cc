@@ -317,11 +317,7 @@ int Daemon::StepEstimator(double timeout_s) {
     if (!s.ok()) log_->error("journal sync: {}", s.ToString());
   }
   MaybeSnapshot();
-  snap = estimator_->snapshot();
-  {
-    std::lock_guard lock(snapshot_mutex_);
-    snapshot_ = snap;
-  }
+  snap = ShareSnapshot();
   const std::int64_t published_us = SteadyMicros();
   PublishEstimates(*snap, published_us);
   // Ingest-to-publish latency of every message that took effect: the first of several that
@@ -355,12 +351,14 @@ void Daemon::SwapRebuild() {
       log_->error("journal: {}", s.ToString());
     }
   }
+  PublishEstimates(*ShareSnapshot(), SteadyMicros());
+}
+
+std::shared_ptr<const EstimateSnapshot> Daemon::ShareSnapshot() {
   std::shared_ptr<const EstimateSnapshot> snap = estimator_->snapshot();
-  {
-    std::lock_guard lock(snapshot_mutex_);
-    snapshot_ = snap;
-  }
-  PublishEstimates(*snap, SteadyMicros());
+  std::lock_guard lock(snapshot_mutex_);
+  snapshot_ = snap;
+  return snap;
 }
 
 void Daemon::NoteReject(std::string_view type, const Verdict& verdict) {
@@ -640,8 +638,7 @@ void Daemon::Stop() {
          estimator_->RejectHeld("still waiting for a pose when slamd stopped (no data_dir)")) {
       PublishRejection(rej);
     }
-    std::lock_guard lock(snapshot_mutex_);
-    snapshot_ = estimator_->snapshot();
+    ShareSnapshot();
   }
   const std::shared_ptr<const EstimateSnapshot> snap = snapshot();
   PublishStatus(*snap);

@@ -85,6 +85,8 @@ class Daemon {
          std::unique_ptr<Journal> journal);
   // Swaps in the estimator's rebuilt solver (ready), journals the swap, publishes.
   void SwapRebuild();
+  // The estimator's latest snapshot, made the one queries and snapshot() see.
+  std::shared_ptr<const EstimateSnapshot> ShareSnapshot();
   // Journals what the estimator did (no-op without a journal).
   void JournalUpdate(const std::vector<Inbound>& batch);
   void PublishRejection(const Rejection& rejection);  // a stateful (estimator) rejection
