@@ -56,7 +56,7 @@ std::string FormatStatus(const slamd::status_t& s) {
       buf, sizeof(buf),
       "update %lld  robots %d  variables %lld  factors %lld  %s  rebuilds %lld\n"
       "messages: received %lld  accepted %lld  rejected %lld  decode errors %lld\n"
-      "queue %d / %d  update latency p50 %.2f ms  p90 %.2f ms  p99 %.2f ms  max %.2f ms\n"
+      "queue %d / %d (peak %d)  update latency p50 %.2f ms  p90 %.2f ms  p99 %.2f ms  max %.2f ms\n"
       "publish latency p50 %.2f ms  p99 %.2f ms  journal %lld records, %lld bytes\n"
       "chi2 %.6g  residual dimension %lld  (chi2/dim %.4g)\n",
       static_cast<long long>(s.update_sequence), s.num_robots,
@@ -64,7 +64,7 @@ std::string FormatStatus(const slamd::status_t& s) {
       s.settled ? "settled" : "refining", static_cast<long long>(s.rebuilds),
       static_cast<long long>(s.messages_received),
       static_cast<long long>(s.messages_accepted), static_cast<long long>(s.messages_rejected),
-      static_cast<long long>(s.decode_errors), s.queue_depth, s.queue_capacity,
+      static_cast<long long>(s.decode_errors), s.queue_depth, s.queue_capacity, s.queue_peak,
       s.update_latency_p50_us / 1e3, s.update_latency_p90_us / 1e3, s.update_latency_p99_us / 1e3,
       s.update_latency_max_us / 1e3, s.publish_latency_p50_us / 1e3, s.publish_latency_p99_us / 1e3,
       static_cast<long long>(s.journal_records), static_cast<long long>(s.journal_bytes), s.chi2,
@@ -106,6 +106,7 @@ JsonWriter StatusJson(const slamd::status_t& s) {
       .Add("rejects_by_reason", reasons)
       .Add("queue_depth", s.queue_depth)
       .Add("queue_capacity", s.queue_capacity)
+      .Add("queue_peak", s.queue_peak)
       .Add("update_latency_p50_us", static_cast<long long>(s.update_latency_p50_us))
       .Add("update_latency_p90_us", static_cast<long long>(s.update_latency_p90_us))
       .Add("update_latency_p99_us", static_cast<long long>(s.update_latency_p99_us))

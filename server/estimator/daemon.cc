@@ -555,6 +555,7 @@ void Daemon::PublishStatus(const EstimateSnapshot& snap) {
     out.rejects_by_reason[i] = intake_rejects_by_reason_[i] + snap.counters.rejects_by_reason[i];
   }
   out.queue_depth = queue_.size();
+  out.queue_peak = queue_.peak();
   out.queue_capacity = queue_.capacity();
   const auto update = Percentiles<4>(update_us_, {0.5, 0.9, 0.99, 1.0});
   out.update_latency_p50_us = update[0];

@@ -25,6 +25,7 @@ bool IngestQueue::Push(Inbound in, double timeout_s) {
   });
   if (!room || closed_) return false;
   queue_.push_back(std::move(in));
+  peak_ = std::max(peak_, static_cast<int>(queue_.size()));
   lock.unlock();
   not_empty_.notify_one();
   return true;
@@ -61,6 +62,11 @@ void IngestQueue::Close() {
 int IngestQueue::size() const {
   std::lock_guard lock(mutex_);
   return static_cast<int>(queue_.size());
+}
+
+int IngestQueue::peak() const {
+  std::lock_guard lock(mutex_);
+  return peak_;
 }
 
 bool IngestQueue::closed() const {

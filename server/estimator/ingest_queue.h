@@ -34,6 +34,7 @@ class IngestQueue {
   void Close();
 
   int size() const;
+  int peak() const;  // the largest size() has been since construction
   int capacity() const { return capacity_; }
   bool closed() const;
 
@@ -42,6 +43,7 @@ class IngestQueue {
   mutable std::mutex mutex_;
   std::condition_variable not_empty_, not_full_;
   std::deque<Inbound> queue_;
+  int peak_ = 0;
   bool closed_ = false;
 };
 

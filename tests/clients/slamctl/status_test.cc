@@ -26,6 +26,8 @@ TEST(StatusCommandTest, FormatsEveryField) {
   slamd::status_t s{};
   s.update_sequence = 42;
   s.rebuilds = 7;
+  s.queue_capacity = 1000;
+  s.queue_peak = 12;
   s.num_robots = 2;
   s.messages_received = 1000;
   s.chi2 = 45.5;
@@ -40,11 +42,13 @@ TEST(StatusCommandTest, FormatsEveryField) {
   EXPECT_NE(text.find("rejected duplicate: 3"), std::string::npos) << text;
   EXPECT_NE(text.find("chi2 45.5"), std::string::npos) << text;
   EXPECT_NE(text.find("rebuilds 7"), std::string::npos) << text;
+  EXPECT_NE(text.find("queue 0 / 1000 (peak 12)"), std::string::npos) << text;
   const std::string json = StatusJson(s).str();
   EXPECT_NE(json.find("\"rejects_by_reason\": {\"duplicate\": 3}"), std::string::npos) << json;
   EXPECT_NE(json.find("\"settled\": true"), std::string::npos) << json;
   EXPECT_NE(json.find("\"update_sequence\": 42"), std::string::npos) << json;
   EXPECT_NE(json.find("\"rebuilds\": 7"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"queue_peak\": 12"), std::string::npos) << json;
 }
 
 }  // namespace

@@ -23,6 +23,9 @@ TEST(IngestQueueTest, PopAllTakesEverythingInOrder) {
   for (int i = 0; i < 3; ++i) EXPECT_EQ(MessageUtime(out[i]), i);
   EXPECT_EQ(q.size(), 0);
   EXPECT_EQ(q.PopAll(&out, 0.01), 0);  // times out
+  EXPECT_EQ(q.peak(), 3);              // the longest it was, not its size now
+  ASSERT_TRUE(q.Push(Msg(3), 0.0));
+  EXPECT_EQ(q.peak(), 3);
 }
 
 TEST(IngestQueueTest, FullQueueBlocksForTheTimeoutThenRefuses) {
