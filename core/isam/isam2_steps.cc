@@ -195,7 +195,7 @@ int Isam2::SelectRelinearization(const Isam2UpdateOptions& options, bool all,
   const int defer_above = options.defer_relinearization_above;
   if (!all && defer_above > 0) {
     int due = 0;
-    for (int v = 0; v < n; ++v) due += ratio_[v] > 1.0 && !frozen.count(v);
+    for (int v = 0; v < n; ++v) due += ratio_[v] > 1.0;  // a frozen variable's ratio_ is 0
     if (due > defer_above) return due;
   }
   // ... raised to linearisation error / error_threshold on the variables of stale factors.
