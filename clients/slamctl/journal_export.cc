@@ -369,6 +369,11 @@ core::Result<JournalInspection> InspectJournal(const std::string& path, bool sal
                       ++out.refinements;
                     } else if (r.has_rebuild_swap()) {
                       info.sequence = r.rebuild_swap().update_sequence();
+                      info.detail = "catch_up_rounds=";
+                      for (int n : r.rebuild_swap().catch_up_rounds()) {
+                        if (info.detail.back() != '=') info.detail += ',';
+                        info.detail += std::to_string(n);
+                      }
                       ++out.rebuild_swaps;
                     }
                     out.records.push_back(std::move(info));

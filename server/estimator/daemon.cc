@@ -345,7 +345,7 @@ void Daemon::SwapRebuild() {
               timer.Seconds() * 1e3);
   // Journaled failed or not: a replay fails the same way, and relinearises the same way after.
   if (journal_) {
-    const core::Status s = journal_->AppendRebuildSwap(sequence);
+    const core::Status s = journal_->AppendRebuildSwap(sequence, estimator_->last_swap_rounds());
     if (!s.ok()) {
       ++journal_errors_;
       log_->error("journal: {}", s.ToString());

@@ -129,7 +129,6 @@ void Estimator::StartRebuild() {
     rebuild->position[i] = static_cast<int>(factors.size());
     factors.Add(slots[i]);
   }
-  rebuild->num_variables = static_cast<int>(isam_->linearization_point().size());
   Rebuild* r = rebuild.get();
   // One thread: the other core is the live solver's. (The rebuilt solver keeps it after the
   // swap; with background relinearisation the steps large enough for threads are the rebuilds.
@@ -138,7 +137,8 @@ void Estimator::StartRebuild() {
   core::Isam2Params params = isam_->params();
   params.threads = 1;
   rebuild->thread = std::thread([r, params, factors = std::move(factors),
-                                 estimate = isam_->CalculateEstimate(), newest = NewestPoses()] {
+                                 estimate = isam_->CalculateEstimate(), newest = NewestPoses(),
+                                 catch_up = !replaying_]() mutable {
     core::Result<std::unique_ptr<core::Isam2>> made = core::Isam2::Create(params);
     if (made.ok()) {
       r->solver = std::move(made).value();
@@ -153,9 +153,94 @@ void Estimator::StartRebuild() {
     } else {
       r->status = made.status();
     }
+    // Freed now, not after `done` with the lambda: freeing a large map's copies (up to 30 ms in
+    // the soak) would fall on the estimator thread, in FinishRebuild's join.
+    factors = core::FactorGraph();
+    estimate = core::Values();
+    // Catch-up rounds while more than a few updates wait: each round takes what was logged
+    // while the last ran, so the backlog shrinks round by round (the swap's own catch-up is
+    // then about one update). Bounded, for input faster than the rounds. The new variables
+    // come at their initial guesses (the live estimate is the estimator thread's): each round
+    // relinearises what moved past the thresholds.
+    constexpr size_t kLeftForTheSwap = 2;
+    constexpr size_t kMaxRounds = 8;
+    while (catch_up && r->status.ok() && r->rounds.size() < kMaxRounds) {
+      size_t end = 0;
+      {
+        std::lock_guard lock(r->log_mutex);
+        end = r->log.size();
+      }
+      if (end - r->caught_up <= kLeftForTheSwap) break;
+      const size_t taken = end - r->caught_up;
+      r->status = CatchUp(r, end, {.force_relinearize = true}, nullptr).status;
+      r->rounds.push_back(static_cast<int>(taken));
+    }
     r->done.store(true, std::memory_order_release);
   });
   rebuild_ = std::move(rebuild);
+}
+
+core::Isam2Result Estimator::CatchUp(Rebuild* r, size_t end, core::Isam2UpdateOptions options,
+                                     const core::Isam2* live) {
+  core::FactorGraph added;
+  std::vector<int> live_index;  // of each factor in `added`
+  core::Values values;
+  {
+    std::lock_guard lock(r->log_mutex);
+    SLAMD_CHECK(end <= r->log.size()) << "catch-up past the log";
+    std::vector<std::pair<int, core::FactorPtr>> factors;
+    for (size_t e = r->caught_up; e < end; ++e) {
+      const LoggedUpdate& u = r->log[e];
+      factors.insert(factors.end(), u.added.begin(), u.added.end());
+      for (size_t v = 0; v < u.values.size(); ++v) {
+        const Key key = u.values.KeyAt(static_cast<int>(v));
+        const core::Status s = values.Insert(
+            key, live ? live->CalculateEstimate(key) : u.values.VariableAt(static_cast<int>(v)));
+        SLAMD_CHECK(s.ok()) << s.ToString();  // the live solver took it as new
+      }
+      for (int index : u.removed) {
+        if (static_cast<size_t>(index) < r->position.size() && r->position[index] >= 0) {
+          options.remove_factors.push_back(r->position[index]);
+          r->position[index] = -1;
+          continue;
+        }
+        // Added in this round: it never reaches the new solver.
+        const auto it = std::find_if(factors.begin(), factors.end(),
+                                     [&](const auto& f) { return f.first == index; });
+        SLAMD_CHECK(it != factors.end()) << "removed live factor " << index << " is unknown";
+        it->second = nullptr;
+      }
+    }
+    for (auto& [index, factor] : factors) {
+      if (!factor) continue;
+      live_index.push_back(index);
+      added.Add(std::move(factor));
+    }
+  }
+  r->caught_up = end;
+  if (added.size() == 0 && values.empty() && options.remove_factors.empty()) return {};
+  core::Isam2Result update = r->solver->Update(added, values, options);
+  if (!update.status.ok()) return update;
+  for (size_t k = 0; k < live_index.size(); ++k) {
+    const int i = live_index[k];
+    if (static_cast<size_t>(i) >= r->position.size()) r->position.resize(i + 1, -1);
+    r->position[i] = update.new_factor_indices[k];
+  }
+  return update;
+}
+
+void Estimator::LogForRebuild(const core::FactorGraph& factors, const core::Values& values,
+                              const core::Isam2Result& update, std::span<const int> removed) {
+  if (!rebuild_) return;
+  LoggedUpdate u;
+  u.added.reserve(factors.size());
+  for (size_t k = 0; k < factors.size(); ++k) {
+    u.added.emplace_back(update.new_factor_indices[k], factors[k]);
+  }
+  u.values = values;
+  u.removed.assign(removed.begin(), removed.end());
+  std::lock_guard lock(rebuild_->log_mutex);
+  rebuild_->log.push_back(std::move(u));
 }
 
 std::vector<Key> Estimator::NewestPoses() const {
@@ -166,56 +251,59 @@ std::vector<Key> Estimator::NewestPoses() const {
   return keys;
 }
 
-core::Result<bool> Estimator::FinishRebuild() {
+core::Result<bool> Estimator::FinishRebuild(std::span<const int> replay_rounds) {
   if (!rebuild_) return false;
   rebuild_->thread.join();
-  const std::unique_ptr<Rebuild> r = std::move(rebuild_);
-  if (!r->status.ok()) {
-    rebuild_failed_ = true;
-    return core::Status(r->status.code(), "background rebuild: " + r->status.message());
-  }
-  // What the live solver took since the start, in one update: the factors added since (in
-  // slot order), the variables added since (at the live estimate) and the removals.
-  const std::vector<core::FactorPtr>& slots = isam_->factor_slots();
-  const size_t before = r->position.size();
-  core::FactorGraph added;
-  std::vector<size_t> added_slots;
-  for (size_t i = before; i < slots.size(); ++i) {
-    if (!slots[i]) continue;
-    added.Add(slots[i]);
-    added_slots.push_back(i);
-  }
-  core::Isam2UpdateOptions options = UpdateOptions();
-  for (size_t i = 0; i < before; ++i) {
-    if (r->position[i] >= 0 && !slots[i]) options.remove_factors.push_back(r->position[i]);
-  }
-  const core::Values& theta = isam_->linearization_point();
-  core::Values values;
-  for (int v = r->num_variables; v < static_cast<int>(theta.size()); ++v) {
-    const core::Status s = values.Insert(theta.KeyAt(v), isam_->CalculateEstimate(theta.KeyAt(v)));
-    SLAMD_CHECK(s.ok()) << s.ToString();
-  }
-  core::Isam2Result update;
-  if (added.size() > 0 || !values.empty() || !options.remove_factors.empty()) {
-    update = r->solver->Update(added, values, options);
-    if (!update.status.ok()) {
-      rebuild_failed_ = true;
-      return core::Status(update.status.code(),
-                          "background rebuild: catching up: " + update.status.message());
+  {
+    // Checked before anything changes: a corrupt swap record must not cost the rebuild.
+    size_t named = 0;
+    for (int n : replay_rounds) {
+      if (n <= 0)
+        return core::DataLoss("rebuild swap: a catch-up round of " + std::to_string(n) +
+                              " updates");
+      named += static_cast<size_t>(n);
+    }
+    SLAMD_CHECK(replay_rounds.empty() || rebuild_->rounds.empty())
+        << "replayed catch-up rounds for a rebuild whose helper ran rounds (SetReplaying)";
+    if (rebuild_->caught_up + named > rebuild_->log.size()) {
+      return core::DataLoss("rebuild swap: its catch-up rounds name " + std::to_string(named) +
+                            " updates, " + std::to_string(rebuild_->log.size()) +
+                            " were logged since the rebuild started");
     }
   }
-  // Each factor's index in the new solver (a pass over a vector, not over applied_).
-  std::vector<int> index(slots.size(), -1);
-  for (size_t i = 0; i < before; ++i) index[i] = slots[i] ? r->position[i] : -1;
-  for (size_t k = 0; k < added_slots.size(); ++k) {
-    index[added_slots[k]] = update.new_factor_indices[k];
+  const std::unique_ptr<Rebuild> r = std::move(rebuild_);
+  const auto failed = [this](const core::Status& s, const char* when) {
+    rebuild_failed_ = true;
+    return core::Status(s.code(), std::string("background rebuild: ") + when + s.message());
+  };
+  if (!r->status.ok()) return failed(r->status, "");
+  for (int n : replay_rounds) {
+    const core::Isam2Result round =
+        CatchUp(r.get(), r->caught_up + n, {.force_relinearize = true}, nullptr);
+    if (!round.status.ok()) return failed(round.status, "catching up: ");
+    r->rounds.push_back(n);
   }
-  for (int& slot : solver_index_) slot = slot >= 0 ? index[slot] : -1;
-  // The old solver is freed on a helper thread: thousands of blocks, up to 3.5 ms on
-  // victoriaPark, which the next message would wait for. (Its marginals first: they point to it.)
-  marginals_.reset();
+  // The rest in one update, its new variables at the live estimate, checked for relinearisation
+  // as any update from messages.
+  const core::Isam2Result update = CatchUp(r.get(), r->log.size(), UpdateOptions(), isam_.get());
+  if (!update.status.ok()) return failed(update.status, "catching up: ");
+  // Each factor's index in the new solver (a pass over a vector, not over applied_).
+  for (int& index : solver_index_) {
+    if (index < 0) continue;
+    SLAMD_CHECK(static_cast<size_t>(index) < r->position.size() && r->position[index] >= 0)
+        << "applied factor " << index << " is not in the rebuilt solver";
+    index = r->position[index];
+  }
+  last_swap_rounds_ = r->rounds;
+  // The old solver and its marginals are freed on a helper thread: thousands of blocks, up to
+  // 3.5 ms on victoriaPark, which the next message would wait for. (The marginals first: they
+  // point to the solver.)
   if (retire_thread_.joinable()) retire_thread_.join();
-  retire_thread_ = std::thread([old = std::move(isam_)] {});
+  retire_thread_ =
+      std::thread([old = std::move(isam_), marginals = std::move(marginals_)]() mutable {
+        marginals.reset();
+        old.reset();
+      });
   isam_ = std::move(r->solver);
   marginals_ = std::make_unique<core::Isam2Marginals>(
       isam_.get(), core::MarginalsParams{.threads = marginals_threads_});
@@ -604,6 +692,7 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
   ++counters_.updates;
   settled_ = false;
   PublishSnapshot(true);
+  LogForRebuild(s.factors, s.values, update, {});
   AfterUpdate(update);
 }
 
@@ -673,6 +762,7 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
   ++counters_.updates;
   settled_ = false;
   PublishSnapshot(true);
+  LogForRebuild({}, {}, update, options.remove_factors);
   AfterUpdate(update);
 }
 

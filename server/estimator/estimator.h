@@ -33,11 +33,16 @@
 // to relinearise many variables defers it and starts a rebuild: a new solver is made from the
 // live factors at the current estimate (one batch update, as Restore does, then the new solver's
 // first relinearisation check) on one helper thread. The live solver keeps taking messages
-// meanwhile, without relinearisation checks (the rebuild relinearises everything). FinishRebuild (the daemon calls it as soon as
-// RebuildReady) gives the new solver what the live one took since the rebuild started (new
-// factors and variables, at the live estimate, and removals) in one update and swaps it in.
-// Deterministic: the same messages, refinements and swaps in the same order give the same state
-// (the journal records the swaps), whatever the threads' timing.
+// meanwhile, without relinearisation checks (the rebuild relinearises everything); each of its
+// updates is logged for the rebuild (new factors, new variables with their initial guesses,
+// removals). The helper then catches up on that log in rounds, each taking what was logged
+// while the last one ran (and relinearising what moved), until at most a few updates are left:
+// a rebuild of a large map takes seconds, and the updates logged meanwhile would otherwise be
+// one long update on the estimator thread. FinishRebuild (the daemon calls it as soon as
+// RebuildReady) gives the new solver the rest in one update (new variables at the live
+// estimate) and swaps it in. Deterministic: the same messages, refinements and swaps (with
+// their catch-up rounds) in the same order give the same state, whatever the threads' timing:
+// the journal records each swap and its rounds, and a replay runs the rounds it recorded.
 //
 // Exactness: with refinement and background relinearisation off, each Process call is exactly one
 // Isam2::Update of the factors in message order and the values in creation order, so feeding the
@@ -55,6 +60,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <span>
@@ -139,8 +145,16 @@ class Estimator {
   bool RebuildReady() const { return rebuild_ && rebuild_->done.load(std::memory_order_acquire); }
   // Waits for the rebuild in flight, brings it up to date and swaps it in; a new snapshot.
   // false when no rebuild was in flight. When the rebuild failed, the live solver stays (and the
-  // next update relinearises in the update) and the status says why.
-  core::Result<bool> FinishRebuild();
+  // next update relinearises in the update) and the status says why. `replay_rounds`: in a
+  // replay, the catch-up rounds the journal recorded for this swap (logged updates per round),
+  // run here since the helper ran none (SetReplaying); DataLoss when they name more updates
+  // than were logged.
+  core::Result<bool> FinishRebuild(std::span<const int> replay_rounds = {});
+  // The catch-up rounds of the last swap (logged updates per round), for the journal.
+  const std::vector<int>& last_swap_rounds() const { return last_swap_rounds_; }
+  // While replaying a journal, rebuilds started run no catch-up rounds on their helper: the
+  // journal's swap records say which to run (FinishRebuild's replay_rounds).
+  void SetReplaying(bool replaying) { replaying_ = replaying; }
 
   // Isam2::Refine(budget_s, max_rounds); a new snapshot when anything moved. (While a rebuild is
   // in flight, the swap discards what it did: the daemon refines only when none is.)
@@ -235,16 +249,34 @@ class Estimator {
   // The newest pose of every anchored robot (what the next updates most likely touch).
   std::vector<core::Key> NewestPoses() const;
 
-  // A solver being rebuilt on `thread`; the rest is read only after `done`.
+  // What one live update gave the solver while a rebuild was in flight.
+  struct LoggedUpdate {
+    std::vector<std::pair<int, core::FactorPtr>> added;  // (live factor index, factor)
+    core::Values values;                                 // new variables, initial guesses
+    std::vector<int> removed;                            // live factor indices
+  };
+  // A solver being rebuilt on `thread`. `log` is shared (under `log_mutex`); the rest belongs
+  // to the helper until `done`, then to the estimator thread.
   struct Rebuild {
     std::thread thread;
     std::atomic<bool> done = false;
     std::unique_ptr<core::Isam2> solver;
     core::Status status;
-    // Per live factor slot at the start: its index in `solver` (-1: an empty slot).
+    // Per live factor index: its index in `solver` (-1: not in it, or removed).
     std::vector<int> position;
-    int num_variables = 0;  // live variables at the start (slots [0, n) are in `solver`)
+    std::mutex log_mutex;
+    std::vector<LoggedUpdate> log;  // the live updates since the start, in order
+    size_t caught_up = 0;           // log entries `solver` has taken
+    std::vector<int> rounds;        // entries taken per catch-up round
   };
+  // Gives r->solver the log entries [r->caught_up, end) in one update (none when they add and
+  // remove nothing) and maps their factors in r->position. New variables at their logged
+  // initial guesses, or at `live`'s estimate when given (the estimator thread only).
+  static core::Isam2Result CatchUp(Rebuild* r, size_t end, core::Isam2UpdateOptions options,
+                                   const core::Isam2* live);
+  // Logs a successful live update for the rebuild in flight (if any).
+  void LogForRebuild(const core::FactorGraph& factors, const core::Values& values,
+                     const core::Isam2Result& update, std::span<const int> removed);
 
   EstimatorParams params_;
   core::RobustKernel default_loop_kernel_;  // params_.loop_closure_kernel
@@ -260,6 +292,8 @@ class Estimator {
   std::unique_ptr<Rebuild> rebuild_;
   bool rebuild_failed_ = false;  // the last rebuild failed: the next update relinearises inline
   std::thread retire_thread_;    // frees the solver a rebuild replaced
+  std::vector<int> last_swap_rounds_;
+  bool replaying_ = false;  // SetReplaying
   std::deque<Held> held_;
   EstimatorCounters counters_;
   std::int64_t sequence_ = 0;

@@ -66,6 +66,8 @@ core::Result<RecoveryResult> Recover(const std::string& data_dir, const Estimato
       JournalReader::Open(path, {.salvage = salvage});
   if (!opened.ok()) return opened.status();
   JournalReader& reader = *opened.value();
+  // Rebuilds started in the replay catch up as their swap records say, not as threads run.
+  out.estimator->SetReplaying(true);
   journal::JournalRecord record;
   std::int64_t offset = 0;
   std::vector<Inbound> collected;
@@ -120,7 +122,9 @@ core::Result<RecoveryResult> Recover(const std::string& data_dir, const Estimato
       ++out.replayed_refinements;
     } else if (record.has_rebuild_swap()) {
       // None in flight when the rebuild started before the snapshot: then there is none to swap.
-      const core::Result<bool> swapped = out.estimator->FinishRebuild();
+      const auto& rounds = record.rebuild_swap().catch_up_rounds();
+      const core::Result<bool> swapped =
+          out.estimator->FinishRebuild({rounds.data(), static_cast<size_t>(rounds.size())});
       if (!swapped.ok()) out.notes.push_back(At(path, offset) + ": " + swapped.status().message());
       if (swapped.ok() && swapped.value()) ++out.replayed_rebuild_swaps;
     }
@@ -129,6 +133,7 @@ core::Result<RecoveryResult> Recover(const std::string& data_dir, const Estimato
   if (out.torn_tail_offset >= 0) {
     SLAMD_RETURN_IF_ERROR(TruncateTornTail(path, out.torn_tail_offset));
   }
+  out.estimator->SetReplaying(false);
   out.pending = std::move(collected);
   out.seconds = timer.Seconds();
   return out;

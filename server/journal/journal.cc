@@ -56,9 +56,10 @@ core::Status Journal::AppendRefinement(int rounds) {
   return AppendLocked(record);
 }
 
-core::Status Journal::AppendRebuildSwap(std::int64_t update_sequence) {
+core::Status Journal::AppendRebuildSwap(std::int64_t update_sequence, std::span<const int> rounds) {
   journal::JournalRecord record;
   record.mutable_rebuild_swap()->set_update_sequence(update_sequence);
+  for (int n : rounds) record.mutable_rebuild_swap()->add_catch_up_rounds(n);
   std::lock_guard lock(mutex_);
   return AppendLocked(record);
 }

@@ -40,8 +40,9 @@ class Journal {
                               int count);
   // After a refinement that made `rounds` rounds.
   core::Status AppendRefinement(int rounds);
-  // After the estimator swapped in a rebuilt solver (Estimator::FinishRebuild).
-  core::Status AppendRebuildSwap(std::int64_t update_sequence);
+  // After the estimator swapped in a rebuilt solver (Estimator::FinishRebuild), with the
+  // rebuild's catch-up rounds (Estimator::last_swap_rounds).
+  core::Status AppendRebuildSwap(std::int64_t update_sequence, std::span<const int> rounds);
   // Group commit per the sync policy (always: fdatasync now; interval: if due; never: no-op).
   core::Status Commit();
   // fdatasync now whatever the policy (shutdown).

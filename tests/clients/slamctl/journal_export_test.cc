@@ -112,7 +112,7 @@ std::string WriteSession(const std::string& dir, std::vector<Written>* written) 
         &br);
   Append(*j, "SLAMD_LANDMARK", "landmark_observation_t", br, written);
   EXPECT_TRUE(j->AppendRefinement(3).ok());
-  EXPECT_TRUE(j->AppendRebuildSwap(2).ok());
+  EXPECT_TRUE(j->AppendRebuildSwap(2, std::vector<int>{40, 6, 1}).ok());
   slamd::remove_factor_t rm;
   ToLcm(RemoveFactorRequest{.utime = 24,
                             .target = RemoveTarget::kLoopClosure,
@@ -264,6 +264,7 @@ TEST(JournalExportTest, InspectListsRecordsAndReportsATornTail) {
     if (rec.kind != "rebuild") continue;
     ++swaps;
     EXPECT_EQ(rec.sequence, 2);
+    EXPECT_EQ(rec.detail, "catch_up_rounds=40,6,1");
   }
   EXPECT_EQ(swaps, 1);
   EXPECT_EQ(in.records[0].offset, 16);
