@@ -258,9 +258,10 @@ core::Result<bool> Estimator::FinishRebuild(std::span<const int> replay_rounds) 
     // Checked before anything changes: a corrupt swap record must not cost the rebuild.
     size_t named = 0;
     for (int n : replay_rounds) {
-      if (n <= 0)
+      if (n <= 0) {
         return core::DataLoss("rebuild swap: a catch-up round of " + std::to_string(n) +
                               " updates");
+      }
       named += static_cast<size_t>(n);
     }
     SLAMD_CHECK(replay_rounds.empty() || rebuild_->rounds.empty())
