@@ -115,6 +115,9 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   if (e.has_background_relinearization_above()) {
     p->estimator.background_relinearization_above = e.background_relinearization_above();
   }
+  if (e.has_rebuild_catch_up_rounds()) {
+    p->estimator.rebuild_catch_up_rounds = e.rebuild_catch_up_rounds();
+  }
 }
 
 std::string Quote(const std::string& s) { return "\"" + s + "\""; }
@@ -231,6 +234,8 @@ std::string DefaultConfigText() {
       << "  # its parameter, > 0\n"
       << "  background_relinearization_above: " << d.estimator.background_relinearization_above
       << "  # larger relinearisations rebuild the solver on a helper thread, 0 = never\n"
+      << "  rebuild_catch_up_rounds: " << d.estimator.rebuild_catch_up_rounds
+      << "  # at most this many catch-up rounds on its thread, 0..64\n"
       << "}\n\n"
       << "journal {\n"
       << "  sync: "

@@ -57,6 +57,8 @@ core::Status EstimatorParams::Validate() const {
   SLAMD_CONFIG_CHECK(estimator.max_hold_updates, >=, 1);
   SLAMD_CONFIG_CHECK(estimator.chi2_interval_s, >=, 0.0);
   SLAMD_CONFIG_CHECK(estimator.background_relinearization_above, >=, 0);
+  SLAMD_CONFIG_CHECK(estimator.rebuild_catch_up_rounds, >=, 0);
+  SLAMD_CONFIG_CHECK(estimator.rebuild_catch_up_rounds, <=, 64);
   const core::Result<core::RobustKernel::Kind> kind =
       core::RobustKernel::ParseKind(loop_closure_kernel);
   if (!kind.ok()) {

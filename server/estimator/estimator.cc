@@ -136,47 +136,47 @@ void Estimator::StartRebuild() {
   // 1.6-2.3 ms.)
   core::Isam2Params params = isam_->params();
   params.threads = 1;
-  rebuild->thread = std::thread([r, params, factors = std::move(factors),
-                                 estimate = isam_->CalculateEstimate(), newest = NewestPoses(),
-                                 catch_up = !replaying_]() mutable {
-    core::Result<std::unique_ptr<core::Isam2>> made = core::Isam2::Create(params);
-    if (made.ok()) {
-      r->solver = std::move(made).value();
-      r->status = r->solver->Update(factors, estimate, {.order_last = newest}).status;
-      // A relinearisation check now: its first pass in a new solver evaluates every factor
-      // (Relinearization::error_threshold; nothing is known of their curvature yet), 4-5 ms on
-      // victoriaPark, which would otherwise fall on the first checking update after the swap.
-      if (r->status.ok()) {
-        r->status =
-            r->solver->Update({}, {}, {.order_last = newest, .force_relinearize = true}).status;
-      }
-    } else {
-      r->status = made.status();
-    }
-    // Freed now, not after `done` with the lambda: freeing a large map's copies (up to 30 ms in
-    // the soak) would fall on the estimator thread, in FinishRebuild's join.
-    factors = core::FactorGraph();
-    estimate = core::Values();
-    // Catch-up rounds while more than a few updates wait: each round takes what was logged
-    // while the last ran, so the backlog shrinks round by round (the swap's own catch-up is
-    // then about one update). Bounded, for input faster than the rounds. The new variables
-    // come at their initial guesses (the live estimate is the estimator thread's): each round
-    // relinearises what moved past the thresholds.
-    constexpr size_t kLeftForTheSwap = 2;
-    constexpr size_t kMaxRounds = 8;
-    while (catch_up && r->status.ok() && r->rounds.size() < kMaxRounds) {
-      size_t end = 0;
-      {
-        std::lock_guard lock(r->log_mutex);
-        end = r->log.size();
-      }
-      if (end - r->caught_up <= kLeftForTheSwap) break;
-      const size_t taken = end - r->caught_up;
-      r->status = CatchUp(r, end, {.force_relinearize = true}, nullptr).status;
-      r->rounds.push_back(static_cast<int>(taken));
-    }
-    r->done.store(true, std::memory_order_release);
-  });
+  rebuild->thread =
+      std::thread([r, params, factors = std::move(factors), estimate = isam_->CalculateEstimate(),
+                   newest = NewestPoses(),
+                   max_rounds = replaying_ ? 0 : params_.rebuild_catch_up_rounds]() mutable {
+        core::Result<std::unique_ptr<core::Isam2>> made = core::Isam2::Create(params);
+        if (made.ok()) {
+          r->solver = std::move(made).value();
+          r->status = r->solver->Update(factors, estimate, {.order_last = newest}).status;
+          // A relinearisation check now: its first pass in a new solver evaluates every factor
+          // (Relinearization::error_threshold; nothing is known of their curvature yet), 4-5 ms on
+          // victoriaPark, which would otherwise fall on the first checking update after the swap.
+          if (r->status.ok()) {
+            r->status =
+                r->solver->Update({}, {}, {.order_last = newest, .force_relinearize = true}).status;
+          }
+        } else {
+          r->status = made.status();
+        }
+        // Freed now, not after `done` with the lambda: freeing a large map's copies (up to 30 ms in
+        // the soak) would fall on the estimator thread, in FinishRebuild's join.
+        factors = core::FactorGraph();
+        estimate = core::Values();
+        // Catch-up rounds while more than a few updates wait: each round takes what was logged
+        // while the last ran, so the backlog shrinks round by round (the swap's own catch-up is
+        // then about one update). At most max_rounds, for input faster than them. The new variables
+        // come at their initial guesses (the live estimate is the estimator thread's): each round
+        // relinearises what moved past the thresholds.
+        constexpr size_t kLeftForTheSwap = 2;
+        while (r->status.ok() && static_cast<int>(r->rounds.size()) < max_rounds) {
+          size_t end = 0;
+          {
+            std::lock_guard lock(r->log_mutex);
+            end = r->log.size();
+          }
+          if (end - r->caught_up <= kLeftForTheSwap) break;
+          const size_t taken = end - r->caught_up;
+          r->status = CatchUp(r, end, {.force_relinearize = true}, nullptr).status;
+          r->rounds.push_back(static_cast<int>(taken));
+        }
+        r->done.store(true, std::memory_order_release);
+      });
   rebuild_ = std::move(rebuild);
 }
 

@@ -46,6 +46,14 @@ struct EstimatorParams {
   // clear difference (more rebuilds, which compete for the 2 cores). 0 = never (every
   // relinearisation in the update, as `slamctl bench` runs the solver). >= 0.
   int background_relinearization_above = 512;
+  // At most this many catch-up rounds on the rebuild's helper thread, on what the live solver
+  // took while it built (see estimator.h); the swap takes the rest in one update on the
+  // estimator thread. On a large map a rebuild takes a second, and that second's messages made
+  // the swap a 100-140 ms update (soak, >60k variables); with rounds it is 1 ms on average, 7 ms
+  // at most. The cost: ~40-50% more RSS on such maps (glibc keeps what the helper's thread
+  // allocated and the estimator thread later freed; BENCHMARKS.md, session 7). 0 = no rounds.
+  // 0..64.
+  int rebuild_catch_up_rounds = 8;
 
   core::Status Validate() const;
 };

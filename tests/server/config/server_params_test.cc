@@ -31,6 +31,10 @@ TEST(ServerParamsTest, EachViolationNamesItsField) {
       {[](ServerParams* p) { p->estimator.max_hold_updates = 0; }, "estimator.max_hold_updates"},
       {[](ServerParams* p) { p->estimator.background_relinearization_above = -1; },
        "estimator.background_relinearization_above"},
+      {[](ServerParams* p) { p->estimator.rebuild_catch_up_rounds = -1; },
+       "estimator.rebuild_catch_up_rounds"},
+      {[](ServerParams* p) { p->estimator.rebuild_catch_up_rounds = 65; },
+       "estimator.rebuild_catch_up_rounds"},
   };
   for (const Case& c : cases) {
     ServerParams p;

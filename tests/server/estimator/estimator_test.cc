@@ -528,6 +528,19 @@ TEST(EstimatorTest, HelperCatchUpRoundsReplayBitForBit) {
   }
   EXPECT_GT(swaps.size(), 2u);
   EXPECT_GT(rounds, 0);  // a 1500-pose rebuild against updates of ~50 µs
+  // With rounds off the helper runs none, whatever waits; the swap takes it all.
+  EstimatorParams no_rounds = params;
+  no_rounds.rebuild_catch_up_rounds = 0;
+  auto swap_only = Make(no_rounds);
+  int swaps_without_rounds = 0;
+  for (const std::vector<Inbound>& batch : batches) {
+    ASSERT_TRUE(swap_only->Process(batch).status.ok());
+    if (!swap_only->RebuildReady()) continue;
+    ASSERT_TRUE(swap_only->FinishRebuild().ok());
+    EXPECT_TRUE(swap_only->last_swap_rounds().empty());
+    ++swaps_without_rounds;
+  }
+  EXPECT_GT(swaps_without_rounds, 2);
 
   auto replayed = Make(params);
   replayed->SetReplaying(true);
