@@ -91,7 +91,8 @@ Isam2Result Isam2::UpdateWith(const FactorGraph& new_factors, const Values& new_
     std::vector<int> relin;
     // Capped by max_variables or deferred: what is left is checked at the next update, not
     // `skip` later.
-    const int due = SelectRelinearization(options, batch, relinearization, &relin);
+    const int due =
+        SelectRelinearization(options, batch, relinearization, &relin, &result.screened_variables);
     if (!batch && options.defer_relinearization_above > 0 &&
         due > options.defer_relinearization_above) {
       result.relinearization_deferred = due;

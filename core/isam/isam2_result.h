@@ -57,6 +57,10 @@ struct Isam2Result {
   // Variables due for relinearisation that were left as they are
   // (Isam2UpdateOptions::defer_relinearization_above).
   int relinearization_deferred = 0;
+  // Variables over their δ budget whose factors the linearisation-error check walked
+  // (Relinearization::error_threshold). One whose factors all passed is not walked again while
+  // its δ stays exactly as it was.
+  int screened_variables = 0;
   int reeliminated_variables = 0;
   int reeliminated_cliques = 0;
   int solved_cliques = 0;  // cliques back-substituted

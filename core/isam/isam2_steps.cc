@@ -83,6 +83,7 @@ void Isam2::AddVariables(const Values& new_values) {
     SLAMD_CHECK(inserted.ok()) << inserted.ToString();  // CheckInput ruled out every failure
     dims_.push_back(new_values.DimAt(s));
     budget_.push_back(0.0);
+    screened_norm2_.push_back(-1.0);
     const VariableType type = new_values.TypeAt(s);
     rotation_begin_.push_back(type == VariableType::kPose2   ? 2
                               : type == VariableType::kPose3 ? 3
@@ -160,7 +161,7 @@ void Isam2::RemoveFactors(const std::vector<int>& indices, std::vector<int>* aff
 
 int Isam2::SelectRelinearization(const Isam2UpdateOptions& options, bool all,
                                  const Isam2Params::Relinearization& thresholds,
-                                 std::vector<int>* relin) {
+                                 std::vector<int>* relin, int* screened) {
   const int n = static_cast<int>(theta_.size());
   std::unordered_set<int> frozen;
   for (Key key : options.no_relinearize) frozen.insert(theta_.SlotOf(key));
@@ -184,7 +185,7 @@ int Isam2::SelectRelinearization(const Isam2UpdateOptions& options, bool all,
     }
     // A frozen variable is not relinearised for its δ (FindStaleLinearizations reads this).
     ratio_[v] = frozen.empty() || !frozen.count(v) ? ratio : 0.0;
-    if (error_threshold > 0.0 && norm2 > budget_unit * budget_[v]) {
+    if (error_threshold > 0.0 && norm2 > budget_unit * budget_[v] && norm2 != screened_norm2_[v]) {
       over_budget_.push_back(v);
       step_norms_[v] = {norm2, rotation2};
     }
@@ -200,6 +201,7 @@ int Isam2::SelectRelinearization(const Isam2UpdateOptions& options, bool all,
   }
   // ... raised to linearisation error / error_threshold on the variables of stale factors.
   if (error_threshold > 0.0) FindStaleLinearizations(error_threshold);
+  *screened = error_threshold > 0.0 ? static_cast<int>(over_budget_.size()) : 0;
   std::vector<std::pair<double, int>> over;
   for (int v = 0; v < n; ++v) {
     if ((all || ratio_[v] > 1.0) && !frozen.count(v)) over.emplace_back(ratio_[v], v);
@@ -251,22 +253,28 @@ void Isam2::FindStaleLinearizations(double threshold) {
   for (int f : screened_) probe_mark_[f] = 0;  // all zero between uses
   for (int v : over_budget_) over_budget_mark_[v] = 0;
   if (!probe_factors_.empty()) ProbeLinearizations(threshold);
+  for (int f : probe_factors_) probe_mark_[f] = 1;  // probed now (cleared below)
   // New budgets: with each of its k_f variables u at |δ_u|² ≤ unit x budget_u, a factor f has
   // κ_f·s_f ≤ κ_f·|δ_f|² ≤ unit (unit = kStaleScreen x threshold): it would pass the screen.
   // Unknown curvature: budget 0 (evaluate as soon as δ_v moves).
   for (int v : over_budget_) {
     double budget = std::numeric_limits<double>::infinity();
+    bool screened = true;  // every factor of v passed the screen, none was probed
     for (int f : variable_index_.FactorsOf(v)) {
       const double kappa = curvature_[f];
       if (kappa < 0.0) {
         budget = 0.0;
+        screened = false;
         break;
       }
+      screened = screened && !probe_mark_[f];
       // k_f <= kMaxFactorKeys (a bound, so that the factor's storage is not touched here).
       if (kappa > 0.0) budget = std::min(budget, 1.0 / (kappa * kMaxFactorKeys));
     }
     budget_[v] = budget;
+    screened_norm2_[v] = screened ? step_norms_[v].first : -1.0;
   }
+  for (int f : probe_factors_) probe_mark_[f] = 0;
   // A probe may have raised κ_f: the budgets of f's other variables (within their budgets, so
   // not renewed above) must shrink with it, or f could drift past the screen through them.
   for (int f : probe_factors_) {
@@ -584,6 +592,7 @@ void Isam2::Rollback() {
   delta_.segment(offsets_[undo_.num_vars], offsets_.back() - offsets_[undo_.num_vars]).setZero();
   dims_.resize(undo_.num_vars);
   budget_.resize(undo_.num_vars);
+  screened_norm2_.resize(undo_.num_vars);
   rotation_begin_.resize(undo_.num_vars);
   offsets_.resize(undo_.num_vars + 1);
   // The tree: the detached top back as it was (the failed elimination freed what it made, and
