@@ -147,8 +147,8 @@ class Estimator {
   // false when no rebuild was in flight. When the rebuild failed, the live solver stays (and the
   // next update relinearises in the update) and the status says why. `replay_rounds`: in a
   // replay, the catch-up rounds the journal recorded for this swap (logged updates per round),
-  // run here since the helper ran none (SetReplaying); DataLoss when they name more updates
-  // than were logged.
+  // run here since the helper ran none (SetReplaying); ignored when they name more updates than
+  // were logged (a record of another rebuild: see FinishRebuild).
   core::Result<bool> FinishRebuild(std::span<const int> replay_rounds = {});
   // The catch-up rounds of the last swap (logged updates per round), for the journal.
   const std::vector<int>& last_swap_rounds() const { return last_swap_rounds_; }
