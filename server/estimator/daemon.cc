@@ -236,11 +236,10 @@ void Daemon::OnInbound(std::string_view channel, const Msg& msg) {
           ++queued_;
           return;
         }
-        ++journal_errors_;
+        NoteJournalError(seq.status());
         verdict = {
             RejectReason::kStorageError,
             std::string(type) + ": the journal could not take it: " + seq.status().message()};
-        log_->error("journal: {}", seq.status().ToString());
       }
     }
   }
@@ -306,10 +305,7 @@ int Daemon::StepEstimator(double timeout_s) {
     if (!r.status.ok()) log_->warn("refine failed: {}", r.status.ToString());
     if (journal_ && r.rounds > 0) {
       const core::Status s = journal_->AppendRefinement(r.rounds);
-      if (!s.ok()) {
-        ++journal_errors_;
-        log_->error("journal: {}", s.ToString());
-      }
+      if (!s.ok()) NoteJournalError(s);
     }
   }
   if (journal_ && params_.journal.sync == SyncPolicy::kInterval) {
@@ -346,10 +342,7 @@ void Daemon::SwapRebuild() {
   // Journaled failed or not: a replay fails the same way, and relinearises the same way after.
   if (journal_) {
     const core::Status s = journal_->AppendRebuildSwap(sequence, estimator_->last_swap_rounds());
-    if (!s.ok()) {
-      ++journal_errors_;
-      log_->error("journal: {}", s.ToString());
-    }
+    if (!s.ok()) NoteJournalError(s);
   }
   PublishEstimates(*ShareSnapshot(), SteadyMicros());
 }
@@ -396,11 +389,14 @@ void Daemon::JournalUpdate(const std::vector<Inbound>& batch) {
   if (count == 0) return;
   core::Status s = journal_->AppendBoundary(estimator_->snapshot()->update_sequence, last, count);
   if (s.ok()) s = journal_->Commit();
-  if (!s.ok()) {
-    // The messages are in the journal; a replay merges them into the next update.
-    ++journal_errors_;
-    log_->error("journal: {}", s.ToString());
-  }
+  // The messages are in the journal; without the boundary a replay merges them into the next
+  // update.
+  if (!s.ok()) NoteJournalError(s);
+}
+
+void Daemon::NoteJournalError(const core::Status& s) {
+  ++journal_errors_;
+  log_->error("journal: {}", s.ToString());
 }
 
 void Daemon::MaybeSnapshot() {

@@ -78,6 +78,7 @@ class Daemon {
   std::shared_ptr<const EstimateSnapshot> snapshot() const;
   // The estimator, for tests that drive the daemon by hand (no threads running).
   const Estimator& estimator_for_tests() const { return *estimator_; }
+  const Journal* journal_for_tests() const { return journal_.get(); }  // null without data_dir
   int queue_depth() const { return queue_.size(); }
 
  private:
@@ -89,6 +90,8 @@ class Daemon {
   std::shared_ptr<const EstimateSnapshot> ShareSnapshot();
   // Journals what the estimator did (no-op without a journal).
   void JournalUpdate(const std::vector<Inbound>& batch);
+  // Counts and logs a journal failure (the estimator goes on: see JournalUpdate).
+  void NoteJournalError(const core::Status& s);
   void PublishRejection(const Rejection& rejection);  // a stateful (estimator) rejection
   // Logs every rejection at debug level and a warning at most every 10 s (with the count since
   // the last one), so a flood of bad input cannot flood the log.

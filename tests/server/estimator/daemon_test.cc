@@ -1,12 +1,16 @@
 #include "server/estimator/daemon.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <atomic>
 #include <chrono>
+#include <filesystem>
 #include <mutex>
 #include <thread>
 
 #include "server/ingest/conversion.h"
+#include "server/journal/read_journal.h"
 #include "server/transport/in_process_bus.h"
 #include "server/transport/typed_subscribe.h"
 #include "slamd/estimate_t.hpp"
@@ -19,6 +23,7 @@
 #include "slamd/reject_t.hpp"
 #include "slamd/remove_factor_t.hpp"
 #include "slamd/status_t.hpp"
+#include "slamd_proto/journal.pb.h"
 
 namespace slamd::server {
 namespace {
@@ -469,6 +474,89 @@ TEST(DaemonTest, StopWithoutJournalRejectsHeldMessages) {
   EXPECT_EQ(client.rejects[0].reason, slamd::reject_t::REASON_OUT_OF_ORDER_TIMEOUT);
   EXPECT_EQ(client.rejects[0].channel, "SLAMD_ODOMETRY");
   EXPECT_NE(client.rejects[0].detail.find("stopped"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace slamd::server
+
+namespace slamd::server {
+namespace {
+
+// An InProcessBus that notes, as each estimate_t is published, its pose and how far the
+// daemon's journal is durable at that moment.
+class DurabilityProbeBus final : public Bus {
+ public:
+  core::Status Publish(std::string_view channel, std::span<const std::uint8_t> bytes) override {
+    const Daemon* d = daemon.load();
+    if (channel == "SLAMD_ESTIMATE" && d != nullptr) {
+      slamd::estimate_t m;
+      EXPECT_GT(m.decode(bytes.data(), 0, static_cast<int>(bytes.size())), 0);
+      std::lock_guard lock(mutex);
+      published.push_back({m.pose_index, d->journal_for_tests()->durable_offset()});
+    }
+    return inner.Publish(channel, bytes);
+  }
+  core::Result<Subscription> Subscribe(std::string_view channel_regex,
+                                       MessageCallback callback) override {
+    return inner.Subscribe(channel_regex, std::move(callback));
+  }
+  core::Result<int> HandleOnce(int timeout_ms) override { return inner.HandleOnce(timeout_ms); }
+
+  InProcessBus inner;
+  std::atomic<const Daemon*> daemon{nullptr};
+  std::mutex mutex;
+  std::vector<std::pair<std::int64_t, std::int64_t>> published;  // (pose, durable offset)
+};
+
+// journal.sync = ALWAYS: the fdatasync runs on the committer thread during the update, and no
+// estimate goes out before the messages it reflects are durable.
+TEST(DaemonTest, AlwaysJournalPublishesAnEstimateOnlyOnceItsMessagesAreDurable) {
+  const std::string dir = (std::filesystem::temp_directory_path() /
+                           ("slamd_daemon_durable_" + std::to_string(::getpid())))
+                              .string();
+  std::filesystem::remove_all(dir);
+  ServerParams p = Params();
+  p.data_dir = dir;
+  p.journal.sync = SyncPolicy::kAlways;
+  constexpr int kPoses = 300;
+  DurabilityProbeBus bus;
+  {
+    auto daemon = Daemon::Create(p, &bus).value();
+    bus.daemon = daemon.get();
+    daemon->Start();
+    ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", Prior()).ok());
+    for (int i = 0; i < kPoses; ++i) {
+      ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(i, i + 1)).ok());
+      if (i % 10 == 0) std::this_thread::sleep_for(std::chrono::microseconds(300));
+    }
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (std::chrono::steady_clock::now() < deadline) {
+      {
+        std::lock_guard lock(bus.mutex);
+        if (!bus.published.empty() && bus.published.back().first == kPoses) break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    daemon->Stop();
+    bus.daemon = nullptr;
+  }
+  // Message sequence 1 is the prior, 1 + k the odometry to pose k (one intake thread, FIFO bus).
+  const JournalContents journal = ReadJournal(dir + "/journal.slamdj").value();
+  std::vector<std::int64_t> message_end(kPoses + 2, -1);
+  for (size_t i = 0; i < journal.records.size(); ++i) {
+    if (!journal.records[i].has_message()) continue;
+    const std::int64_t end =
+        i + 1 < journal.records.size() ? journal.offsets[i + 1] : journal.valid_end_offset;
+    message_end.at(static_cast<size_t>(journal.records[i].message().sequence())) = end;
+  }
+  std::lock_guard lock(bus.mutex);
+  ASSERT_FALSE(bus.published.empty());
+  EXPECT_EQ(bus.published.back().first, kPoses);
+  for (const auto& [pose, durable] : bus.published) {
+    ASSERT_GT(message_end.at(static_cast<size_t>(pose) + 1), 0) << "pose " << pose;
+    EXPECT_GE(durable, message_end.at(static_cast<size_t>(pose) + 1)) << "pose " << pose;
+  }
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
