@@ -78,9 +78,21 @@ core::Status WriteAndSync(const std::string& path, int64_t sequence, std::string
   }
   core::Status s =
       internal::PwriteAll(fd, header, sizeof(header), 0, path, "snapshot header", nullptr);
-  if (s.ok()) {
-    s = internal::PwriteAll(fd, bytes.data(), bytes.size(), kSnapshotHeaderSize, path,
-                            "snapshot payload", nullptr);
+  // The payload in chunks, each written out to the disk before the next: a snapshot of a large
+  // map is hundreds of MB, and left dirty in the page cache all at once it would be flushed by
+  // the journal's next fdatasync (ext4 commits the new blocks' data with its metadata), a stall
+  // of 200 ms in the soak. Chunked, an fdatasync waits behind at most one chunk.
+  constexpr std::size_t kChunk = std::size_t{1} << 20;
+  for (std::size_t done = 0; s.ok() && done < bytes.size(); done += kChunk) {
+    const std::size_t n = std::min(kChunk, bytes.size() - done);
+    const auto offset = static_cast<int64_t>(kSnapshotHeaderSize + done);
+    s = internal::PwriteAll(fd, bytes.data() + done, n, offset, path, "snapshot payload", nullptr);
+    if (s.ok() && ::sync_file_range(fd, offset, static_cast<off64_t>(n),
+                                    SYNC_FILE_RANGE_WAIT_BEFORE | SYNC_FILE_RANGE_WRITE |
+                                        SYNC_FILE_RANGE_WAIT_AFTER) != 0) {
+      s = core::IoError("writing out snapshot " + path + " at offset " + std::to_string(offset) +
+                        " failed: " + internal::ErrnoDescription(errno));
+    }
   }
   if (s.ok() && ::fsync(fd) != 0) {
     s = core::IoError("fsync of snapshot " + path +

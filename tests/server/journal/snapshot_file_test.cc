@@ -55,7 +55,9 @@ TEST_F(SnapshotFileTest, NameSortsBySequence) {
 }
 
 TEST_F(SnapshotFileTest, WriteThenReadReturnsTheBytes) {
-  for (const std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{1} << 20}) {
+  // Sizes around the writer's 1 MiB chunks.
+  for (const std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{1} << 20,
+                              (std::size_t{1} << 20) + 1, (std::size_t{3} << 20) + 12345}) {
     const std::string bytes = RandomBytes(n, static_cast<uint32_t>(n));
     auto path = WriteSnapshotFile(dir_, static_cast<int64_t>(n), bytes, {.keep = 5});
     ASSERT_TRUE(path.ok()) << path.status().ToString();
