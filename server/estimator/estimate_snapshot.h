@@ -41,7 +41,9 @@ struct EstimateSnapshot {
   std::int64_t update_sequence = 0;
   double chi2 = 0.0;
   // The update_sequence chi2 was computed at (it lags behind by at most
-  // EstimatorParams::chi2_interval_s, and never once the estimate has settled).
+  // EstimatorParams::chi2_interval_s, and never once the estimate has settled). After a swap of
+  // a background rebuild it may be the rebuilt solver's, computed on its helper thread over the
+  // updates it had taken: the chi2 of another estimate of the map as of that update.
   std::int64_t chi2_sequence = 0;
   std::int64_t residual_dimension = 0;
   std::int64_t num_variables = 0;

@@ -129,6 +129,7 @@ void Estimator::StartRebuild() {
     rebuild->position[i] = static_cast<int>(factors.size());
     factors.Add(slots[i]);
   }
+  rebuild->start_sequence = sequence_;
   Rebuild* r = rebuild.get();
   // One thread: the other core is the live solver's. (The rebuilt solver keeps it after the
   // swap; with background relinearisation the steps large enough for threads are the rebuilds.
@@ -136,10 +137,10 @@ void Estimator::StartRebuild() {
   // 1.6-2.3 ms.)
   core::Isam2Params params = isam_->params();
   params.threads = 1;
-  rebuild->thread =
-      std::thread([r, params, factors = std::move(factors), estimate = isam_->CalculateEstimate(),
-                   newest = NewestPoses(),
-                   max_rounds = replaying_ ? 0 : params_.rebuild_catch_up_rounds]() mutable {
+  rebuild->thread = std::thread(
+      [r, params, factors = std::move(factors), estimate = isam_->CalculateEstimate(),
+       newest = NewestPoses(), max_rounds = replaying_ ? 0 : params_.rebuild_catch_up_rounds,
+       with_chi2 = !replaying_ && params_.chi2_interval_s > 0.0]() mutable {
         core::Result<std::unique_ptr<core::Isam2>> made = core::Isam2::Create(params);
         if (made.ok()) {
           r->solver = std::move(made).value();
@@ -174,6 +175,15 @@ void Estimator::StartRebuild() {
           const size_t taken = end - r->caught_up;
           r->status = CatchUp(r, end, {.force_relinearize = true}, nullptr).status;
           r->rounds.push_back(static_cast<int>(taken));
+        }
+        // The status chi2 of the rebuilt map, here rather than on the estimator thread, where a
+        // pass over every factor (50-350 ms at 250k variables) held up every message behind it.
+        // It describes the updates taken so far; the swap hands it over.
+        if (r->status.ok() && with_chi2) {
+          r->chi2 = r->solver->Chi2();
+          std::lock_guard lock(r->log_mutex);
+          r->chi2_sequence =
+              r->caught_up == 0 ? r->start_sequence : r->log[r->caught_up - 1].sequence;
         }
         r->done.store(true, std::memory_order_release);
       });
@@ -239,6 +249,7 @@ void Estimator::LogForRebuild(const core::FactorGraph& factors, const core::Valu
   }
   u.values = values;
   u.removed.assign(removed.begin(), removed.end());
+  u.sequence = sequence_;
   std::lock_guard lock(rebuild_->log_mutex);
   rebuild_->log.push_back(std::move(u));
 }
@@ -305,6 +316,11 @@ core::Result<bool> Estimator::FinishRebuild(std::span<const int> replay_rounds) 
       isam_.get(), core::MarginalsParams{.threads = marginals_threads_});
   ++counters_.rebuilds;
   settled_ = false;
+  if (r->chi2 >= 0.0 && r->chi2_sequence > chi2_sequence_) {
+    chi2_ = r->chi2;
+    chi2_sequence_ = r->chi2_sequence;
+    chi2_time_ = std::chrono::steady_clock::now();  // as if computed here: not due again yet
+  }
   PublishSnapshot(true);
   AfterUpdate(update);
   return true;
@@ -911,22 +927,20 @@ void Estimator::PublishSnapshot(bool bump) {
   snap->settled = settled_;
   // chi2 is O(factors): after every update it would dominate a long run's update time. It is
   // recomputed at most every chi2_interval_s and at most 2% of the time, and whenever the
-  // estimate settles.
+  // estimate settles; a swapped-in rebuild brings one computed on its helper thread.
   constexpr double kChi2MaxLoad = 0.02;
   const auto now = std::chrono::steady_clock::now();
   const double since = std::chrono::duration<double>(now - chi2_time_).count();
   const double interval = params_.chi2_interval_s;
   const bool due = since >= interval && (interval == 0.0 || since * kChi2MaxLoad >= chi2_cost_s_);
-  const bool stale = !snapshot_ || snapshot_->chi2_sequence != sequence_;
-  if (!snapshot_ || (stale && (due || settled_))) {
-    snap->chi2 = isam_->Chi2();
-    snap->chi2_sequence = sequence_;
+  if (chi2_sequence_ < 0 || (chi2_sequence_ != sequence_ && (due || settled_))) {
+    chi2_ = isam_->Chi2();
+    chi2_sequence_ = sequence_;
     chi2_time_ = std::chrono::steady_clock::now();
     chi2_cost_s_ = std::chrono::duration<double>(chi2_time_ - now).count();
-  } else {
-    snap->chi2 = snapshot_->chi2;
-    snap->chi2_sequence = snapshot_->chi2_sequence;
   }
+  snap->chi2 = chi2_;
+  snap->chi2_sequence = chi2_sequence_;
   for (std::uint8_t id : registry_.ids()) {
     RobotState& r = robots_[id];
     if (!r.anchored) continue;

@@ -254,6 +254,7 @@ class Estimator {
     std::vector<std::pair<int, core::FactorPtr>> added;  // (live factor index, factor)
     core::Values values;                                 // new variables, initial guesses
     std::vector<int> removed;                            // live factor indices
+    std::int64_t sequence = 0;                           // the live update sequence it made
   };
   // A solver being rebuilt on `thread`. `log` is shared (under `log_mutex`); the rest belongs
   // to the helper until `done`, then to the estimator thread.
@@ -268,6 +269,11 @@ class Estimator {
     std::vector<LoggedUpdate> log;  // the live updates since the start, in order
     size_t caught_up = 0;           // log entries `solver` has taken
     std::vector<int> rounds;        // entries taken per catch-up round
+    std::int64_t start_sequence = 0;  // the live update sequence the rebuild started from
+    // The status chi2 of `solver` after its rounds (-1: not computed), and the live update
+    // sequence whose factors it covers.
+    double chi2 = -1.0;
+    std::int64_t chi2_sequence = 0;
   };
   // Gives r->solver the log entries [r->caught_up, end) in one update (none when they add and
   // remove nothing) and maps their factors in r->position. New variables at their logged
@@ -301,8 +307,12 @@ class Estimator {
   std::int64_t residual_dimension_ = 0;
   bool settled_ = true;
   std::shared_ptr<const EstimateSnapshot> snapshot_;
-  std::chrono::steady_clock::time_point chi2_time_;  // when snapshot chi2 was last computed
-  double chi2_cost_s_ = 0.0;                          // how long that took [s]
+  // The latest status chi2 and the update sequence it describes (-1: none yet); computed here
+  // or handed over by a rebuild (FinishRebuild).
+  double chi2_ = 0.0;
+  std::int64_t chi2_sequence_ = -1;
+  std::chrono::steady_clock::time_point chi2_time_;  // when chi2_ was last computed
+  double chi2_cost_s_ = 0.0;                         // how long computing it here took [s]
 };
 
 }  // namespace slamd::server

@@ -28,7 +28,8 @@ struct EstimatorParams {
   // status_t's chi2 (a pass over every factor) is recomputed at most this often while updates
   // stream in, and always once the estimate settles [s]; 0 = after every update. >= 0.
   // When > 0, it also waits 50x as long as the last pass took (at most 2% of the estimator's
-  // time: a pass grows with the map).
+  // time: a pass grows with the map), and a background rebuild's helper computes one for its
+  // solver, which the swap hands over.
   double chi2_interval_s = 1.0;
   // Robust kernel for loop closures that do not name one (loop_closure_t.robust_kernel ""):
   // "none", "huber", "cauchy", "gemanmcclure" or "dcs" (core/factors/robust_kernel.h), and its

@@ -607,5 +607,32 @@ TEST(EstimatorTest, ReplayedRoundsThatDoNotFitTheLogAreIgnored) {
   }
 }
 
+// A swapped-in rebuild hands over the status chi2 its helper computed, so the estimator thread
+// does not make that pass over every factor. With nothing logged while the rebuild ran, it is
+// the chi2 of the live solver right after the swap, bit for bit.
+TEST(EstimatorTest, SwapHandsOverTheChi2ItsHelperComputed) {
+  // chi2_interval_s so long that the estimator thread computes chi2 only at its first update.
+  auto e = Make({.chi2_interval_s = 1000.0, .background_relinearization_above = 8});
+  ASSERT_TRUE(e->Process({Prior("r", 0, Pose2())}).status.ok());
+  const std::int64_t first = e->snapshot()->chi2_sequence;
+  for (int i = 0; i < 400 && !e->Rebuilding(); ++i) {
+    std::vector<Inbound> batch = {Odo("r", i, i + 1, kStep)};
+    if (i >= 20 && i % 10 == 0) batch.push_back(Loop("r", i + 1, "r", i - 19, Pose2(0.3, 0, 0)));
+    ASSERT_TRUE(e->Process(batch).status.ok());
+  }
+  ASSERT_TRUE(e->Rebuilding());
+  const std::int64_t started = e->snapshot()->update_sequence;
+  EXPECT_EQ(e->snapshot()->chi2_sequence, first);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (!e->RebuildReady() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  const core::Result<bool> swapped = e->FinishRebuild();
+  ASSERT_TRUE(swapped.ok() && swapped.value());
+  EXPECT_EQ(e->snapshot()->chi2_sequence, started);
+  EXPECT_GT(e->snapshot()->update_sequence, started);
+  EXPECT_EQ(e->snapshot()->chi2, e->solver().Chi2());
+}
+
 }  // namespace
 }  // namespace slamd::server
