@@ -7,7 +7,7 @@ Status Values::Insert(Key key, const Variable& value) {
   if (!AllFinite(value)) {
     return InvalidArgument("variable " + KeyToString(key) + " has a NaN or infinite entry");
   }
-  slot_.emplace(key, static_cast<int>(keys_.size()));
+  slot_.Insert(key, static_cast<int>(keys_.size()));
   keys_.push_back(key);
   vars_.push_back(value);
   return Status::Ok();
@@ -33,8 +33,8 @@ Status Values::Erase(Key key) {
   if (s < 0) return NotFound("variable " + KeyToString(key) + " does not exist");
   keys_.erase(keys_.begin() + s);
   vars_.erase(vars_.begin() + s);
-  slot_.erase(key);
-  for (int i = s; i < static_cast<int>(keys_.size()); ++i) slot_[keys_[i]] = i;
+  slot_.Erase(key);
+  for (int i = s; i < static_cast<int>(keys_.size()); ++i) slot_.Set(keys_[i], i);
   return Status::Ok();
 }
 

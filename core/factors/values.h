@@ -5,10 +5,10 @@
 // Not thread-safe for concurrent mutation; concurrent const access is fine.
 #pragma once
 
-#include <unordered_map>
 #include <vector>
 
 #include "core/base/key.h"
+#include "core/base/key_slots.h"
 #include "core/base/status.h"
 #include "core/factors/variable.h"
 
@@ -23,15 +23,12 @@ class Values {
   // Removes a variable (O(size): later slots shift down by one). NotFound if absent.
   Status Erase(Key key);
 
-  bool Contains(Key key) const { return slot_.count(key) != 0; }
+  bool Contains(Key key) const { return slot_.Find(key) >= 0; }
   std::size_t size() const { return keys_.size(); }
   bool empty() const { return keys_.empty(); }
 
   // Slot of a key, or -1.
-  int SlotOf(Key key) const {
-    const auto it = slot_.find(key);
-    return it == slot_.end() ? -1 : it->second;
-  }
+  int SlotOf(Key key) const { return slot_.Find(key); }
   Key KeyAt(int slot) const { return keys_[slot]; }
   const std::vector<Key>& keys() const { return keys_; }
 
@@ -63,7 +60,7 @@ class Values {
  private:
   std::vector<Key> keys_;
   std::vector<Variable> vars_;
-  std::unordered_map<Key, int> slot_;
+  KeySlots slot_;  // flat: copying Values is a few vector copies
 };
 
 }  // namespace slamd::core
