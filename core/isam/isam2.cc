@@ -30,7 +30,8 @@ Isam2::RefineResult Isam2::Refine(double budget_s, int max_rounds) {
       .rotation_threshold = params_.refine_threshold,
       .translation_threshold = params_.refine_threshold,
       .error_threshold = params_.relinearization.error_threshold,
-      .skip = 1};
+      .skip = 1,
+      .max_variables = params_.refine_max_variables};
   while (out.rounds < max_rounds && timer.Seconds() < budget_s) {
     const Isam2Result r = UpdateWith({}, {}, {.force_relinearize = true}, fine,
                                      kRefineWildfire * params_.refine_threshold);

@@ -65,9 +65,10 @@ class Isam2 {
   Isam2Result Update(const FactorGraph& new_factors, const Values& new_values,
                      const Isam2UpdateOptions& options = {});
 
-  // Idle-time refinement ("settling"): repeatedly relinearises every variable whose update δ
-  // exceeds Isam2Params::refine_threshold (far below the fluid-relinearisation thresholds) and
-  // re-solves, until no variable moves that much (converged) or `budget_s` seconds have passed,
+  // Idle-time refinement ("settling"): repeatedly relinearises the variables whose update δ
+  // exceeds Isam2Params::refine_threshold (far below the fluid-relinearisation thresholds; at
+  // most refine_max_variables per round, the most changed first) and re-solves, until no
+  // variable moves that much (converged) or `budget_s` seconds have passed,
   // so that the estimate approaches the batch optimum of the factors seen so far. Each round is a
   // Gauss-Newton step through the tree; its back-substitution is partial with a threshold of
   // kRefineWildfire x refine_threshold (a full solve would make every round O(variables), which on

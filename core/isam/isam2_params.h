@@ -44,6 +44,11 @@ struct Isam2Params {
   // Refine() relinearises variables whose update exceeds this (both rotation and translation
   // entries). > 0.
   double refine_threshold = 1e-6;
+  // ... at most this many per round, those whose update exceeds it by the largest factor first
+  // (as Relinearization::max_variables). On a large map a round that relinearised every
+  // variable still moving re-eliminated most of the tree (50-300 ms at 250k variables in slamd's
+  // soak), and a message that came meanwhile waited for it. 0 = no limit. >= 0.
+  int refine_max_variables = 2048;
 
   // Threads for the slowest steps, which relinearise most of the graph and re-eliminate the
   // whole tree: they relinearise factors (when there are 512+ per thread) and eliminate

@@ -86,6 +86,7 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   }
   if (i.has_wildfire_threshold()) p->isam2.wildfire_threshold = i.wildfire_threshold();
   if (i.has_refine_threshold()) p->isam2.refine_threshold = i.refine_threshold();
+  if (i.has_refine_max_variables()) p->isam2.refine_max_variables = i.refine_max_variables();
   if (i.has_batch_every()) p->isam2.batch_every = i.batch_every();
   if (i.has_threads()) p->isam2.threads = i.threads();
   const proto::JournalConfig& j = config.journal();
@@ -210,6 +211,8 @@ std::string DefaultConfigText() {
       << "  # partial back-substitution\n"
       << "  refine_threshold: " << Num(d.isam2.refine_threshold)
       << "  # Refine converged below this |delta|\n"
+      << "  refine_max_variables: " << d.isam2.refine_max_variables
+      << "  # relinearised per Refine round (a bound on its time), 0 = no limit\n"
       << "  batch_every: " << d.isam2.batch_every
       << "  # periodic full relinearisation, 0 = never\n"
       << "  threads: " << d.isam2.threads

@@ -22,12 +22,14 @@ TEST(Isam2ParamsTest, EachViolationNamesTheField) {
   };
   const Case cases[] = {
       {{.relinearization = {.rotation_threshold = 0.0}}, "relinearization.rotation_threshold"},
-      {{.relinearization = {.translation_threshold = -1.0}}, "relinearization.translation_threshold"},
+      {{.relinearization = {.translation_threshold = -1.0}},
+       "relinearization.translation_threshold"},
       {{.relinearization = {.error_threshold = -1.0}}, "relinearization.error_threshold"},
       {{.relinearization = {.skip = 0}}, "relinearization.skip"},
       {{.relinearization = {.max_variables = -1}}, "relinearization.max_variables"},
       {{.wildfire_threshold = -0.1}, "wildfire_threshold"},
       {{.refine_threshold = 0.0}, "refine_threshold"},
+      {{.refine_max_variables = -1}, "refine_max_variables"},
       {{.batch_every = -2}, "batch_every"},
       {{.threads = 0}, "threads"},
       {{.elimination = {.relative_pivot_tolerance = 2.0}}, "relative_pivot_tolerance"},

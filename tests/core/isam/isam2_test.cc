@@ -101,6 +101,32 @@ TEST(Isam2Test, RobustKernelsSettleOnTheRobustBatchOptimum) {
   EXPECT_LT(testing::MaxDifference(isam->CalculateEstimate(), p.truth), 0.5);  // the outlier lost
 }
 
+// Refine rounds relinearise at most refine_max_variables each (a bound on a round's time), and
+// still settle on the batch optimum, in more rounds than unbounded ones.
+TEST(Isam2Test, BoundedRefineRoundsStillSettleOnTheBatchOptimum) {
+  const ExampleProblem p = testing::MakePlanarProblem(60, 10, 9);
+  auto bounded = MakeIsam2({.refine_max_variables = 5});
+  auto unbounded = MakeIsam2({.refine_max_variables = 0});
+  for (const testing::ExampleStep& step : testing::StreamByPose(p)) {
+    ASSERT_TRUE(bounded->Update(step.factors, step.values).status.ok());
+    ASSERT_TRUE(unbounded->Update(step.factors, step.values).status.ok());
+  }
+  const Isam2::RefineResult first = bounded->Refine(5.0, 1);
+  ASSERT_TRUE(first.status.ok());
+  EXPECT_EQ(first.relinearized_variables, 5);
+  const Isam2::RefineResult all = unbounded->Refine(5.0, 1);
+  EXPECT_GT(all.relinearized_variables, 5);
+  const Isam2::RefineResult rest = bounded->Refine(10.0);
+  ASSERT_TRUE(rest.converged);
+  const Isam2::RefineResult reference = unbounded->Refine(10.0);
+  ASSERT_TRUE(reference.converged);
+  EXPECT_GT(rest.rounds, reference.rounds);
+  const BatchResult batch = Optimize(p.graph, p.initial, {.relative_tolerance = 1e-12});
+  ASSERT_TRUE(batch.status.ok());
+  EXPECT_NEAR(bounded->Chi2(), batch.summary.final_chi2, 1e-6 * batch.summary.final_chi2);
+  EXPECT_LT(testing::MaxDifference(bounded->CalculateEstimate(), batch.values), 1e-4);
+}
+
 TEST(Isam2Test, IndeterminateUpdateNamesTheVariableAndChangesNothing) {
   const ExampleProblem p = testing::MakePlanarProblem(10, 0, 2);
   auto isam = MakeIsam2();

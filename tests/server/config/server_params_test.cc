@@ -26,6 +26,7 @@ TEST(ServerParamsTest, EachViolationNamesItsField) {
       {[](ServerParams* p) { p->isam2.relinearization.skip = 0; }, "isam2.relinearization.skip"},
       {[](ServerParams* p) { p->isam2.batch_every = -1; }, "isam2.batch_every"},
       {[](ServerParams* p) { p->isam2.threads = 0; }, "isam2.threads"},
+      {[](ServerParams* p) { p->isam2.refine_max_variables = -1; }, "isam2.refine_max_variables"},
       {[](ServerParams* p) { p->estimator.anchor_sigma = 0; }, "estimator.anchor_sigma"},
       {[](ServerParams* p) { p->estimator.max_held_messages = -1; }, "estimator.max_held_messages"},
       {[](ServerParams* p) { p->estimator.max_hold_updates = 0; }, "estimator.max_hold_updates"},
