@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 
 #include "core/base/param_check.h"
 #include "server/journal/crc32c.h"
@@ -105,6 +106,29 @@ core::Status WriteAndSync(const std::string& path, int64_t sequence, std::string
   return s;
 }
 
+// Removes a file of `dir` in 8 MiB truncations, each committed on its own, then unlinks it
+// (best effort; false if the file is still there). Unlinking a large snapshot at once frees all
+// its extents in one ext4 transaction, and the journal's next fdatasync waits for that commit
+// (29 ms next to a 200 MB unlink on a quiet disk; stalls of 100-300 ms in the soak). Renamed to
+// a temporary name first, so that a crash midway leaves a file the next prune removes, not a
+// torn snapshot.
+bool RemoveGradually(const std::string& dir, const std::string& name) {
+  const std::string path = dir + "/" + name;
+  const std::string temp = IsTempName(name) ? path : dir + "/." + name + ".tmp";
+  if (temp != path && ::rename(path.c_str(), temp.c_str()) != 0) return false;
+  const int fd = ::open(temp.c_str(), O_WRONLY | O_CLOEXEC);
+  if (fd >= 0) {
+    struct stat st {};
+    constexpr off_t kStep = off_t{8} << 20;
+    for (off_t size = ::fstat(fd, &st) == 0 ? st.st_size : 0; size > 0;) {
+      size = std::max<off_t>(0, size - kStep);
+      if (::ftruncate(fd, size) != 0 || ::fdatasync(fd) != 0) break;
+    }
+    ::close(fd);
+  }
+  return ::unlink(temp.c_str()) == 0;
+}
+
 }  // namespace
 
 core::Status SnapshotFileOptions::Validate() const {
@@ -147,10 +171,10 @@ core::Result<std::string> WriteSnapshotFile(const std::string& dir, int64_t sequ
   bool removed = false;
   for (std::size_t i = static_cast<std::size_t>(options.keep); i < list->size(); ++i) {
     if ((*list)[i].path == final_path) continue;  // a caller writing an older sequence
-    removed |= ::unlink((*list)[i].path.c_str()) == 0;
+    removed |= RemoveGradually(dir, std::filesystem::path((*list)[i].path).filename().string());
   }
   for (const std::string& n : names) {
-    if (IsTempName(n)) removed |= ::unlink((dir + "/" + n).c_str()) == 0;
+    if (IsTempName(n)) removed |= RemoveGradually(dir, n);
   }
   if (removed) SLAMD_RETURN_IF_ERROR(internal::SyncDirectory(dir));
   return final_path;

@@ -86,6 +86,22 @@ TEST_F(SnapshotFileTest, KeepsTheNewestAndListsNewestFirst) {
   EXPECT_EQ(Sequences(), (std::vector<int64_t>{60}));
 }
 
+// A pruned snapshot larger than the 8 MiB truncation step is removed whole, leaving neither the
+// file nor the temporary it is renamed to; the kept one reads back.
+TEST_F(SnapshotFileTest, LargeSnapshotsArePrunedCompletely) {
+  const std::string big = RandomBytes((std::size_t{20} << 20) + 3, 1);
+  ASSERT_TRUE(WriteSnapshotFile(dir_, 1, big, {.keep = 1}).ok());
+  ASSERT_TRUE(WriteSnapshotFile(dir_, 2, "two", {.keep = 1}).ok());
+  EXPECT_EQ(Sequences(), (std::vector<int64_t>{2}));
+  std::vector<std::string> left;
+  for (const auto& entry : fs::directory_iterator(dir_)) {
+    left.push_back(entry.path().filename().string());
+  }
+  EXPECT_EQ(left, (std::vector<std::string>{SnapshotFileName(2)}));
+  int64_t seq = -1;
+  EXPECT_EQ(ReadSnapshotFile(dir_ + "/" + SnapshotFileName(2), &seq).value(), "two");
+}
+
 TEST_F(SnapshotFileTest, InterruptedTemporaryIsIgnoredThenRemoved) {
   ASSERT_TRUE(WriteSnapshotFile(dir_, 5, "five").ok());
   // What a crash during WriteSnapshotFile(6) leaves: a half-written hidden temporary.
