@@ -3,8 +3,9 @@
 //
 // Why not std::unordered_map: Values are copied whole (a solver's estimate, a snapshot's
 // linearisation point), and in a long run they hold hundreds of thousands of variables. A
-// node-based map's copy allocates once per entry (17 ms on average and up to 220 ms at 250k
-// variables on slamd's estimator thread); this one's copy is one vector copy.
+// node-based map's copy allocates once per entry; this one's copy is one vector copy (the
+// estimate handed to a rebuild in slamd's soak, up to 250k variables: 17.6 ms on average
+// before, 3.8 ms after).
 #pragma once
 
 #include <cstddef>
