@@ -693,7 +693,8 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
     return;
   }
   for (const auto& [position, id, first] : s.ids) {
-    applied_[id] = {static_cast<int>(solver_index_.size()), first, s.factors[position]->dim()};
+    applied_[id] = static_cast<int>(solver_index_.size());
+    applied_factors_.push_back({id, first, s.factors[position]->dim()});
     solver_index_.push_back(update.new_factor_indices[position]);
   }
   num_factors_ += static_cast<std::int64_t>(s.factors.size());
@@ -744,7 +745,7 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
   std::string why;
   const std::optional<MeasurementId> id = RemovalId(r, &first, &why);
   const auto it = id ? applied_.find(*id) : applied_.end();
-  if (!id || it == applied_.end() || it->second.first != first) {
+  if (!id || it == applied_.end() || applied_factors_[it->second].first != first) {
     if (id) {
       why = "remove_factor_t: no such measurement was applied (from " +
             core::KeyToString(std::get<1>(*id)) +
@@ -755,7 +756,7 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
     return;
   }
   core::Isam2UpdateOptions options = UpdateOptions();
-  options.remove_factors = {solver_index_[it->second.factor]};
+  options.remove_factors = {solver_index_[it->second]};
   result->updates.push_back(isam_->Update({}, {}, options));
   const core::Isam2Result& update = result->updates.back();
   if (!update.status.ok()) {
@@ -765,8 +766,8 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
     return;
   }
   --num_factors_;
-  residual_dimension_ -= it->second.dim;
-  solver_index_[it->second.factor] = -1;
+  residual_dimension_ -= applied_factors_[it->second].dim;
+  solver_index_[it->second] = -1;
   applied_.erase(it);
   ++result->applied;
   result->applied_received_us.push_back(in.received_us);
@@ -818,11 +819,14 @@ EstimatorState Estimator::ExportState() const {
     }
   }
   state.linearization_point = isam_->linearization_point();
-  for (const auto& [id, f] : applied_) {
-    const int slot = solver_index_[f.factor];
-    SLAMD_CHECK(slot >= 0 && position[slot] >= 0) << "applied measurement on a removed factor";
-    state.applied.push_back({std::get<0>(id), std::get<1>(id), std::get<2>(id), std::get<3>(id),
-                             position[slot], f.first, f.dim});
+  state.applied.reserve(applied_.size());
+  for (size_t n = 0; n < applied_factors_.size(); ++n) {
+    const AppliedFactor& f = applied_factors_[n];
+    const int slot = solver_index_[n];
+    if (slot < 0 || f.dim == 0) continue;  // removed, or no measurement
+    SLAMD_CHECK(position[slot] >= 0) << "applied measurement on a removed factor";
+    const auto& [type, a, b, kind] = f.id;
+    state.applied.push_back({type, a, b, kind, position[slot], f.first, f.dim});
   }
   for (std::uint8_t id : registry_.ids()) {
     const RobotState& r = robots_[id];
@@ -856,13 +860,16 @@ core::Result<std::unique_ptr<Estimator>> Estimator::Restore(const EstimatorParam
     s.published_index = r.published_index;
     s.moved_sequence = r.moved_sequence;
   }
+  e->applied_factors_.resize(state.factors.size());  // the state's factor i is number i
   for (const EstimatorState::Applied& a : state.applied) {
     if (a.factor < 0 || a.factor >= static_cast<int>(state.factors.size())) {
       return core::DataLoss("snapshot: applied measurement names factor " +
                             std::to_string(a.factor) + " of " +
                             std::to_string(state.factors.size()));
     }
-    e->applied_[{a.type, a.a, a.b, a.kind}] = {a.factor, a.first, a.dim};
+    const MeasurementId id{a.type, a.a, a.b, a.kind};
+    e->applied_[id] = a.factor;
+    e->applied_factors_[a.factor] = {id, a.first, a.dim};
   }
   // An anchored robot's newest pose is read after every update: it must be in the graph.
   for (const EstimatorState::Robot& r : state.robots) {

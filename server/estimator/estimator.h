@@ -203,9 +203,9 @@ class Estimator {
   // second key or 0, kind); loop closures with the smaller key first.
   using MeasurementId = std::tuple<char, core::Key, core::Key, int>;
   struct AppliedFactor {
-    int factor = 0;       // its number: the solver's factor index is solver_index_[factor]
+    MeasurementId id;
     core::Key first = 0;  // the key the message named first (loop closures are directed)
-    int dim = 0;
+    int dim = 0;          // 0: no measurement (a factor a snapshot restored without one)
   };
   // What one batch adds; committed only when the update succeeds.
   struct Staged {
@@ -289,9 +289,14 @@ class Estimator {
   std::unique_ptr<core::Isam2> isam_;
   RobotRegistry registry_;
   RobotState robots_[256];
-  std::map<MeasurementId, AppliedFactor> applied_;  // applied (not removed) measurements
-  // Per applied factor number (AppliedFactor::factor): its Isam2 factor index, -1 once removed.
-  // A rebuilt solver numbers its factors anew; this vector is all that changes then.
+  // Applied (not removed) measurements -> their factor number, which indexes the two vectors
+  // below.
+  std::map<MeasurementId, int> applied_;
+  // Per factor number: the measurement. A vector, not the map's values, so that a snapshot's
+  // export walks it in one pass (walking the map took 75-140 ms at 375k factors in the soak).
+  std::vector<AppliedFactor> applied_factors_;
+  // Per factor number: its Isam2 factor index, -1 once removed. A rebuilt solver numbers its
+  // factors anew; this vector is all that changes then.
   std::vector<int> solver_index_;
   int marginals_threads_;  // Isam2Params::threads as configured (a rebuilt solver has 1)
   std::unique_ptr<core::Isam2Marginals> marginals_;
