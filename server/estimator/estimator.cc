@@ -867,6 +867,11 @@ core::Result<std::unique_ptr<Estimator>> Estimator::Restore(const EstimatorParam
                             std::to_string(a.factor) + " of " +
                             std::to_string(state.factors.size()));
     }
+    if (a.dim <= 0 || e->applied_factors_[a.factor].dim != 0) {
+      return core::DataLoss("snapshot: applied measurement on factor " + std::to_string(a.factor) +
+                            " has dimension " + std::to_string(a.dim) +
+                            " or is not the only one on it");
+    }
     const MeasurementId id{a.type, a.a, a.b, a.kind};
     e->applied_[id] = a.factor;
     e->applied_factors_[a.factor] = {id, a.first, a.dim};

@@ -176,6 +176,19 @@ TEST(StateCodecTest, CorruptBytesGiveDataLossNamingThePart) {
   EXPECT_NE(bad.status().message().find("factor 1000"), std::string::npos)
       << bad.status().ToString();
 
+  // Two measurements on one factor, or one of no dimension.
+  for (int variant = 0; variant < 2; ++variant) {
+    EstimatorState twice = e->ExportState();
+    ASSERT_GE(twice.applied.size(), 2u);
+    if (variant == 0) twice.applied[1].factor = twice.applied[0].factor;
+    if (variant == 1) twice.applied[1].dim = 0;
+    bad = Estimator::Restore({}, isam2, twice);
+    ASSERT_FALSE(bad.ok());
+    EXPECT_EQ(bad.status().code(), core::StatusCode::kDataLoss);
+    EXPECT_NE(bad.status().message().find("not the only one"), std::string::npos)
+        << bad.status().ToString();
+  }
+
   // An anchored robot whose newest pose is not in the graph (found by fuzz_state: the next
   // update read that pose and aborted).
   EstimatorState missing = e->ExportState();
