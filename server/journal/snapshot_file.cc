@@ -81,8 +81,8 @@ core::Status WriteAndSync(const std::string& path, int64_t sequence, std::string
       internal::PwriteAll(fd, header, sizeof(header), 0, path, "snapshot header", nullptr);
   // The payload in chunks, each written out to the disk before the next: a snapshot of a large
   // map is hundreds of MB, and left dirty in the page cache all at once it would be flushed by
-  // the journal's next fdatasync (ext4 commits the new blocks' data with its metadata), a stall
-  // of 200 ms in the soak. Chunked, an fdatasync waits behind at most one chunk.
+  // the journal's next fdatasync (ext4 commits the new blocks' data with its metadata): next to
+  // a 300 MB write, fdatasync p99 3.2-4.0 ms; written out 1 MiB at a time, 0.5-0.9 ms.
   constexpr std::size_t kChunk = std::size_t{1} << 20;
   for (std::size_t done = 0; s.ok() && done < bytes.size(); done += kChunk) {
     const std::size_t n = std::min(kChunk, bytes.size() - done);
@@ -109,7 +109,7 @@ core::Status WriteAndSync(const std::string& path, int64_t sequence, std::string
 // Removes a file of `dir` in 8 MiB truncations, each committed on its own, then unlinks it
 // (best effort; false if the file is still there). Unlinking a large snapshot at once frees all
 // its extents in one ext4 transaction, and the journal's next fdatasync waits for that commit
-// (29 ms next to a 200 MB unlink on a quiet disk; stalls of 100-300 ms in the soak). Renamed to
+// (29 ms next to a 200 MB unlink on a quiet disk; 2.9 ms when truncated so). Renamed to
 // a temporary name first, so that a crash midway leaves a file the next prune removes, not a
 // torn snapshot.
 bool RemoveGradually(const std::string& dir, const std::string& name) {
