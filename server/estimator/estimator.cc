@@ -129,7 +129,6 @@ void Estimator::StartRebuild() {
     rebuild->position[i] = static_cast<int>(factors.size());
     factors.Add(slots[i]);
   }
-  rebuild->start_sequence = sequence_;
   Rebuild* r = rebuild.get();
   // One thread: the other core is the live solver's. (The rebuilt solver keeps it after the
   // swap; with background relinearisation the steps large enough for threads are the rebuilds.
@@ -140,7 +139,8 @@ void Estimator::StartRebuild() {
   rebuild->thread = std::thread(
       [r, params, factors = std::move(factors), estimate = isam_->CalculateEstimate(),
        newest = NewestPoses(), max_rounds = replaying_ ? 0 : params_.rebuild_catch_up_rounds,
-       with_chi2 = !replaying_ && params_.chi2_interval_s > 0.0]() mutable {
+       with_chi2 = !replaying_ && params_.chi2_interval_s > 0.0,
+       start_sequence = sequence_]() mutable {
         core::Result<std::unique_ptr<core::Isam2>> made = core::Isam2::Create(params);
         if (made.ok()) {
           r->solver = std::move(made).value();
@@ -182,8 +182,7 @@ void Estimator::StartRebuild() {
         if (r->status.ok() && with_chi2) {
           r->chi2 = r->solver->Chi2();
           std::lock_guard lock(r->log_mutex);
-          r->chi2_sequence =
-              r->caught_up == 0 ? r->start_sequence : r->log[r->caught_up - 1].sequence;
+          r->chi2_sequence = r->caught_up == 0 ? start_sequence : r->log[r->caught_up - 1].sequence;
         }
         r->done.store(true, std::memory_order_release);
       });

@@ -269,7 +269,6 @@ class Estimator {
     std::vector<LoggedUpdate> log;  // the live updates since the start, in order
     size_t caught_up = 0;           // log entries `solver` has taken
     std::vector<int> rounds;        // entries taken per catch-up round
-    std::int64_t start_sequence = 0;  // the live update sequence the rebuild started from
     // The status chi2 of `solver` after its rounds (-1: not computed), and the live update
     // sequence whose factors it covers.
     double chi2 = -1.0;

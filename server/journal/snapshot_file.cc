@@ -48,6 +48,9 @@ bool IsTempName(std::string_view name) {
          name.substr(name.size() - kTempSuffix.size()) == kTempSuffix;
 }
 
+// The hidden temporary of a snapshot file name (one IsTempName recognises).
+std::string TempName(const std::string& name) { return "." + name + ".tmp"; }
+
 // Every entry name of dir.
 core::Status ListDir(const std::string& dir, std::vector<std::string>* names) {
   DIR* d = ::opendir(dir.c_str());
@@ -114,7 +117,7 @@ core::Status WriteAndSync(const std::string& path, int64_t sequence, std::string
 // torn snapshot.
 bool RemoveGradually(const std::string& dir, const std::string& name) {
   const std::string path = dir + "/" + name;
-  const std::string temp = IsTempName(name) ? path : dir + "/." + name + ".tmp";
+  const std::string temp = IsTempName(name) ? path : dir + "/" + TempName(name);
   if (temp != path && ::rename(path.c_str(), temp.c_str()) != 0) return false;
   const int fd = ::open(temp.c_str(), O_WRONLY | O_CLOEXEC);
   if (fd >= 0) {
@@ -151,7 +154,7 @@ core::Result<std::string> WriteSnapshotFile(const std::string& dir, int64_t sequ
   }
   const std::string name = SnapshotFileName(sequence);
   const std::string final_path = dir + "/" + name;
-  const std::string temp_path = dir + "/." + name + ".tmp";
+  const std::string temp_path = dir + "/" + TempName(name);
   // 1. Complete, durable temporary. 2. Atomic rename. 3. Durable directory entry.
   core::Status s = WriteAndSync(temp_path, sequence, bytes);
   if (s.ok() && ::rename(temp_path.c_str(), final_path.c_str()) != 0) {

@@ -569,17 +569,21 @@ TEST(EstimatorTest, HelperCatchUpRoundsReplayBitForBit) {
   }
 }
 
+// Odometry from pose i to i + 1 and, every 10 poses, a loop closure 0.3 m off to the pose 19
+// back: enough relinearisation for background rebuilds with a small limit.
+std::vector<Inbound> LoopingStep(int i) {
+  std::vector<Inbound> batch = {Odo("r", i, i + 1, kStep)};
+  if (i >= 20 && i % 10 == 0) batch.push_back(Loop("r", i + 1, "r", i - 19, Pose2(0.3, 0, 0)));
+  return batch;
+}
+
 // Rounds that name more updates than were logged while the rebuild ran (a swap record of another
 // rebuild, as after a recovery from a snapshot) are ignored: the swap takes everything, exactly
 // as a swap without rounds, and the estimator goes on.
 TEST(EstimatorTest, ReplayedRoundsThatDoNotFitTheLogAreIgnored) {
   const EstimatorParams params = {.chi2_interval_s = 0.0, .background_relinearization_above = 8};
   std::vector<std::vector<Inbound>> batches = {{Prior("r", 0, Pose2())}};
-  for (int i = 0; i < 400; ++i) {
-    std::vector<Inbound> batch = {Odo("r", i, i + 1, kStep)};
-    if (i >= 20 && i % 10 == 0) batch.push_back(Loop("r", i + 1, "r", i - 19, Pose2(0.3, 0, 0)));
-    batches.push_back(std::move(batch));
-  }
+  for (int i = 0; i < 400; ++i) batches.push_back(LoopingStep(i));
   // Both replay the same batches; at the first rebuild, after three more updates are logged,
   // one swaps with rounds that do not fit, the other with none.
   auto mismatched = Make(params), plain = Make(params);
@@ -616,9 +620,7 @@ TEST(EstimatorTest, SwapHandsOverTheChi2ItsHelperComputed) {
   ASSERT_TRUE(e->Process({Prior("r", 0, Pose2())}).status.ok());
   const std::int64_t first = e->snapshot()->chi2_sequence;
   for (int i = 0; i < 400 && !e->Rebuilding(); ++i) {
-    std::vector<Inbound> batch = {Odo("r", i, i + 1, kStep)};
-    if (i >= 20 && i % 10 == 0) batch.push_back(Loop("r", i + 1, "r", i - 19, Pose2(0.3, 0, 0)));
-    ASSERT_TRUE(e->Process(batch).status.ok());
+    ASSERT_TRUE(e->Process(LoopingStep(i)).status.ok());
   }
   ASSERT_TRUE(e->Rebuilding());
   const std::int64_t started = e->snapshot()->update_sequence;
