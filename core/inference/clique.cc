@@ -18,18 +18,18 @@ std::uint64_t Clique::NewGeneration() {
 
 void Clique::Reset(std::span<const int> frontals, std::span<const int> frontal_dims,
                    std::span<const int> separator, std::span<const int> separator_dims) {
-  ResetImpl(frontals, frontal_dims, separator, separator_dims, /*zero_cached=*/true);
+  ResetImpl(frontals, frontal_dims, separator, separator_dims, /*zero=*/true);
 }
 
 void Clique::ResetForElimination(std::span<const int> frontals, std::span<const int> frontal_dims,
                                  std::span<const int> separator,
                                  std::span<const int> separator_dims) {
-  ResetImpl(frontals, frontal_dims, separator, separator_dims, /*zero_cached=*/false);
+  ResetImpl(frontals, frontal_dims, separator, separator_dims, /*zero=*/false);
 }
 
 void Clique::ResetImpl(std::span<const int> frontals, std::span<const int> frontal_dims,
                        std::span<const int> separator, std::span<const int> separator_dims,
-                       bool zero_cached) {
+                       bool zero) {
   SLAMD_DCHECK(!frontals.empty() && frontals.size() == frontal_dims.size())
       << "Clique::Reset: bad frontals";
   generation_ = NewGeneration();
@@ -43,12 +43,14 @@ void Clique::ResetImpl(std::span<const int> frontals, std::span<const int> front
     offset += frontal_dims[k];
   }
   index_[2 * num_frontals_] = offset;
-  if (zero_cached) {
+  if (zero) {
     cached_.Reset(separator, separator_dims);
+    AssignReusingStorage(&conditional_, static_cast<size_t>(offset) * (offset + cached_.Dim() + 1),
+                         0.0);
   } else {
     cached_.Reshape(separator, separator_dims);
+    ResizeReusingStorage(&conditional_, static_cast<size_t>(offset) * (offset + cached_.Dim() + 1));
   }
-  AssignReusingStorage(&conditional_, static_cast<size_t>(offset) * (offset + cached_.Dim() + 1), 0.0);
 }
 
 }  // namespace slamd::core

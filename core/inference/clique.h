@@ -99,8 +99,9 @@ class Clique {
   // Does not touch the tree links.
   void Reset(std::span<const int> frontals, std::span<const int> frontal_dims,
              std::span<const int> separator, std::span<const int> separator_dims);
-  // As Reset, but the cached factor's entries are left unspecified (elimination overwrites all
-  // of them); [R S d] is still zeroed and generation() renewed.
+  // As Reset, but the entries of [R S d] and of the cached factor are left unspecified:
+  // elimination overwrites all of them (R's strictly lower part included), and zeroing them
+  // first was a memset of every re-eliminated clique on each update.
   void ResetForElimination(std::span<const int> frontals, std::span<const int> frontal_dims,
                            std::span<const int> separator, std::span<const int> separator_dims);
 
@@ -109,8 +110,7 @@ class Clique {
   friend class BayesTreeTestPeer;  // tests corrupt links to exercise CheckConsistency
 
   void ResetImpl(std::span<const int> frontals, std::span<const int> frontal_dims,
-                 std::span<const int> separator, std::span<const int> separator_dims,
-                 bool zero_cached);
+                 std::span<const int> separator, std::span<const int> separator_dims, bool zero);
 
   // A fresh value of the process-wide stamp counter (relaxed atomic increment: only uniqueness
   // is needed; publishing the content to other threads is the caller's synchronisation).
@@ -119,7 +119,7 @@ class Clique {
   std::uint64_t generation_ = NewGeneration();
   int num_frontals_ = 0;
   std::vector<int> index_ = {0};     // [frontal ids (nf) | frontal offsets (nf + 1)]
-  std::vector<double> conditional_;  // [R S d], column-major
+  UninitVector<double> conditional_;  // [R S d], column-major
   HessianFactor cached_;             // on the separator
 
   // Tree links, maintained by BayesTree.

@@ -413,7 +413,7 @@ Status Eliminator::EliminateClique(const EliminationProblem& problem, int sym, B
   }
   const int id = tree_id_[sym];
   Clique& clique = tree->mutable_clique(id);
-  // 3f overwrites the whole cached factor, so it is not zeroed here.
+  // 3e and 3f overwrite the whole conditional and cached factor, so they are not zeroed here.
   clique.ResetForElimination(frontal_ids, frontal_dims, sep_ids, sep_dims);
 
   // 3b. Offsets of the clique's variables in the dense augmented matrix M (n + 1 square; the
@@ -492,9 +492,11 @@ Status Eliminator::EliminateClique(const EliminationProblem& problem, int sym, B
   }
 
   // 3e. The conditional [R S d]: row r is column r of M from row r on (R = Lᵀ), with d = −(...).
+  //     Every entry is written: ResetForElimination left them unspecified.
   auto conditional = clique.mutable_conditional();
   for (int r = 0; r < nf; ++r) {
     const double* col = M + static_cast<size_t>(r) * ld;
+    for (int c = 0; c < r; ++c) conditional(r, c) = 0.0;
     for (int c = r; c < n; ++c) conditional(r, c) = col[c];
     conditional(r, n) = -col[n];
   }

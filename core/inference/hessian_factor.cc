@@ -75,15 +75,7 @@ void HessianFactor::Reshape(std::span<const int> vars, std::span<const int> dims
     offset += dims[k];
   }
   index_[2 * num_vars_] = offset;
-  // Same capacity policy as AssignReusingStorage (core/base/storage.h), without the fill.
-  const size_t n = static_cast<size_t>(offset + 1) * (offset + 1) + offset;
-  // Growing by clear() + resize() does not copy the old contents over (they are unspecified).
-  if (data_.capacity() > 4 * n && data_.capacity() * sizeof(double) > 8192) {
-    std::vector<double>(n).swap(data_);
-  } else {
-    if (data_.capacity() < n) data_.clear();
-    data_.resize(n);
-  }
+  ResizeReusingStorage(&data_, static_cast<size_t>(offset + 1) * (offset + 1) + offset);
 }
 
 void HessianFactor::SetReferenceToDiagonal() {

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "core/base/status.h"
+#include "core/base/storage.h"
 
 namespace slamd::core {
 
@@ -81,7 +82,7 @@ class HessianFactor {
   double* ReferenceData() { return data_.data() + static_cast<size_t>(Dim() + 1) * (Dim() + 1); }
 
   std::vector<int> index_ = {0};      // [vars (p) | offsets (p + 1)]: one allocation for both
-  std::vector<double> data_ = {0.0};  // [info, column-major (D + 1)² | reference (D)]
+  UninitVector<double> data_ = {0.0};  // [info, column-major (D + 1)² | reference (D)]
 };
 
 }  // namespace slamd::core

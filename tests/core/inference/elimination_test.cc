@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <map>
 #include <random>
 #include <set>
@@ -230,6 +231,44 @@ TEST(EliminationTest, DisconnectedComponentsGiveSeveralRoots) {
   EXPECT_EQ(tree.roots().size(), 2u);
   ASSERT_TRUE(CheckConsistency(tree).ok());
   EXPECT_LT((Solve(tree, s) - s.DenseSolve()).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+// Elimination leaves a reused clique's storage unzeroed (Clique::ResetForElimination), so it
+// must write every entry: after a tree's cliques are filled with NaN and freed, eliminating into
+// the same slots gives exactly what a fresh tree gets, R's strictly lower part zero.
+TEST(EliminationTest, ReusedCliqueStorageIsOverwrittenCompletely) {
+  const RandomLinearSystem s = MakeRandomSystem(30, 25, /*priors_on_all=*/false, 4);
+  const std::vector<int> order = MakeOrder(s, OrderKind::kColamd, 4);
+  BayesTree reused, fresh;
+  EliminationResult reused_result, fresh_result;
+  ASSERT_NO_FATAL_FAILURE(EliminateAll(s, order, &reused, &reused_result));
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<int> top_down = reused.TopDownOrder();
+  for (int id : top_down) {
+    Clique& c = reused.mutable_clique(id);
+    c.mutable_conditional().setConstant(nan);
+    c.mutable_cached_factor().mutable_info().setConstant(nan);
+    c.mutable_cached_factor().mutable_reference().setConstant(nan);
+  }
+  for (auto it = top_down.rbegin(); it != top_down.rend(); ++it) reused.FreeClique(*it);
+  ASSERT_EQ(reused.NumCliques(), 0);
+
+  ASSERT_NO_FATAL_FAILURE(EliminateAll(s, order, &reused, &reused_result));
+  ASSERT_NO_FATAL_FAILURE(EliminateAll(s, order, &fresh, &fresh_result));
+  ASSERT_EQ(reused_result.cliques.size(), fresh_result.cliques.size());
+  int multi_frontal = 0;
+  for (size_t k = 0; k < fresh_result.cliques.size(); ++k) {
+    const Clique& a = reused.clique(reused_result.cliques[k]);
+    const Clique& b = fresh.clique(fresh_result.cliques[k]);
+    multi_frontal += a.num_frontals() > 1;
+    ASSERT_TRUE(a.conditional().allFinite()) << "clique " << k;
+    EXPECT_EQ(a.R().triangularView<Eigen::StrictlyLower>().toDenseMatrix().cwiseAbs().maxCoeff(),
+              0.0);
+    EXPECT_EQ(a.conditional(), b.conditional()) << "clique " << k;
+    EXPECT_EQ(a.cached_factor().info(), b.cached_factor().info()) << "clique " << k;
+    EXPECT_EQ(a.cached_factor().reference(), b.cached_factor().reference()) << "clique " << k;
+  }
+  EXPECT_GT(multi_frontal, 0);  // R has a strictly lower part to get wrong
 }
 
 // A chain x0 - x1 - ... without any prior: the gauge is free, so the system is indeterminate.
