@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <vector>
 
 #include "tests/testing/factor_testing.h"
 
@@ -61,6 +62,26 @@ TEST(NoiseModelTest, WhitenFixedSize) {
   const Eigen::Matrix<double, 3, 2> expected_J = Eigen::MatrixXd(m.sqrt_information()) * J;
   m.WhitenInPlace(&J);
   EXPECT_TRUE((J - expected_J).isZero(1e-12));
+}
+
+// WhitenInPlace multiplies by R densely: every constructor must leave R's strictly lower part
+// zero (RᵀR = Ω alone would not say so), even from a full square root.
+TEST(NoiseModelTest, SqrtInformationIsUpperTriangular) {
+  std::mt19937 rng(5);
+  const Eigen::MatrixXd cov = testing::RandomSpd(rng, 6);
+  const Eigen::MatrixXd full_root =
+      Eigen::MatrixXd::Random(4, 4) + 4.0 * Eigen::MatrixXd::Identity(4, 4);
+  const std::vector<NoiseModel> models = {*NoiseModel::FromCovariance(cov),
+                                          *NoiseModel::FromInformation(cov),
+                                          *NoiseModel::FromSqrtInformation(full_root),
+                                          *NoiseModel::Diagonal(Eigen::Vector3d(1, 2, 3)),
+                                          *NoiseModel::Isotropic(2, 0.5),
+                                          NoiseModel::Unit(6)};
+  for (const NoiseModel& m : models) {
+    const Eigen::MatrixXd R = m.sqrt_information();
+    EXPECT_EQ(R.triangularView<Eigen::StrictlyLower>().toDenseMatrix().cwiseAbs().maxCoeff(), 0.0);
+    EXPECT_TRUE((R.transpose() * R - m.Information()).isZero(1e-9 * m.Information().norm()));
+  }
 }
 
 TEST(NoiseModelTest, RejectsBadInputWithReasons) {
