@@ -22,14 +22,15 @@ class BetweenFactor : public BinaryFactor<BetweenFactor<T>, T::kDim, T, T> {
 
   typename Base::ErrorVector Evaluate(const T& x1, const T& x2, typename Base::Jacobian1* H1,
                                       typename Base::Jacobian2* H2) const {
+    // Between's Jacobian in x2 is the identity (perturbations on the right: x1⁻¹·x2·Exp(ξ) =
+    // (x1⁻¹·x2)·Exp(ξ)), so H2 is H_local itself, not a product by I on every linearisation.
     typename Base::Jacobian1 Hb1;
-    typename Base::Jacobian2 Hb2;
-    const T predicted = x1.Between(x2, H1 ? &Hb1 : nullptr, H2 ? &Hb2 : nullptr);
+    const T predicted = x1.Between(x2, H1 ? &Hb1 : nullptr, nullptr);
     typename Base::Jacobian2 H_local;
     const typename Base::ErrorVector e =
         internal::LocalWithJacobian(measured_, predicted, (H1 || H2) ? &H_local : nullptr);
     if (H1) *H1 = H_local * Hb1;
-    if (H2) *H2 = H_local * Hb2;
+    if (H2) *H2 = H_local;
     return e;
   }
 

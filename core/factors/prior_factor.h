@@ -12,21 +12,12 @@ namespace slamd::core {
 namespace internal {
 
 // e = a.LocalCoordinates(b) with H = ∂e/∂δ_b for b ⊕ δ_b (a fixed).
+// (a⁻¹·b's Jacobian in b is the identity, so H is the chart's Jacobian alone.)
 inline Vector3 LocalWithJacobian(const Pose2& a, const Pose2& b, Matrix3* H) {
-  Matrix3 H_between;
-  const Pose2 d = a.Between(b, nullptr, H ? &H_between : nullptr);
-  Matrix3 H_chart;
-  const Vector3 e = Pose2::ChartLocal(d, H ? &H_chart : nullptr);
-  if (H) *H = H_chart * H_between;
-  return e;
+  return Pose2::ChartLocal(a.Between(b), H);
 }
 inline Vector6 LocalWithJacobian(const Pose3& a, const Pose3& b, Matrix6* H) {
-  Matrix6 H_between;
-  const Pose3 d = a.Between(b, nullptr, H ? &H_between : nullptr);
-  Matrix6 H_log;
-  const Vector6 e = Pose3::Log(d, H ? &H_log : nullptr);
-  if (H) *H = H_log * H_between;
-  return e;
+  return Pose3::Log(a.Between(b), H);
 }
 inline Vector2 LocalWithJacobian(const Point2& a, const Point2& b, Matrix2* H) {
   if (H) H->setIdentity();
