@@ -49,12 +49,60 @@ void ScatterJacobian(const double* data, int rows, const internal::ScatterBlock*
   }
 }
 
+// ScatterJacobian for the usual shape, kRows rows on variables of kDim each (a between factor
+// of poses): each pair of variables is one fixed-size product AₐᵀA_b that Eigen unrolls and
+// vectorises, where the plain loops above were scalar dot products of length kRows.
+template <int kRows, int kDim>
+void ScatterUniformJacobian(const double* data, const internal::ScatterBlock* blocks, int p, int ld,
+                            double* M, double* ref) {
+  using Block = Eigen::Map<const Eigen::Matrix<double, kRows, kDim>>;
+  using Target = Eigen::Map<Eigen::Matrix<double, kDim, kDim>, 0, Eigen::OuterStride<>>;
+  const Eigen::Map<const Eigen::Matrix<double, kRows, 1>> b(data + p * kDim * kRows);
+  const int n = blocks[p].target;  // the right-hand side's row and column
+  for (int a = 0; a < p; ++a) {
+    const Block A(data + blocks[a].source * kRows);
+    const int ta = blocks[a].target;
+    // The diagonal block: its lower triangle only (M's upper triangle is never read).
+    const Eigen::Matrix<double, kDim, kDim> gram = A.transpose() * A;
+    Target(M + static_cast<size_t>(ta) * ld + ta, kDim, kDim, Eigen::OuterStride<>(ld))
+        .template triangularView<Eigen::Lower>() += gram;
+    for (int c = 0; c < a; ++c) {
+      const Block C(data + blocks[c].source * kRows);
+      const int tc = blocks[c].target;
+      // Blocks do not overlap, so the one with the larger offset gives the rows.
+      if (ta > tc) {
+        Target(M + static_cast<size_t>(tc) * ld + ta, kDim, kDim, Eigen::OuterStride<>(ld))
+            .noalias() += A.transpose() * C;
+      } else {
+        Target(M + static_cast<size_t>(ta) * ld + tc, kDim, kDim, Eigen::OuterStride<>(ld))
+            .noalias() += C.transpose() * A;
+      }
+    }
+    // The right-hand side's row (bᵀA, along M's last row) and the pivot references.
+    Eigen::Map<Eigen::Matrix<double, 1, kDim>, 0, Eigen::InnerStride<>>(
+        M + static_cast<size_t>(ta) * ld + n, 1, kDim, Eigen::InnerStride<>(ld))
+        .noalias() += b.transpose() * A;
+    Eigen::Map<Eigen::Matrix<double, kDim, 1>>(ref + ta) += gram.diagonal();
+  }
+  M[static_cast<size_t>(n) * ld + n] += b.squaredNorm();
+}
+
 void ScatterFactor(const JacobianFactor& f, const int* offset, int n, double* M, double* ref) {
   const int p = f.num_vars();
   internal::ScatterBlock blocks[JacobianFactor::kMaxVars + 1];
-  for (int k = 0; k < p; ++k) blocks[k] = {offset[f.var(k)], f.dim(k), f.offset(k)};
+  bool uniform = true;  // every variable of dim f.dim(0)
+  for (int k = 0; k < p; ++k) {
+    blocks[k] = {offset[f.var(k)], f.dim(k), f.offset(k)};
+    uniform = uniform && f.dim(k) == f.dim(0);
+  }
   blocks[p] = {n, 1, f.Dim()};
   const int ld = n + 1;
+  if (uniform && f.rows() == 6 && f.dim(0) == 6) {
+    return ScatterUniformJacobian<6, 6>(f.data(), blocks, p, ld, M, ref);
+  }
+  if (uniform && f.rows() == 3 && f.dim(0) == 3) {
+    return ScatterUniformJacobian<3, 3>(f.data(), blocks, p, ld, M, ref);
+  }
   switch (f.rows()) {
     case 1:
       return ScatterJacobian<1>(f.data(), 1, blocks, p, ld, M, ref);
