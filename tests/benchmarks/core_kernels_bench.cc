@@ -1,0 +1,91 @@
+// Micro-benchmarks of the kernels behind Isam2's slowest steps (Google Benchmark; not a test:
+// run by hand, figures in BENCHMARKS.md):
+//   build/tests/core_kernels_bench [--benchmark_filter=REGEX]
+// ReEliminateAll/<dataset> relinearises and re-eliminates a whole development dataset
+// (Isam2UpdateOptions::force_full, 1 thread), as the largest relinearisation steps do; the
+// counters are the medians of its phases (ms).
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/factors/between_factor.h"
+#include "core/factors/prior_factor.h"
+#include "core/io/dataset.h"
+#include "core/isam/isam2.h"
+
+namespace slamd::core {
+namespace {
+
+void BM_LinearizeBetweenPose3(benchmark::State& state) {
+  Eigen::Matrix<double, 6, 6> a = Eigen::Matrix<double, 6, 6>::Random();
+  const Eigen::MatrixXd covariance = a * a.transpose() + Eigen::MatrixXd::Identity(6, 6);
+  Eigen::Matrix<double, 6, 1> xi1, xi2;
+  xi1 << 0.1, 0.2, 0.3, 0.1, -0.2, 0.3;
+  xi2 << 1, 2, -1, 0.3, 0.2, -0.1;
+  const BetweenFactor<Pose3> factor(1, 2, Pose3::Exp(xi1),
+                                    NoiseModel::FromCovariance(covariance).value());
+  Values values;
+  if (!values.Insert(1, Variable(Pose3::Exp(xi2))).ok() ||
+      !values.Insert(2, Variable(Pose3::Exp(xi1 + xi2))).ok()) {
+    state.SkipWithError("values");
+    return;
+  }
+  LinearizedFactor linearized;
+  for (auto _ : state) {
+    factor.Linearize(values, &linearized);
+    benchmark::DoNotOptimize(linearized);
+  }
+}
+BENCHMARK(BM_LinearizeBetweenPose3);
+
+double Median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0.0 : v[v.size() / 2];
+}
+
+void BM_ReEliminateAll(benchmark::State& state, const std::string& file) {
+  Result<Dataset> dataset = ReadDataset(std::string(SLAMD_SHARED_DATASETS) + "/" + file);
+  if (!dataset.ok()) {
+    state.SkipWithError(dataset.status().ToString().c_str());
+    return;
+  }
+  FactorGraph graph = dataset->graph;
+  const Key first = dataset->poses[0];
+  if (dataset->is_3d) {
+    graph.Add(std::make_shared<PriorFactor<Pose3>>(first, dataset->initial.At<Pose3>(first),
+                                                   NoiseModel::Isotropic(6, 1e-3).value()));
+  } else {
+    graph.Add(std::make_shared<PriorFactor<Pose2>>(first, dataset->initial.At<Pose2>(first),
+                                                   NoiseModel::Isotropic(3, 1e-3).value()));
+  }
+  std::unique_ptr<Isam2> isam = std::move(Isam2::Create({.threads = 1}).value());
+  const Isam2Result first_update = isam->Update(graph, dataset->initial, {});
+  if (!first_update.status.ok()) {
+    state.SkipWithError(first_update.status.ToString().c_str());
+    return;
+  }
+  std::vector<double> relinearize, order, eliminate, solve;
+  for (auto _ : state) {
+    const Isam2Result r = isam->Update({}, {}, {.force_full = true});
+    relinearize.push_back(1e3 * r.seconds.relinearize);
+    order.push_back(1e3 * r.seconds.order);
+    eliminate.push_back(1e3 * r.seconds.eliminate);
+    solve.push_back(1e3 * r.seconds.solve);
+  }
+  state.counters["relinearize_ms"] = Median(relinearize);
+  state.counters["order_ms"] = Median(order);
+  state.counters["eliminate_ms"] = Median(eliminate);
+  state.counters["solve_ms"] = Median(solve);
+}
+BENCHMARK_CAPTURE(BM_ReEliminateAll, parking_garage, std::string("parking-garage.g2o"))
+    ->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_ReEliminateAll, M3500, std::string("input_M3500_g2o.g2o"))
+    ->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace slamd::core
+
+BENCHMARK_MAIN();
