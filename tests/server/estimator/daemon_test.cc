@@ -508,8 +508,8 @@ class DurabilityProbeBus final : public Bus {
   std::vector<std::pair<std::int64_t, std::int64_t>> published;  // (pose, durable offset)
 };
 
-// journal.sync = ALWAYS: the fdatasync runs on the committer thread during the update, and no
-// estimate goes out before the messages it reflects are durable.
+// journal.sync = ALWAYS, the daemon's own threads: no estimate goes out before the messages it
+// reflects are durable (the estimator commits after each update, then publishes).
 TEST(DaemonTest, AlwaysJournalPublishesAnEstimateOnlyOnceItsMessagesAreDurable) {
   const std::string dir = (std::filesystem::temp_directory_path() /
                            ("slamd_daemon_durable_" + std::to_string(::getpid())))
