@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "core/base/timing.h"
+#include "server/estimator/background_priority.h"
 #include "server/estimator/estimator_state.h"
 #include "server/estimator/recovery.h"
 #include "server/ingest/conversion.h"
@@ -425,6 +426,7 @@ void Daemon::MaybeSnapshot() {
                                  .journal_offset = journal_->offset()};
   snapshot_busy_ = true;
   snapshot_thread_ = std::thread([this, state, position, export_us] {
+    LowerThisThreadsPriority();
     core::Stopwatch timer;
     const std::string bytes = EncodeState(*state, position);
     const core::Result<std::string> path = WriteSnapshotFile(
