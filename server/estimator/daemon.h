@@ -1,8 +1,9 @@
 // Daemon: slamd's runtime — the transport (intake) thread, the bounded ingest queue and the
 // estimator thread, wired to a Bus (server/transport). main.cc is a thin shell around it.
 //
-//   intake thread:    bus.HandleOnce -> decode -> Convert (validate) -> queue.Push
-//                     (a bad message, or a full queue after queue.block_timeout_s, gets a reject_t
+//   intake thread:    bus.HandleOnce -> decode -> Convert (validate) -> queue.Push; under
+//                     journal.sync ALWAYS a burst of messages that arrived together at once (a
+//                     bad message, or a full queue after queue.block_timeout_s, gets a reject_t
 //                     at once; nothing is dropped silently)
 //   estimator thread: queue.PopAll -> Estimator::Process (ONE Isam2 update for everything
 //                     queued) -> reject_t for stateful rejections, estimate_t for each robot whose
@@ -68,8 +69,10 @@ class Daemon {
   // See the file comment. Safe to call more than once and without Start().
   void Stop();
 
-  // Manual drive. One bus.HandleOnce(timeout_ms) on the calling thread: returns the number of
-  // messages dispatched (to every subscriber of the bus, not only the daemon).
+  // Manual drive. One bus.HandleOnce(timeout_ms) on the calling thread (under journal.sync
+  // ALWAYS then up to 15 more that do not wait: the rest of a burst), then the accepted messages
+  // are queued together: returns the number of messages dispatched (to every subscriber of the
+  // bus, not only the daemon).
   core::Result<int> PumpIntake(int timeout_ms);
   // Waits up to timeout_s for queued messages and processes all of them in one update (or
   // refines when none came and refinement is due); publishes. Returns the messages processed.
@@ -105,6 +108,8 @@ class Daemon {
   template <typename Msg>
   void OnInbound(std::string_view channel, const Msg& msg);
   void OnDecodeError(std::string_view channel, const core::Status& error);
+  // Queues what intake_held_ holds, in order; intake_mutex_ held.
+  void QueueHeldLocked();
   void PublishReject(const Verdict& verdict, std::string_view channel, std::string_view type,
                      std::string_view robot, std::int64_t utime);
   std::string InboundChannel(const Inbound& in) const;
@@ -130,6 +135,8 @@ class Daemon {
   std::unique_ptr<Journal> journal_;      // null without data_dir
   IngestQueue queue_;
   std::mutex intake_mutex_;  // journal append + queue push, so journal order = queue order
+  // Accepted (and journaled) messages of the burst being taken in (PumpIntake), not yet queued.
+  std::vector<Inbound> intake_held_;
   std::shared_ptr<spdlog::logger> log_;
   std::vector<Subscription> subscriptions_;
 

@@ -31,10 +31,11 @@ bool IngestQueue::Push(Inbound in, double timeout_s) {
   return true;
 }
 
-bool IngestQueue::WaitForRoom(double timeout_s) {
+bool IngestQueue::WaitForRoom(double timeout_s, int count) {
+  SLAMD_CHECK(count >= 1) << "IngestQueue::WaitForRoom count " << count;
   std::unique_lock lock(mutex_);
   const bool room = not_full_.wait_for(lock, ToDuration(timeout_s), [&] {
-    return closed_ || static_cast<int>(queue_.size()) < capacity_;
+    return closed_ || static_cast<int>(queue_.size()) + count <= capacity_;
   });
   return room && !closed_;
 }

@@ -22,9 +22,10 @@ class IngestQueue {
   // in effect: it is dropped by the caller with a reject) when still full or Close()d.
   bool Push(Inbound in, double timeout_s);
 
-  // Waits up to timeout_s until there is room (or the queue is closed: false). With a single
-  // producer, a Push right after a true result cannot fail for lack of room.
-  bool WaitForRoom(double timeout_s);
+  // Waits up to timeout_s until there is room for `count` more messages (or the queue is
+  // closed: false). With a single producer, that many Pushes right after a true result cannot
+  // fail for lack of room. count >= 1 (checked).
+  bool WaitForRoom(double timeout_s, int count = 1);
 
   // Waits up to timeout_s for a message, then moves every queued message (in arrival order) to
   // the end of *out. Returns how many; 0 on timeout or when closed and empty.

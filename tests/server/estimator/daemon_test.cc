@@ -12,6 +12,7 @@
 #include "server/ingest/conversion.h"
 #include "server/journal/read_journal.h"
 #include "server/transport/in_process_bus.h"
+#include "server/transport/lcm_bus.h"
 #include "server/transport/typed_subscribe.h"
 #include "slamd/estimate_t.hpp"
 #include "slamd/loop_closure_t.hpp"
@@ -106,6 +107,36 @@ TEST(DaemonTest, ManualDriveCoalescesQueuedMessagesIntoOneUpdate) {
   EXPECT_TRUE(client.rejects.empty());
 }
 
+// LCM hands over one message per HandleOnce (memq://: a real LCM bus without a network). Under
+// journal.sync ALWAYS a pose's messages sent together still reach the estimator together, as
+// one update (one fdatasync); under NEVER each goes on at once.
+TEST(DaemonTest, AlwaysJournalQueuesMessagesThatArrivedTogetherTogether) {
+  for (const SyncPolicy sync : {SyncPolicy::kAlways, SyncPolicy::kNever}) {
+    const std::string dir = (std::filesystem::temp_directory_path() /
+                             ("slamd_daemon_burst_" + std::to_string(::getpid())))
+                                .string();
+    std::filesystem::remove_all(dir);
+    ServerParams p = Params();
+    p.data_dir = dir;
+    p.journal.sync = sync;
+    const int burst = sync == SyncPolicy::kAlways ? 4 : 1;
+    {
+      auto bus = LcmBus::Create({.url = "memq://"}).value();
+      auto daemon = Daemon::Create(p, bus.get()).value();
+      ASSERT_TRUE(Publish(*bus, "SLAMD_PRIOR", Prior()).ok());
+      for (int i = 0; i < 3; ++i) {
+        ASSERT_TRUE(Publish(*bus, "SLAMD_ODOMETRY", Odo(i, i + 1)).ok());
+      }
+      EXPECT_EQ(daemon->PumpIntake(0).value(), burst) << SyncPolicyName(sync);
+      EXPECT_EQ(daemon->queue_depth(), burst) << SyncPolicyName(sync);
+      EXPECT_EQ(daemon->StepEstimator(0.0), burst);
+      EXPECT_EQ(daemon->snapshot()->counters.updates, 1);
+      EXPECT_EQ(daemon->snapshot()->counters.applied, burst);
+    }
+    std::filesystem::remove_all(dir);
+  }
+}
+
 TEST(DaemonTest, BadMessagesGetTheirRejectAndChangeNothing) {
   InProcessBus bus;
   auto daemon = Daemon::Create(Params(), &bus).value();
@@ -187,32 +218,47 @@ TEST(DaemonTest, BackgroundRebuildsAreSwappedInAndCounted) {
   EXPECT_EQ(client.estimates.back().pose_index, 60);
 }
 
+// With a journal (data_dir) as without: the intake holds a burst until the end of PumpIntake,
+// and room in the queue is counted for every held message, so a full queue rejects the same
+// messages, and the journal keeps only the queued ones (a restart replays nothing refused).
 TEST(DaemonTest, FullQueueRejectsAfterBlockingNeverDropsSilently) {
-  InProcessBus bus;
-  ServerParams p = Params();
-  p.queue.depth = 2;
-  p.queue.block_timeout_s = 0.01;
-  p.publish.status_rate_hz = 1000.0;
-  auto daemon = Daemon::Create(p, &bus).value();
-  Client client(bus);
-  ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", Prior()).ok());
-  for (int i = 0; i < 3; ++i) ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(i, i + 1)).ok());
-  ASSERT_TRUE(daemon->PumpIntake(0).ok());
-  EXPECT_EQ(daemon->queue_depth(), 2);
-  EXPECT_EQ(daemon->StepEstimator(0.0), 2);
-  ASSERT_TRUE(daemon->PumpIntake(0).ok());
-  ASSERT_EQ(client.rejects.size(), 2u);
-  EXPECT_EQ(client.rejects[0].reason, slamd::reject_t::REASON_QUEUE_FULL);
-  EXPECT_EQ(client.rejects[1].reason, slamd::reject_t::REASON_QUEUE_FULL);
-  ASSERT_FALSE(client.statuses.empty());
-  const slamd::status_t& s = client.statuses.back();
-  EXPECT_EQ(s.messages_received, 4);
-  EXPECT_EQ(s.messages_accepted, 2);
-  EXPECT_EQ(s.messages_rejected, 2);
-  EXPECT_EQ(s.rejects_by_reason[slamd::reject_t::REASON_QUEUE_FULL], 2);
-  EXPECT_EQ(s.queue_capacity, 2);
-  EXPECT_EQ(s.num_factors, 2);  // prior + the one odometry that was queued
-  EXPECT_EQ(s.residual_dimension, 6);
+  const std::string dir = (std::filesystem::temp_directory_path() /
+                           ("slamd_daemon_full_queue_" + std::to_string(::getpid())))
+                              .string();
+  for (const bool journaled : {false, true}) {
+    SCOPED_TRACE(journaled ? "with a journal" : "without a journal");
+    std::filesystem::remove_all(dir);
+    InProcessBus bus;
+    ServerParams p = Params();
+    p.queue.depth = 2;
+    p.queue.block_timeout_s = 0.01;
+    p.publish.status_rate_hz = 1000.0;
+    if (journaled) p.data_dir = dir;
+    auto daemon = Daemon::Create(p, &bus).value();
+    Client client(bus);
+    ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", Prior()).ok());
+    for (int i = 0; i < 3; ++i) ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(i, i + 1)).ok());
+    ASSERT_TRUE(daemon->PumpIntake(0).ok());
+    EXPECT_EQ(daemon->queue_depth(), 2);
+    EXPECT_EQ(daemon->StepEstimator(0.0), 2);
+    ASSERT_TRUE(daemon->PumpIntake(0).ok());
+    ASSERT_EQ(client.rejects.size(), 2u);
+    EXPECT_EQ(client.rejects[0].reason, slamd::reject_t::REASON_QUEUE_FULL);
+    EXPECT_EQ(client.rejects[1].reason, slamd::reject_t::REASON_QUEUE_FULL);
+    ASSERT_FALSE(client.statuses.empty());
+    const slamd::status_t& s = client.statuses.back();
+    EXPECT_EQ(s.messages_received, 4);
+    EXPECT_EQ(s.messages_accepted, 2);
+    EXPECT_EQ(s.messages_rejected, 2);
+    EXPECT_EQ(s.rejects_by_reason[slamd::reject_t::REASON_QUEUE_FULL], 2);
+    EXPECT_EQ(s.queue_capacity, 2);
+    EXPECT_EQ(s.num_factors, 2);  // prior + the one odometry that was queued
+    EXPECT_EQ(s.residual_dimension, 6);
+    if (journaled) {
+      EXPECT_EQ(daemon->journal_for_tests()->last_sequence(), 2);
+    }
+  }
+  std::filesystem::remove_all(dir);
 }
 
 // status_t's latency percentiles cover the last publish.latency_window samples: one slow

@@ -51,6 +51,21 @@ TEST(IngestQueueTest, BlockedPushSucceedsWhenTheConsumerDrains) {
   EXPECT_EQ(q.size(), 1);
 }
 
+// The intake holds a group of messages until the journal has synced them: it asks for room
+// for the whole group.
+TEST(IngestQueueTest, WaitForRoomCountsTheMessagesAskedFor) {
+  IngestQueue q(4);
+  ASSERT_TRUE(q.Push(Msg(0), 0.0));
+  EXPECT_TRUE(q.WaitForRoom(0.0, 3));
+  EXPECT_FALSE(q.WaitForRoom(0.0, 4));
+  EXPECT_TRUE(q.WaitForRoom(0.0));
+  ASSERT_TRUE(q.Push(Msg(1), 0.0));
+  EXPECT_FALSE(q.WaitForRoom(0.01, 3));  // times out
+  std::vector<Inbound> out;
+  q.PopAll(&out, 0.0);
+  EXPECT_TRUE(q.WaitForRoom(0.0, 4));
+}
+
 TEST(IngestQueueTest, CloseRefusesPushesButKeepsQueued) {
   IngestQueue q(3);
   ASSERT_TRUE(q.Push(Msg(0), 0.0));
