@@ -78,6 +78,15 @@ struct Client {
   std::vector<Subscription> subs;
 };
 
+// A data directory for one test, named after it and this process, emptied first.
+std::string FreshDataDir(const std::string& name) {
+  const std::string dir = (std::filesystem::temp_directory_path() /
+                           ("slamd_daemon_" + name + "_" + std::to_string(::getpid())))
+                              .string();
+  std::filesystem::remove_all(dir);
+  return dir;
+}
+
 ServerParams Params() {
   ServerParams p;
   p.estimator.chi2_interval_s = 0.0;  // tests compare chi2 after each update
@@ -112,10 +121,7 @@ TEST(DaemonTest, ManualDriveCoalescesQueuedMessagesIntoOneUpdate) {
 // one update (one fdatasync); under NEVER each goes on at once.
 TEST(DaemonTest, AlwaysJournalQueuesMessagesThatArrivedTogetherTogether) {
   for (const SyncPolicy sync : {SyncPolicy::kAlways, SyncPolicy::kNever}) {
-    const std::string dir = (std::filesystem::temp_directory_path() /
-                             ("slamd_daemon_burst_" + std::to_string(::getpid())))
-                                .string();
-    std::filesystem::remove_all(dir);
+    const std::string dir = FreshDataDir("burst");
     ServerParams p = Params();
     p.data_dir = dir;
     p.journal.sync = sync;
@@ -222,12 +228,9 @@ TEST(DaemonTest, BackgroundRebuildsAreSwappedInAndCounted) {
 // and room in the queue is counted for every held message, so a full queue rejects the same
 // messages, and the journal keeps only the queued ones (a restart replays nothing refused).
 TEST(DaemonTest, FullQueueRejectsAfterBlockingNeverDropsSilently) {
-  const std::string dir = (std::filesystem::temp_directory_path() /
-                           ("slamd_daemon_full_queue_" + std::to_string(::getpid())))
-                              .string();
   for (const bool journaled : {false, true}) {
     SCOPED_TRACE(journaled ? "with a journal" : "without a journal");
-    std::filesystem::remove_all(dir);
+    const std::string dir = FreshDataDir("full_queue");
     InProcessBus bus;
     ServerParams p = Params();
     p.queue.depth = 2;
@@ -257,8 +260,9 @@ TEST(DaemonTest, FullQueueRejectsAfterBlockingNeverDropsSilently) {
     if (journaled) {
       EXPECT_EQ(daemon->journal_for_tests()->last_sequence(), 2);
     }
+    daemon.reset();
+    std::filesystem::remove_all(dir);
   }
-  std::filesystem::remove_all(dir);
 }
 
 // status_t's latency percentiles cover the last publish.latency_window samples: one slow
@@ -557,10 +561,7 @@ class DurabilityProbeBus final : public Bus {
 // journal.sync = ALWAYS, the daemon's own threads: no estimate goes out before the messages it
 // reflects are durable (the estimator commits after each update, then publishes).
 TEST(DaemonTest, AlwaysJournalPublishesAnEstimateOnlyOnceItsMessagesAreDurable) {
-  const std::string dir = (std::filesystem::temp_directory_path() /
-                           ("slamd_daemon_durable_" + std::to_string(::getpid())))
-                              .string();
-  std::filesystem::remove_all(dir);
+  const std::string dir = FreshDataDir("durable");
   ServerParams p = Params();
   p.data_dir = dir;
   p.journal.sync = SyncPolicy::kAlways;

@@ -51,8 +51,8 @@ TEST(IngestQueueTest, BlockedPushSucceedsWhenTheConsumerDrains) {
   EXPECT_EQ(q.size(), 1);
 }
 
-// The intake holds a group of messages until the journal has synced them: it asks for room
-// for the whole group.
+// The intake holds a burst of messages until it has taken it in whole: it asks for room for
+// all of it.
 TEST(IngestQueueTest, WaitForRoomCountsTheMessagesAskedFor) {
   IngestQueue q(4);
   ASSERT_TRUE(q.Push(Msg(0), 0.0));
