@@ -8,7 +8,6 @@
 
 #include "core/base/check.h"
 #include "core/base/timing.h"
-#include "server/estimator/background_priority.h"
 #include "server/estimator/estimator_state.h"
 #include "server/estimator/recovery.h"
 #include "server/ingest/conversion.h"
@@ -273,7 +272,7 @@ core::Result<int> Daemon::PumpIntake(int timeout_ms) {
   // Under journal.sync ALWAYS, the rest of a burst that has arrived meanwhile (without waiting),
   // then all of it at once: each update costs an fdatasync before its estimate goes out, so a
   // pose's odometry and loop closures are cheaper in one update than in two (at 1 kHz,
-  // ingest-to-publish p99 lower in 11 of 16 interleaved runs on manhattan, 4 of 4 on
+  // ingest-to-publish p99 lower in 18 of 26 interleaved manhattan runs and 4 of 4 on
   // victoriaPark). Without that cost the smaller updates publish sooner (manhattan: p99 higher
   // in 8 of 8 when coalesced). BENCHMARKS, session 11.
   constexpr int kMaxBurst = 16;
@@ -459,7 +458,6 @@ void Daemon::MaybeSnapshot() {
                                  .journal_offset = journal_->offset()};
   snapshot_busy_ = true;
   snapshot_thread_ = std::thread([this, state, position, export_us] {
-    LowerThisThreadsPriority();
     core::Stopwatch timer;
     const std::string bytes = EncodeState(*state, position);
     const core::Result<std::string> path = WriteSnapshotFile(

@@ -10,7 +10,6 @@
 #include "core/factors/position_prior_factor.h"
 #include "core/factors/prior_factor.h"
 #include "core/factors/relative_point_factor.h"
-#include "server/estimator/background_priority.h"
 #include "server/estimator/estimator_state.h"
 
 namespace slamd::server {
@@ -142,7 +141,6 @@ void Estimator::StartRebuild() {
        newest = NewestPoses(), max_rounds = replaying_ ? 0 : params_.rebuild_catch_up_rounds,
        with_chi2 = !replaying_ && params_.chi2_interval_s > 0.0,
        start_sequence = sequence_]() mutable {
-        LowerThisThreadsPriority();
         core::Result<std::unique_ptr<core::Isam2>> made = core::Isam2::Create(params);
         if (made.ok()) {
           r->solver = std::move(made).value();
