@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cstdlib>
-#include <thread>
 
 #include "server/transport/lcm_bus.h"
 
@@ -41,25 +40,20 @@ core::Result<bool> LcmClient::HandleUntil(const std::function<bool()>& done, dou
   const auto deadline =
       Clock::now() + std::chrono::duration_cast<Clock::duration>(
                          std::chrono::duration<double>(timeout_s < 0 ? 0.0 : timeout_s));
+  // One wait per message or deadline, to the microsecond: a deadline that is a send time
+  // (replay --rate) is kept, and the replies that arrive meanwhile are timed as they come.
+  // (Naps of 50 µs in the last millisecond instead: a 1 kHz replay of manhattan woke 28k times
+  // against 15k and took 0.81 s of CPU against 0.55, on the cores the server under test runs on.)
+  constexpr std::chrono::microseconds kLongestWait = std::chrono::milliseconds(100);
   while (!done()) {
-    int wait_ms = 100;
+    std::chrono::microseconds wait = kLongestWait;
     if (timeout_s >= 0) {
       const auto left =
           std::chrono::duration_cast<std::chrono::microseconds>(deadline - Clock::now());
       if (left.count() <= 0) return done();
-      // LCM waits in whole milliseconds. The last one is spent in short naps with the incoming
-      // messages handled in between, so that a deadline that is a send time (replay --rate) is
-      // kept to ~50 µs, and what arrives meanwhile is timed as closely.
-      if (left.count() < 1000) {
-        SLAMD_RETURN_IF_ERROR(Drain().status());
-        if (done()) return true;
-        std::this_thread::sleep_for(
-            std::chrono::microseconds(std::min<long long>(left.count(), 50)));
-        continue;
-      }
-      wait_ms = static_cast<int>(std::min<long long>(left.count() / 1000, 100));
+      wait = std::min(left, kLongestWait);
     }
-    core::Result<int> n = bus_->HandleOnce(wait_ms);
+    core::Result<int> n = bus_->HandleFor(wait);
     if (!n.ok()) return n.status();
   }
   return true;

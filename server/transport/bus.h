@@ -18,6 +18,7 @@
 // channel), so a faulty handler is reported, not fatal.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <span>
@@ -70,10 +71,16 @@ class Bus {
   virtual core::Result<Subscription> Subscribe(std::string_view channel_regex,
                                                MessageCallback callback) = 0;
 
-  // Waits up to `timeout_ms` (>= 0; 0 = poll) for messages and dispatches at least one if any
-  // arrives. Returns how many messages were dispatched (0 on timeout), or an error: IoError when
-  // the transport fails, FailedPrecondition when a callback threw during this call.
-  virtual core::Result<int> HandleOnce(int timeout_ms) = 0;
+  // Waits up to `timeout` (>= 0; 0 = poll) for messages and dispatches at least one if any
+  // arrives. Returns how many messages were dispatched (0 on timeout), or an error:
+  // InvalidArgument for a negative timeout, IoError when the transport fails,
+  // FailedPrecondition when a callback threw during this call. Microseconds, so that a paced
+  // sender can wait for its next slot and for replies in one call (slamctl replay --rate).
+  virtual core::Result<int> HandleFor(std::chrono::microseconds timeout) = 0;
+  // HandleFor in milliseconds.
+  core::Result<int> HandleOnce(int timeout_ms) {
+    return HandleFor(std::chrono::milliseconds(timeout_ms));
+  }
 };
 
 // InvalidArgument unless 1 <= size <= kMaxChannelNameLength.

@@ -103,14 +103,13 @@ core::Result<Subscription> InProcessBus::Subscribe(std::string_view channel_rege
   });
 }
 
-core::Result<int> InProcessBus::HandleOnce(int timeout_ms) {
-  if (timeout_ms < 0) return core::InvalidArgument("HandleOnce timeout_ms must be >= 0");
+core::Result<int> InProcessBus::HandleFor(std::chrono::microseconds timeout) {
+  if (timeout.count() < 0) return core::InvalidArgument("HandleFor: timeout must be >= 0");
   std::deque<Message> batch;
   std::vector<std::shared_ptr<Entry>> entries;
   {
     std::unique_lock lock(state_->mutex);
-    state_->arrived.wait_for(lock, std::chrono::milliseconds(timeout_ms),
-                             [&] { return !state_->queue.empty(); });
+    state_->arrived.wait_for(lock, timeout, [&] { return !state_->queue.empty(); });
     batch.swap(state_->queue);
     entries = state_->entries;  // snapshot: callbacks may publish without deadlocking
   }

@@ -27,9 +27,9 @@ class InProcessBus final : public Bus {
   core::Status Publish(std::string_view channel, std::span<const std::uint8_t> bytes) override;
   core::Result<Subscription> Subscribe(std::string_view channel_regex,
                                        MessageCallback callback) override;
-  // Waits (on a condition variable) up to timeout_ms for the queue to become non-empty, then
+  // Waits (on a condition variable) up to `timeout` for the queue to become non-empty, then
   // dispatches everything queued at that moment; returns the number of messages dispatched.
-  core::Result<int> HandleOnce(int timeout_ms) override;
+  core::Result<int> HandleFor(std::chrono::microseconds timeout) override;
 
   // Messages published and not yet dispatched.
   int pending() const;

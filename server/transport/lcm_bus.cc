@@ -1,7 +1,10 @@
 #include "server/transport/lcm_bus.h"
 
 #include <lcm/lcm.h>
+#include <poll.h>
 
+#include <cerrno>
+#include <ctime>
 #include <exception>
 #include <map>
 #include <mutex>
@@ -146,11 +149,21 @@ core::Result<Subscription> LcmBus::Subscribe(std::string_view channel_regex,
   });
 }
 
-core::Result<int> LcmBus::HandleOnce(int timeout_ms) {
-  if (timeout_ms < 0) return core::InvalidArgument("HandleOnce timeout_ms must be >= 0");
+core::Result<int> LcmBus::HandleFor(std::chrono::microseconds timeout) {
+  if (timeout.count() < 0) return core::InvalidArgument("HandleFor: timeout must be >= 0");
+  // lcm_handle_timeout waits in whole milliseconds: the wait is poll(2) on LCM's descriptor,
+  // which becomes readable when a message is ready to dispatch.
+  pollfd fd{.fd = lcm_get_fileno(impl_->lcm), .events = POLLIN, .revents = 0};
+  const auto seconds = std::chrono::duration_cast<std::chrono::seconds>(timeout);
+  const timespec wait{.tv_sec = static_cast<time_t>(seconds.count()),
+                      .tv_nsec = static_cast<long>((timeout - seconds).count() * 1000)};
+  const int ready = ppoll(&fd, 1, &wait, nullptr);
+  if (ready < 0 && errno == EINTR) return 0;  // a signal: an early timeout
+  if (ready < 0) return core::IoError("poll on LCM's descriptor failed on " + impl_->url);
+  if (ready == 0) return 0;
   impl_->errors = 0;
   impl_->first_error.clear();
-  const int rc = lcm_handle_timeout(impl_->lcm, timeout_ms);
+  const int rc = lcm_handle_timeout(impl_->lcm, 0);
   if (rc < 0) return core::IoError("LCM failed while receiving on " + impl_->url);
   if (impl_->errors > 0) {
     std::string message = impl_->first_error;

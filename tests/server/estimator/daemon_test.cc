@@ -550,7 +550,9 @@ class DurabilityProbeBus final : public Bus {
                                        MessageCallback callback) override {
     return inner.Subscribe(channel_regex, std::move(callback));
   }
-  core::Result<int> HandleOnce(int timeout_ms) override { return inner.HandleOnce(timeout_ms); }
+  core::Result<int> HandleFor(std::chrono::microseconds timeout) override {
+    return inner.HandleFor(timeout);
+  }
 
   InProcessBus inner;
   std::atomic<const Daemon*> daemon{nullptr};

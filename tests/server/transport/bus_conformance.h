@@ -170,6 +170,34 @@ TEST_P(BusConformanceTest, TimeoutWithNothingToDo) {
   EXPECT_FALSE(bus_->HandleOnce(-1).ok());
 }
 
+// HandleFor waits in microseconds: not rounded down to a poll (nor refused), and a message that
+// arrives meanwhile ends the wait.
+TEST_P(BusConformanceTest, HandleForWaitsInMicrosecondsAndWakesOnArrival) {
+  using std::chrono::microseconds;
+  const auto start = std::chrono::steady_clock::now();
+  auto r = bus_->HandleFor(microseconds(600));
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  EXPECT_EQ(*r, 0);
+  EXPECT_GE(std::chrono::steady_clock::now() - start, microseconds(500));
+  EXPECT_EQ(bus_->HandleFor(microseconds(-1)).status().code(), core::StatusCode::kInvalidArgument);
+
+  std::vector<Received> got;
+  Subscription sub = Record("LATE", &got);
+  std::thread publisher([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    EXPECT_TRUE(bus_->Publish("LATE", Bytes({4})).ok());
+  });
+  const auto waited = std::chrono::steady_clock::now();
+  r = bus_->HandleFor(std::chrono::seconds(20));
+  const auto took = std::chrono::steady_clock::now() - waited;
+  publisher.join();
+  ASSERT_TRUE(r.ok()) << r.status().ToString();
+  EXPECT_EQ(*r, 1);
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0].bytes, Bytes({4}));
+  EXPECT_LT(took, std::chrono::seconds(10));  // woken by the message, not by the timeout
+}
+
 TEST_P(BusConformanceTest, BadNamesAndPatternsAreInvalidArguments) {
   EXPECT_EQ(bus_->Publish("", Bytes({1})).code(), core::StatusCode::kInvalidArgument);
   EXPECT_EQ(bus_->Publish(std::string(64, 'c'), Bytes({1})).code(),
