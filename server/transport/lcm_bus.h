@@ -49,8 +49,8 @@ class LcmBus final : public Bus {
   // channel_regex uses LCM's (GLib/PCRE) regex syntax, matched against the whole channel name.
   core::Result<Subscription> Subscribe(std::string_view channel_regex,
                                        MessageCallback callback) override;
-  // Dispatches at most one message: returns 1 or 0 (timeout). Waits in poll(2) on LCM's file
-  // descriptor (lcm_handle_timeout counts whole milliseconds), then lcm_handle.
+  // Dispatches at most one message: returns 1 or 0 (timeout). Waits in ppoll(2) on LCM's file
+  // descriptor (lcm_handle_timeout counts whole milliseconds), then lcm_handle_timeout(0).
   core::Result<int> HandleFor(std::chrono::microseconds timeout) override;
 
   const std::string& url() const;
