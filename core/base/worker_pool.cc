@@ -4,6 +4,7 @@
 #include <system_error>
 
 #include "core/base/check.h"
+#include "core/base/thread_name.h"
 
 namespace slamd::core {
 
@@ -25,7 +26,10 @@ void WorkerPool::Run(int n, std::function<void(int)> task) {
   while (static_cast<int>(threads_.size()) < std::min(n, helpers_)) {
     const int index = static_cast<int>(threads_.size());
     try {
-      threads_.emplace_back([this, index] { Loop(index); });
+      threads_.emplace_back([this, index] {
+        NameThisThread("slamd-worker");
+        Loop(index);
+      });
     } catch (const std::system_error&) {
       break;  // no thread to be had: its tasks run in Wait()
     }

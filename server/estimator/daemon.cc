@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "core/base/check.h"
+#include "core/base/thread_name.h"
 #include "core/base/timing.h"
 #include "server/estimator/estimator_state.h"
 #include "server/estimator/recovery.h"
@@ -458,6 +459,7 @@ void Daemon::MaybeSnapshot() {
                                  .journal_offset = journal_->offset()};
   snapshot_busy_ = true;
   snapshot_thread_ = std::thread([this, state, position, export_us] {
+    core::NameThisThread("slamd-snapshot");
     core::Stopwatch timer;
     const std::string bytes = EncodeState(*state, position);
     const core::Result<std::string> path = WriteSnapshotFile(
@@ -639,8 +641,14 @@ std::int64_t Daemon::IdleMicros() const { return SteadyMicros() - last_input_us_
 
 void Daemon::Start() {
   if (intake_thread_.joinable() || stopped_) return;
-  estimator_thread_ = std::thread([this] { EstimatorLoop(); });
-  intake_thread_ = std::thread([this] { IntakeLoop(); });
+  estimator_thread_ = std::thread([this] {
+    core::NameThisThread("slamd-estimator");
+    EstimatorLoop();
+  });
+  intake_thread_ = std::thread([this] {
+    core::NameThisThread("slamd-intake");
+    IntakeLoop();
+  });
   log_->info("slamd running: prefix '{}', queue {}, refine {}", params_.channel_prefix,
              params_.queue.depth, params_.refine.enabled ? "on" : "off");
 }

@@ -5,6 +5,7 @@
 #include <numeric>
 #include <utility>
 
+#include "core/base/thread_name.h"
 #include "core/factors/bearing_range_factor.h"
 #include "core/factors/between_factor.h"
 #include "core/factors/position_prior_factor.h"
@@ -141,6 +142,7 @@ void Estimator::StartRebuild() {
        newest = NewestPoses(), max_rounds = replaying_ ? 0 : params_.rebuild_catch_up_rounds,
        with_chi2 = !replaying_ && params_.chi2_interval_s > 0.0,
        start_sequence = sequence_]() mutable {
+        core::NameThisThread("slamd-rebuild");
         core::Result<std::unique_ptr<core::Isam2>> made = core::Isam2::Create(params);
         if (made.ok()) {
           r->solver = std::move(made).value();
@@ -307,6 +309,7 @@ core::Result<bool> Estimator::FinishRebuild(std::span<const int> replay_rounds) 
   if (retire_thread_.joinable()) retire_thread_.join();
   retire_thread_ =
       std::thread([old = std::move(isam_), marginals = std::move(marginals_)]() mutable {
+        core::NameThisThread("slamd-retire");
         marginals.reset();
         old.reset();
       });

@@ -6,7 +6,9 @@
 #include <atomic>
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <mutex>
+#include <set>
 #include <thread>
 
 #include "server/ingest/conversion.h"
@@ -331,6 +333,17 @@ TEST(DaemonTest, EveryMessageOfAnUpdateCountsInTheLatencyPercentiles) {
   EXPECT_GE(client.statuses.back().publish_latency_p99_us, newest + 20000);  // x0 -> x1's
 }
 
+// The names of this process's threads (/proc/self/task/TID/comm).
+std::set<std::string> ThreadNames() {
+  std::set<std::string> names;
+  for (const auto& task : std::filesystem::directory_iterator("/proc/self/task")) {
+    std::ifstream comm(task.path() / "comm");
+    std::string name;
+    if (std::getline(comm, name)) names.insert(name);
+  }
+  return names;
+}
+
 TEST(DaemonTest, ThreadsProcessEverythingAndStopCleanly) {
   InProcessBus bus;
   ServerParams p = Params();
@@ -348,6 +361,10 @@ TEST(DaemonTest, ThreadsProcessEverythingAndStopCleanly) {
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
+  // Named, so that top -H and perf tell them apart.
+  const std::set<std::string> names = ThreadNames();
+  EXPECT_EQ(names.count("slamd-estimator"), 1u);
+  EXPECT_EQ(names.count("slamd-intake"), 1u);
   daemon->Stop();
   std::lock_guard lock(client.mutex);
   ASSERT_FALSE(client.estimates.empty());
