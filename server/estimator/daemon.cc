@@ -296,12 +296,10 @@ void Daemon::QueueHeldLocked() {
     const std::int64_t sequence = in.journal_sequence;
     // Room for every held message was there when it was taken in (one producer), and Stop
     // closes the queue only after the intake has stopped and queued what it held.
-    if (queue_.Push(std::move(in), 0.0)) {
-      ++queued_;
-      continue;
+    if (!queue_.Push(std::move(in), 0.0)) {
+      SLAMD_CHECK(sequence > 0) << "an unjournaled message was held until the queue closed";
+      log_->error("message {} journaled but the queue closed: it is replayed at restart", sequence);
     }
-    SLAMD_CHECK(sequence > 0) << "an unjournaled message was held until the queue closed";
-    log_->error("message {} journaled but the queue closed: it is replayed at restart", sequence);
     ++queued_;
   }
   intake_held_.clear();

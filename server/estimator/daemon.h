@@ -2,9 +2,9 @@
 // estimator thread, wired to a Bus (server/transport). main.cc is a thin shell around it.
 //
 //   intake thread:    bus.HandleOnce -> decode -> Convert (validate) -> queue.Push; under
-//                     journal.sync ALWAYS a burst of messages that arrived together at once (a
-//                     bad message, or a full queue after queue.block_timeout_s, gets a reject_t
-//                     at once; nothing is dropped silently)
+//                     journal.sync ALWAYS a burst of messages that arrived together is pushed
+//                     together (a bad message, or a full queue after queue.block_timeout_s, gets
+//                     a reject_t at once; nothing is dropped silently)
 //   estimator thread: queue.PopAll -> Estimator::Process (ONE Isam2 update for everything
 //                     queued) -> reject_t for stateful rejections, estimate_t for each robot whose
 //                     newest pose moved, status_t at publish.status_rate_hz; when no message has
@@ -134,7 +134,8 @@ class Daemon {
   std::unique_ptr<Estimator> estimator_;  // estimator thread only
   std::unique_ptr<Journal> journal_;      // null without data_dir
   IngestQueue queue_;
-  std::mutex intake_mutex_;  // journal append + queue push, so journal order = queue order
+  // Journal append + queue push, so journal order = queue order; and intake_held_.
+  std::mutex intake_mutex_;
   // Accepted (and journaled) messages of the burst being taken in (PumpIntake), not yet queued.
   std::vector<Inbound> intake_held_;
   std::shared_ptr<spdlog::logger> log_;
