@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <map>
+#include <numeric>
 #include <thread>
 
 namespace slamd::server {
@@ -567,6 +568,47 @@ TEST(EstimatorTest, HelperCatchUpRoundsReplayBitForBit) {
     ASSERT_TRUE(swapped.ok() && swapped.value()) << swapped.status().ToString();
     EXPECT_TRUE(replayed->last_swap_rounds().empty());
   }
+}
+
+// The helper is ready only once it has taken everything logged: an update logged while the
+// rebuild was not ready (and rounds were left) never falls to the swap, also not one logged
+// during the helper's chi2 pass.
+TEST(EstimatorTest, SwapTakesOnlyWhatWasLoggedAfterTheRebuildWasReady) {
+  const EstimatorParams params = {.chi2_interval_s = 1.0,
+                                  .background_relinearization_above = 8,
+                                  .rebuild_catch_up_rounds = 64};
+  auto e = Make(params);
+  ASSERT_TRUE(e->Process({Prior("r", 0, Pose2())}).status.ok());
+  Pose2 hundred = Pose2();
+  for (int k = 0; k < 100; ++k) hundred = hundred * kStep;
+  int swaps = 0, taken_by_rounds = 0;
+  size_t logged_before_ready = 0, logged = 0;
+  for (int i = 0; i < 1500; ++i) {
+    std::vector<Inbound> batch = {Odo("r", i, i + 1, kStep)};
+    if (i >= 100 && i % 25 == 0) {
+      batch.push_back(Loop("r", i + 1, "r", i - 99, hundred.Inverse() * Pose2(0.3, 0.0, 0.05)));
+    }
+    const bool logs = e->Rebuilding();  // this update goes into the rebuild's log
+    ASSERT_TRUE(e->Process(batch).status.ok());
+    std::this_thread::sleep_for(std::chrono::microseconds(100));  // a stream, not one burst
+    if (!logs) continue;
+    ++logged;
+    if (!e->RebuildReady()) {
+      ++logged_before_ready;
+      continue;
+    }
+    ASSERT_TRUE(e->FinishRebuild().ok());
+    const std::vector<int>& rounds = e->last_swap_rounds();
+    const size_t in_rounds = std::accumulate(rounds.begin(), rounds.end(), size_t{0});
+    ASSERT_LT(rounds.size(), 64u);  // rounds were left: the helper stopped because nothing waited
+    EXPECT_GE(in_rounds, logged_before_ready) << "swap " << swaps;
+    EXPECT_LE(in_rounds, logged) << "swap " << swaps;
+    taken_by_rounds += static_cast<int>(in_rounds);
+    ++swaps;
+    logged = logged_before_ready = 0;
+  }
+  EXPECT_GE(swaps, 2);
+  EXPECT_GT(taken_by_rounds, 0);
 }
 
 // Odometry from pose i to i + 1 and, every 10 poses, a loop closure 0.3 m off to the pose 19
