@@ -168,7 +168,7 @@ void Estimator::StartRebuild() {
         // waiting also marks the rebuild done, under the log's lock: every update the estimator
         // logged before it saw the rebuild not done is taken here, and the swap takes only what
         // came after (on manhattan.g2o at 1 kHz, leaving the last 2 and what came during the chi2
-        // pass made swaps of 1-3 ms on the estimator thread).
+        // pass made swaps of up to 4 ms on the estimator thread).
         const auto catch_up = [&](bool finish) {
           for (;;) {
             size_t end = 0;

@@ -36,11 +36,12 @@
 // meanwhile, without relinearisation checks (the rebuild relinearises everything); each of its
 // updates is logged for the rebuild (new factors, new variables with their initial guesses,
 // removals). The helper then catches up on that log in rounds, each taking what was logged
-// while the last one ran (and relinearising what moved), until nothing waits: a rebuild of a
-// large map takes seconds, and the updates logged meanwhile would otherwise be one long update on
-// the estimator thread. It is ready (RebuildReady) only then, so FinishRebuild (the daemon calls
-// it as soon as RebuildReady) gives the new solver just the updates logged since, usually none or
-// one, in one update (new variables at the live estimate) and swaps it in. Deterministic: the same messages, refinements and swaps (with
+// while the last one ran (and relinearising what moved), until nothing waits or it ran
+// EstimatorParams::rebuild_catch_up_rounds: a rebuild of a large map takes seconds, and the
+// updates logged meanwhile would otherwise be one long update on the estimator thread. It is
+// ready (RebuildReady) only then, so FinishRebuild (the daemon calls it as soon as RebuildReady)
+// gives the new solver just the updates logged since (usually none or one, unless the rounds ran
+// out) in one update (new variables at the live estimate) and swaps it in. Deterministic: the same messages, refinements and swaps (with
 // their catch-up rounds) in the same order give the same state, whatever the threads' timing:
 // the journal records each swap and its rounds, and a replay runs the rounds it recorded.
 //
