@@ -500,24 +500,30 @@ TEST_P(BackgroundRebuildTest, TakesWhatCameMeanwhileAndSettlesOnTheSameOptimum) 
 
 INSTANTIATE_TEST_SUITE_P(LiveAndReplayedRounds, BackgroundRebuildTest, ::testing::Bool());
 
-// A rebuild of a larger map takes long enough for many updates to be logged meanwhile: its
-// helper catches up in rounds. An estimator replaying the same batches, with the same swaps and
-// rounds (as the journal gives them), ends bit for bit where the live one did.
-TEST(EstimatorTest, HelperCatchUpRoundsReplayBitForBit) {
-  const EstimatorParams params = {.chi2_interval_s = 0.0, .background_relinearization_above = 8};
-  auto live = Make(params);
+// A corridor walked back and forth, one batch per pose after the prior on pose 0: every 25
+// poses a loop closure, 0.3 m off, to the pose 100 back. Large enough for a rebuild to take
+// long against its updates.
+std::vector<std::vector<Inbound>> CorridorBatches(int poses) {
   std::vector<std::vector<Inbound>> batches = {{Prior("r", 0, Pose2())}};
-  // A corridor walked back and forth: every 25 poses a loop closure, 0.3 m off, to the pose
-  // 100 back.
   Pose2 hundred = Pose2();
   for (int k = 0; k < 100; ++k) hundred = hundred * kStep;
-  for (int i = 0; i < 1500; ++i) {
+  for (int i = 0; i < poses; ++i) {
     std::vector<Inbound> batch = {Odo("r", i, i + 1, kStep)};
     if (i >= 100 && i % 25 == 0) {
       batch.push_back(Loop("r", i + 1, "r", i - 99, hundred.Inverse() * Pose2(0.3, 0.0, 0.05)));
     }
     batches.push_back(std::move(batch));
   }
+  return batches;
+}
+
+// A rebuild of a larger map takes long enough for many updates to be logged meanwhile: its
+// helper catches up in rounds. An estimator replaying the same batches, with the same swaps and
+// rounds (as the journal gives them), ends bit for bit where the live one did.
+TEST(EstimatorTest, HelperCatchUpRoundsReplayBitForBit) {
+  const EstimatorParams params = {.chi2_interval_s = 0.0, .background_relinearization_above = 8};
+  auto live = Make(params);
+  const std::vector<std::vector<Inbound>> batches = CorridorBatches(1500);
   std::map<size_t, std::vector<int>> swaps;  // after batch k: the swap's rounds
   int rounds = 0;
   for (size_t k = 0; k < batches.size(); ++k) {
@@ -578,16 +584,9 @@ TEST(EstimatorTest, SwapTakesOnlyWhatWasLoggedAfterTheRebuildWasReady) {
                                   .background_relinearization_above = 8,
                                   .rebuild_catch_up_rounds = 64};
   auto e = Make(params);
-  ASSERT_TRUE(e->Process({Prior("r", 0, Pose2())}).status.ok());
-  Pose2 hundred = Pose2();
-  for (int k = 0; k < 100; ++k) hundred = hundred * kStep;
   int swaps = 0, taken_by_rounds = 0;
   size_t logged_before_ready = 0, logged = 0;
-  for (int i = 0; i < 1500; ++i) {
-    std::vector<Inbound> batch = {Odo("r", i, i + 1, kStep)};
-    if (i >= 100 && i % 25 == 0) {
-      batch.push_back(Loop("r", i + 1, "r", i - 99, hundred.Inverse() * Pose2(0.3, 0.0, 0.05)));
-    }
+  for (const std::vector<Inbound>& batch : CorridorBatches(1500)) {
     const bool logs = e->Rebuilding();  // this update goes into the rebuild's log
     ASSERT_TRUE(e->Process(batch).status.ok());
     std::this_thread::sleep_for(std::chrono::microseconds(100));  // a stream, not one burst
