@@ -169,10 +169,12 @@ void RegisterBench(CLI::App& app) {
   cmd->add_option("--batch-every", opt->isam2.batch_every,
                   "isam2: relinearise and re-eliminate everything every N updates (0: never)")
       ->capture_default_str();
-  cmd->add_option("--step-times", opt->step_times,
-                  "isam2: write one line per step to this CSV file (index, pose, ms, relinearised and "
-                  "re-eliminated variables, then ms per phase of the update: add, relinearize, "
-                  "remove_top, order, eliminate, solve)");
+  cmd->add_option(
+      "--step-times", opt->step_times,
+      "isam2: write one line per step to this CSV file (index, pose, factors added, ms, "
+      "relinearised and "
+      "re-eliminated variables, then ms per phase of the update: add, relinearize, "
+      "remove_top, order, eliminate, solve)");
   cmd->add_option("--marginals", opt->marginals,
                   "isam2: after every step compute the newest pose's marginal covariance (latest) "
                   "or every variable's (all), timed apart from the step")

@@ -2,11 +2,13 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tests/clients/slamctl/slamctl_runner.h"
@@ -29,24 +31,37 @@ TEST(BenchTest, JsonHasTheDocumentedFields) {
   EXPECT_EQ(r.out.front(), '{');
 }
 
+// A number field of the JSON object printed by `slamctl bench --json`: the first `"name": `
+// at or after `from`.
+double JsonNumber(const std::string& json, const std::string& name, std::size_t from = 0) {
+  const std::size_t at = json.find("\"" + name + "\": ", from);
+  EXPECT_NE(at, std::string::npos) << name << " missing from " << json;
+  return at == std::string::npos ? -1.0 : std::stod(json.substr(at + name.size() + 4));
+}
+
+// On a simulated world with loop closures, so that steps add different numbers of factors.
 TEST(BenchTest, Isam2JsonHasStepPercentilesAndSettles) {
-  const std::string csv = testing::WriteTempFile("steps.csv", "");
+  const std::string dir = ::testing::TempDir() + "slamd_bench_steps_" + std::to_string(getpid());
+  ASSERT_EQ(RunSlamctl("sim manhattan --steps 300 -o " + dir).exit_code, 0);
+  const std::string csv = dir + "/steps.csv";
   const SlamctlRun r =
-      RunSlamctl("bench " + testing::TestDataPath("small_slam2d.g2o") +
+      RunSlamctl("bench " + dir + "/world.g2o" +
                  " --solver isam2 --json --compare-batch --settle 1 --step-times " + csv);
   ASSERT_EQ(r.exit_code, 0) << r.out;
-  for (const char* field : {"\"solver\": \"isam2\"", "\"step_ms\": {\"p50\"", "\"p90\"", "\"p99\"",
-                            "\"max\"", "\"final_chi2\"", "\"chi2_before_settle\"", "\"batch_chi2\"",
-                            "\"relinearized_total\"", "\"peak_rss_mb\""}) {
+  for (const char* field :
+       {"\"solver\": \"isam2\"", "\"step_ms\": {\"p50\"", "\"p90\"", "\"p99\"", "\"max\"",
+        "\"step_ms_per_factor\": {\"p50\"", "\"final_chi2\"", "\"chi2_before_settle\"",
+        "\"batch_chi2\"", "\"relinearized_total\"", "\"peak_rss_mb\""}) {
     EXPECT_NE(r.out.find(field), std::string::npos) << field << " missing from " << r.out;
   }
   std::ifstream in(csv);
   std::string header;
   std::getline(in, header);
   EXPECT_EQ(header,
-            "step,pose,ms,relinearized,reeliminated,add_ms,relinearize_ms,remove_top_ms,order_ms,"
-            "eliminate_ms,solve_ms");
+            "step,pose,factors,ms,relinearized,reeliminated,add_ms,relinearize_ms,remove_top_ms,"
+            "order_ms,eliminate_ms,solve_ms");
   int lines = 0;
+  std::vector<double> per_step, per_factor;  // step times, once per step and once per factor
   for (std::string line; std::getline(in, line);) {
     ++lines;
     // The update's phases are part of the step (which also reads the newest estimate).
@@ -56,15 +71,36 @@ TEST(BenchTest, Isam2JsonHasStepPercentilesAndSettles) {
       if (ms.size() != 1) ms.push_back(std::stod(field));
       else ms.push_back(0.0);  // the pose name
     }
-    ASSERT_EQ(ms.size(), 11u) << line;
+    ASSERT_EQ(ms.size(), 12u) << line;
     double phases = 0.0;
-    for (int i = 5; i < 11; ++i) {
+    for (int i = 6; i < 12; ++i) {
       EXPECT_GE(ms[i], 0.0) << line;
       phases += ms[i];
     }
-    EXPECT_LE(phases, ms[2] + 1e-3) << line;  // 1e-3 ms: the CSV's rounding
+    EXPECT_LE(phases, ms[3] + 1e-3) << line;  // 1e-3 ms: the CSV's rounding
+    EXPECT_GE(ms[2], 1.0) << line;            // every step adds a factor
+    per_step.push_back(ms[3]);
+    per_factor.insert(per_factor.end(), static_cast<std::size_t>(ms[2]), ms[3]);
   }
   EXPECT_GT(lines, 1);
+  // The dataset's factors and the first pose's anchor.
+  EXPECT_EQ(static_cast<double>(per_factor.size()), JsonNumber(r.out, "factors") + 1);
+  // Percentiles by rank (the nearest of q (n - 1)), from the CSV: steps with loop closures
+  // weigh more once per factor.
+  const auto rank = [](std::vector<double> v, double q) {
+    std::sort(v.begin(), v.end());
+    return v[static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5)];
+  };
+  const std::size_t steps_at = r.out.find("\"step_ms\": ");
+  const std::size_t per_factor_at = r.out.find("\"step_ms_per_factor\": ");
+  bool weighted_differs = false;  // else this run could not tell the two apart
+  for (const auto& [q, name] : {std::pair{0.5, "p50"}, {0.9, "p90"}, {0.99, "p99"}, {1.0, "max"}}) {
+    EXPECT_NEAR(JsonNumber(r.out, name, steps_at), rank(per_step, q), 1e-5) << name;
+    EXPECT_NEAR(JsonNumber(r.out, name, per_factor_at), rank(per_factor, q), 1e-5) << name;
+    weighted_differs |= rank(per_step, q) != rank(per_factor, q);
+  }
+  EXPECT_TRUE(weighted_differs);
+  std::filesystem::remove_all(dir);
   const SlamctlRun bad = RunSlamctl("bench " + testing::TestDataPath("small_slam2d.g2o") +
                                     " --solver isam2 --relinearize-skip 0");
   EXPECT_EQ(bad.exit_code, 2);
@@ -78,11 +114,7 @@ TEST(BenchTest, Isam2StepGrowthWindowsOfOdometryOnlySteps) {
   ASSERT_EQ(RunSlamctl("sim manhattan --steps 1200 --loop-probability 0 -o " + dir).exit_code, 0);
   const SlamctlRun r = RunSlamctl("bench " + dir + "/world.g2o --solver isam2 --json");
   ASSERT_EQ(r.exit_code, 0) << r.out;
-  auto field = [&](const std::string& name) {
-    const size_t at = r.out.find("\"" + name + "\": ");
-    EXPECT_NE(at, std::string::npos) << name << " missing from " << r.out;
-    return at == std::string::npos ? -1.0 : std::stod(r.out.substr(at + name.size() + 4));
-  };
+  const auto field = [&](const std::string& name) { return JsonNumber(r.out, name); };
   EXPECT_GT(field("p50_early_ms"), 0.0);
   EXPECT_GT(field("p50_late_ms"), 0.0);
   EXPECT_EQ(field("odometry_p50_early_ms"), field("p50_early_ms"));
@@ -137,12 +169,6 @@ TEST(BenchTest, CorruptDatasetFailsWithFileAndLine) {
 
 // --robust and --ground-truth (issue #9): on a small simulated world with 30% outlier loop
 // closures the kernel brings the ATE back; both solvers report it; bad arguments exit 2.
-double JsonNumber(const std::string& json, const std::string& key) {
-  const std::size_t at = json.find("\"" + key + "\": ");
-  if (at == std::string::npos) return -1.0;
-  return std::strtod(json.c_str() + at + key.size() + 4, nullptr);
-}
-
 TEST(BenchTest, RobustKernelAndGroundTruthAte) {
   const std::string dir = (std::filesystem::temp_directory_path() /
                            ("slamctl_bench_robust_" + std::to_string(getpid()))).string();
