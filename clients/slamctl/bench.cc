@@ -175,6 +175,11 @@ void RegisterBench(CLI::App& app) {
       "relinearised and "
       "re-eliminated variables, then ms per phase of the update: add, relinearize, "
       "remove_top, order, eliminate, solve)");
+  cmd->add_option("--rate", opt->rate_hz,
+                  "isam2: also model a server fed HZ poses per second (a pose's factors as one "
+                  "message each, at its time slot) that runs these steps one at a time, in order: "
+                  "the latency percentiles of its messages, queueing included (queued_ms)")
+      ->check(CLI::PositiveNumber);
   cmd->add_option("--marginals", opt->marginals,
                   "isam2: after every step compute the newest pose's marginal covariance (latest) "
                   "or every variable's (all), timed apart from the step")

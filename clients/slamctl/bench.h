@@ -31,6 +31,7 @@ struct BenchOptions {
   bool compare_batch = false;
   double settle_s = 0.0;
   std::string step_times;  // CSV of per-step times (isam2)
+  double rate_hz = 0.0;    // isam2: model a server fed this many poses per second (0: none)
   std::string marginals = "none";  // isam2: none, latest or all
   int marginals_every = 1;
 };

@@ -7,6 +7,11 @@
 // update plus reading the newest pose's estimate. `step_ms_per_factor` counts each step's time
 // once per factor it adds: a server fed the same stream one message per factor (slamctl replay)
 // counts its ingest-to-publish latency per message, so its percentiles compare with these.
+// --rate HZ adds `queued_ms`: the latencies of those messages in a server with nothing but these
+// steps to do, fed a pose every 1/HZ s, running the steps in order as they are due (a pose's
+// messages all arrive at its time slot and are answered when its step ends). It does not merge
+// what queued into one update, as slamd does: a floor for a server that runs the solver like this,
+// not for slamd.
 #include <algorithm>
 #include <cstdio>
 
@@ -28,6 +33,20 @@ double Percentile(std::vector<double> v, double q) {
   return v[k];
 }
 
+// The message latencies [ms] of the --rate model above: step i is due at i * 1000 / rate_hz ms,
+// starts when it is due and the previous step has ended, and counts factors[i] messages.
+std::vector<double> QueuedLatencies(const std::vector<double>& step_ms,
+                                    const std::vector<std::size_t>& factors, double rate_hz) {
+  std::vector<double> latency;
+  double end_ms = 0.0;
+  for (std::size_t i = 0; i < step_ms.size(); ++i) {
+    const double due_ms = static_cast<double>(i) * 1e3 / rate_hz;
+    end_ms = std::max(end_ms, due_ms) + step_ms[i];
+    latency.insert(latency.end(), factors[i], end_ms - due_ms);
+  }
+  return latency;
+}
+
 }  // namespace
 
 void RunIsam2(const BenchOptions& opt) {
@@ -45,6 +64,7 @@ void RunIsam2(const BenchOptions& opt) {
   if (!marginals_valid.ok()) Fail(kExitUsage, marginals_valid.message());
 
   std::vector<double> step_ms, step_ms_per_factor, marginal_ms;
+  std::vector<std::size_t> step_factors;
   step_ms.reserve(steps.size());
   // Per step: its only factor is the odometry (no loop closure, no observation).
   std::vector<char> odometry_only;
@@ -80,6 +100,7 @@ void RunIsam2(const BenchOptions& opt) {
     }
     (void)isam.CalculateEstimate(step.pose);  // the step includes reading the newest estimate
     step_ms.push_back(timer.Seconds() * 1e3);
+    step_factors.push_back(factors.size());
     step_ms_per_factor.insert(step_ms_per_factor.end(), factors.size(), step_ms.back());
     odometry_only.push_back(step.odometry != nullptr && step.factors.size() == 1);
     if (step_ms.back() > worst_ms) {
@@ -187,6 +208,10 @@ void RunIsam2(const BenchOptions& opt) {
         .Add("worst_step", worst_step)
         .Add("peak_rss_mb", PeakRssMb());
     if (opt.compare_batch) out.Add("batch_chi2", batch_chi2);
+    if (opt.rate_hz > 0) {
+      out.Add("rate_hz", opt.rate_hz)
+          .Add("queued_ms", percentiles(QueuedLatencies(step_ms, step_factors, opt.rate_hz)));
+    }
     AddAccuracy(opt, accuracy, &out);
     if (opt.marginals != "none") {
       JsonWriter mm;
@@ -207,6 +232,14 @@ void RunIsam2(const BenchOptions& opt) {
     std::printf("       counted once per factor: p50 %.3f, p90 %.3f, p99 %.3f\n",
                 Percentile(step_ms_per_factor, 0.5), Percentile(step_ms_per_factor, 0.9),
                 Percentile(step_ms_per_factor, 0.99));
+    if (opt.rate_hz > 0) {
+      std::vector<double> queued = QueuedLatencies(step_ms, step_factors, opt.rate_hz);
+      std::printf(
+          "       one at a time at %g poses/s, per message with queueing: p50 %.3f, p99 %.3f, "
+          "max %.3f\n",
+          opt.rate_hz, Percentile(queued, 0.5), Percentile(queued, 0.99),
+          *std::max_element(queued.begin(), queued.end()));
+    }
     std::printf("chi2 %.9g after the last step, %.9g final (settled %.3f s)%s\n", chi2_before_settle,
                 final_chi2, settle_used_s, opt.compare_batch ? "" : "");
     if (opt.compare_batch) std::printf("batch chi2 of the final graph: %.9g\n", batch_chi2);

@@ -44,9 +44,9 @@ TEST(BenchTest, Isam2JsonHasStepPercentilesAndSettles) {
   const std::string dir = ::testing::TempDir() + "slamd_bench_steps_" + std::to_string(getpid());
   ASSERT_EQ(RunSlamctl("sim manhattan --steps 300 -o " + dir).exit_code, 0);
   const std::string csv = dir + "/steps.csv";
-  const SlamctlRun r =
-      RunSlamctl("bench " + dir + "/world.g2o" +
-                 " --solver isam2 --json --compare-batch --settle 1 --step-times " + csv);
+  const SlamctlRun r = RunSlamctl(
+      "bench " + dir + "/world.g2o" +
+      " --solver isam2 --json --compare-batch --settle 1 --rate 20000 --step-times " + csv);
   ASSERT_EQ(r.exit_code, 0) << r.out;
   for (const char* field :
        {"\"solver\": \"isam2\"", "\"step_ms\": {\"p50\"", "\"p90\"", "\"p99\"", "\"max\"",
@@ -62,6 +62,7 @@ TEST(BenchTest, Isam2JsonHasStepPercentilesAndSettles) {
             "order_ms,eliminate_ms,solve_ms");
   int lines = 0;
   std::vector<double> per_step, per_factor;  // step times, once per step and once per factor
+  std::vector<std::size_t> step_factors;
   for (std::string line; std::getline(in, line);) {
     ++lines;
     // The update's phases are part of the step (which also reads the newest estimate).
@@ -80,7 +81,8 @@ TEST(BenchTest, Isam2JsonHasStepPercentilesAndSettles) {
     EXPECT_LE(phases, ms[3] + 1e-3) << line;  // 1e-3 ms: the CSV's rounding
     EXPECT_GE(ms[2], 1.0) << line;            // every step adds a factor
     per_step.push_back(ms[3]);
-    per_factor.insert(per_factor.end(), static_cast<std::size_t>(ms[2]), ms[3]);
+    step_factors.push_back(static_cast<std::size_t>(ms[2]));
+    per_factor.insert(per_factor.end(), step_factors.back(), ms[3]);
   }
   EXPECT_GT(lines, 1);
   // The dataset's factors and the first pose's anchor.
@@ -100,6 +102,25 @@ TEST(BenchTest, Isam2JsonHasStepPercentilesAndSettles) {
     weighted_differs |= rank(per_step, q) != rank(per_factor, q);
   }
   EXPECT_TRUE(weighted_differs);
+  // --rate 20000: step i due at i / 20 ms, started when due and the one before has ended; each
+  // of its factors waits from its due time to the step's end. Slots this short make the slower
+  // steps hold up the next.
+  std::vector<double> queued;
+  double end_ms = 0.0;
+  for (std::size_t i = 0; i < per_step.size(); ++i) {
+    const double due_ms = 0.05 * static_cast<double>(i);
+    end_ms = std::max(end_ms, due_ms) + per_step[i];
+    queued.insert(queued.end(), step_factors[i], end_ms - due_ms);
+  }
+  const std::size_t queued_at = r.out.find("\"queued_ms\": ");
+  ASSERT_NE(queued_at, std::string::npos) << r.out;
+  EXPECT_EQ(JsonNumber(r.out, "rate_hz"), 20000.0);
+  for (const auto& [q, name] : {std::pair{0.5, "p50"}, {0.99, "p99"}, {1.0, "max"}}) {
+    EXPECT_NEAR(JsonNumber(r.out, name, queued_at), rank(queued, q), 1e-3) << name;  // CSV rounding
+  }
+  double waited_ms = 0.0;  // beyond the step's own time, over every message
+  for (std::size_t i = 0; i < queued.size(); ++i) waited_ms += queued[i] - per_factor[i];
+  EXPECT_GT(waited_ms, 0.0);
   std::filesystem::remove_all(dir);
   const SlamctlRun bad = RunSlamctl("bench " + testing::TestDataPath("small_slam2d.g2o") +
                                     " --solver isam2 --relinearize-skip 0");
