@@ -172,9 +172,8 @@ void RegisterBench(CLI::App& app) {
   cmd->add_option(
       "--step-times", opt->step_times,
       "isam2: write one line per step to this CSV file (index, pose, factors added, ms, "
-      "relinearised and "
-      "re-eliminated variables, then ms per phase of the update: add, relinearize, "
-      "remove_top, order, eliminate, solve)");
+      "relinearised and re-eliminated variables, then ms per phase of the update: add, "
+      "relinearize, remove_top, order, eliminate, solve)");
   cmd->add_option("--rate", opt->rate_hz,
                   "isam2: also model a server fed HZ poses per second (a pose's factors as one "
                   "message each, at its time slot) that runs these steps one at a time, in order: "

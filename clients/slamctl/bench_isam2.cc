@@ -176,6 +176,8 @@ void RunIsam2(const BenchOptions& opt) {
     return in.empty() ? 0.0 : Percentile(in, 0.5);
   };
   const std::size_t late = step_ms.size() > 500 ? step_ms.size() - 500 : 0;
+  const std::vector<double> queued_ms =
+      opt.rate_hz > 0 ? QueuedLatencies(step_ms, step_factors, opt.rate_hz) : std::vector<double>{};
   const auto percentiles = [](const std::vector<double>& v) {
     JsonWriter ms;
     ms.Add("p50", Percentile(v, 0.5))
@@ -209,8 +211,7 @@ void RunIsam2(const BenchOptions& opt) {
         .Add("peak_rss_mb", PeakRssMb());
     if (opt.compare_batch) out.Add("batch_chi2", batch_chi2);
     if (opt.rate_hz > 0) {
-      out.Add("rate_hz", opt.rate_hz)
-          .Add("queued_ms", percentiles(QueuedLatencies(step_ms, step_factors, opt.rate_hz)));
+      out.Add("rate_hz", opt.rate_hz).Add("queued_ms", percentiles(queued_ms));
     }
     AddAccuracy(opt, accuracy, &out);
     if (opt.marginals != "none") {
@@ -233,12 +234,11 @@ void RunIsam2(const BenchOptions& opt) {
                 Percentile(step_ms_per_factor, 0.5), Percentile(step_ms_per_factor, 0.9),
                 Percentile(step_ms_per_factor, 0.99));
     if (opt.rate_hz > 0) {
-      std::vector<double> queued = QueuedLatencies(step_ms, step_factors, opt.rate_hz);
       std::printf(
           "       one at a time at %g poses/s, per message with queueing: p50 %.3f, p99 %.3f, "
           "max %.3f\n",
-          opt.rate_hz, Percentile(queued, 0.5), Percentile(queued, 0.99),
-          *std::max_element(queued.begin(), queued.end()));
+          opt.rate_hz, Percentile(queued_ms, 0.5), Percentile(queued_ms, 0.99),
+          *std::max_element(queued_ms.begin(), queued_ms.end()));
     }
     std::printf("chi2 %.9g after the last step, %.9g final (settled %.3f s)%s\n", chi2_before_settle,
                 final_chi2, settle_used_s, opt.compare_batch ? "" : "");
