@@ -57,9 +57,12 @@ double SolveClique(const Clique& clique, std::span<const int> var_offsets, Eigen
   Eigen::Map<Eigen::VectorXd> t(scratch->data(), nf);
   Eigen::Map<Eigen::VectorXd> xs(scratch->data() + nf, ns);
   // 1. Gather the separator values (solved in ancestors).
+  //    Plain loops: the variables are a few scalars each, too short for Eigen's dynamic segments.
+  const double* from = delta->data();
   for (int k = 0; k < clique.num_separator(); ++k) {
-    xs.segment(clique.separator_offset(k), clique.separator_dim(k)) =
-        delta->segment(var_offsets[clique.separator()[k]], clique.separator_dim(k));
+    const double* src = from + var_offsets[clique.separator()[k]];
+    double* dst = xs.data() + clique.separator_offset(k);
+    for (int j = 0, dim = clique.separator_dim(k); j < dim; ++j) dst[j] = src[j];
   }
   // 2. t = d − S δ_S, then R δ_F = t. Cliques are small (a few variables) in the bulk of the
   //    tree, where plain column loops beat Eigen's general kernels' set-up cost.
@@ -87,13 +90,15 @@ double SolveClique(const Clique& clique, std::span<const int> var_offsets, Eigen
   // 3. Scatter the frontals, measuring the change.
   double max_change = 0.0;
   for (int k = 0; k < clique.num_frontals(); ++k) {
-    const int dim = clique.frontal_dim(k);
-    auto x = delta->segment(var_offsets[clique.frontal(k)], dim);
-    const auto x_new = t.segment(clique.frontal_offset(k), dim);
-    const double change = (x_new - x).cwiseAbs().maxCoeff();
+    double* x = delta->data() + var_offsets[clique.frontal(k)];
+    const double* x_new = t.data() + clique.frontal_offset(k);
+    double change = 0.0;
+    for (int j = 0, dim = clique.frontal_dim(k); j < dim; ++j) {
+      change = std::max(change, std::abs(x_new[j] - x[j]));
+      x[j] = x_new[j];
+    }
     if (!frontal_changes.empty()) frontal_changes[k] = change;
     max_change = std::max(max_change, change);
-    x = x_new;
   }
   return max_change;
 }
