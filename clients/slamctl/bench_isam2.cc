@@ -33,6 +33,14 @@ double Percentile(std::vector<double> v, double q) {
   return v[k];
 }
 
+// Each step's time [ms] once per factor it added (step_ms_per_factor above).
+std::vector<double> PerFactor(const std::vector<double>& step_ms,
+                              const std::vector<std::size_t>& factors) {
+  std::vector<double> out;
+  for (std::size_t i = 0; i < step_ms.size(); ++i) out.insert(out.end(), factors[i], step_ms[i]);
+  return out;
+}
+
 // The message latencies [ms] of the --rate model above: step i is due at i * 1000 / rate_hz ms,
 // starts when it is due and the previous step has ended, and counts factors[i] messages.
 std::vector<double> QueuedLatencies(const std::vector<double>& step_ms,
@@ -63,8 +71,8 @@ void RunIsam2(const BenchOptions& opt) {
   const core::Status marginals_valid = marginals_params.Validate();
   if (!marginals_valid.ok()) Fail(kExitUsage, marginals_valid.message());
 
-  std::vector<double> step_ms, step_ms_per_factor, marginal_ms;
-  std::vector<std::size_t> step_factors;
+  std::vector<double> step_ms, marginal_ms;
+  std::vector<std::size_t> step_factors;  // factors added per step
   step_ms.reserve(steps.size());
   // Per step: its only factor is the odometry (no loop closure, no observation).
   std::vector<char> odometry_only;
@@ -101,7 +109,6 @@ void RunIsam2(const BenchOptions& opt) {
     (void)isam.CalculateEstimate(step.pose);  // the step includes reading the newest estimate
     step_ms.push_back(timer.Seconds() * 1e3);
     step_factors.push_back(factors.size());
-    step_ms_per_factor.insert(step_ms_per_factor.end(), factors.size(), step_ms.back());
     odometry_only.push_back(step.odometry != nullptr && step.factors.size() == 1);
     if (step_ms.back() > worst_ms) {
       worst_ms = step_ms.back();
@@ -176,6 +183,7 @@ void RunIsam2(const BenchOptions& opt) {
     return in.empty() ? 0.0 : Percentile(in, 0.5);
   };
   const std::size_t late = step_ms.size() > 500 ? step_ms.size() - 500 : 0;
+  const std::vector<double> step_ms_per_factor = PerFactor(step_ms, step_factors);
   const std::vector<double> queued_ms =
       opt.rate_hz > 0 ? QueuedLatencies(step_ms, step_factors, opt.rate_hz) : std::vector<double>{};
   const auto percentiles = [](const std::vector<double>& v) {

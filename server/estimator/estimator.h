@@ -41,9 +41,10 @@
 // updates logged meanwhile would otherwise be one long update on the estimator thread. It is
 // ready (RebuildReady) only then, so FinishRebuild (the daemon calls it as soon as RebuildReady)
 // gives the new solver just the updates logged since (usually none or one, unless the rounds ran
-// out) in one update (new variables at the live estimate) and swaps it in. Deterministic: the same messages, refinements and swaps (with
-// their catch-up rounds) in the same order give the same state, whatever the threads' timing:
-// the journal records each swap and its rounds, and a replay runs the rounds it recorded.
+// out) in one update (new variables at the live estimate) and swaps it in. Deterministic: the
+// same messages, refinements and swaps (with their catch-up rounds) in the same order give the
+// same state, whatever the threads' timing: the journal records each swap and its rounds, and a
+// replay runs the rounds it recorded.
 //
 // Exactness: with refinement and background relinearisation off, each Process call is exactly one
 // Isam2::Update of the factors in message order and the values in creation order, so feeding the
