@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/base/check.h"
+
 namespace slamd::core {
 
 namespace {
@@ -117,41 +119,107 @@ void BackSubstitute(const BayesTree& tree, std::span<const int> var_offsets,
   for (int id : tree.TopDownOrder()) SolveClique(tree.clique(id), var_offsets, delta, &scratch);
 }
 
-int WildfireBackSubstitute(const BayesTree& tree, std::span<const int> forced, double threshold,
-                           std::span<const int> var_offsets, Eigen::VectorXd* delta,
-                           WildfireWorkspace* ws) {
-  if (static_cast<int>(ws->forced.size()) < tree.NumSlots()) ws->forced.resize(tree.NumSlots(), 0);
+namespace {
+
+constexpr char kSolved = 1;
+constexpr char kSkipped = 2;
+
+// The wildfire rule: a clique is re-solved when forced or when a separator variable changed.
+bool NeedsSolve(const Clique& clique, int id, const WildfireWorkspace& ws) {
+  if (ws.forced[id] != 0) return true;
+  for (int v : clique.separator()) {
+    if (ws.changed[v] != 0) return true;
+  }
+  return false;
+}
+
+// Solves the clique and marks its frontals that moved more than the threshold.
+void SolveAndMark(const Clique& clique, std::span<const int> var_offsets, Eigen::VectorXd* delta,
+                  WildfireWorkspace* ws) {
+  ws->frontal_changes.resize(clique.num_frontals());
+  SolveClique(clique, var_offsets, delta, &ws->scratch, ws->frontal_changes);
+  for (int k = 0; k < clique.num_frontals(); ++k) {
+    if (ws->frontal_changes[k] > ws->threshold) {
+      ws->changed[clique.frontal(k)] = 1;
+      ws->changed_vars.push_back(clique.frontal(k));
+    }
+  }
+}
+
+}  // namespace
+
+int WildfireBegin(const BayesTree& tree, std::span<const int> forced, double threshold,
+                  std::span<const int> first, std::span<const int> var_offsets,
+                  Eigen::VectorXd* delta, WildfireWorkspace* ws) {
+  SLAMD_CHECK(!ws->in_pass) << "WildfireBegin: the previous pass was not finished";
+  if (static_cast<int>(ws->forced.size()) < tree.NumSlots()) {
+    ws->forced.resize(tree.NumSlots(), 0);
+    ws->visited.resize(tree.NumSlots(), 0);
+  }
   if (static_cast<int>(ws->changed.size()) < tree.NumVariables()) {
     ws->changed.resize(tree.NumVariables(), 0);
   }
+  ws->in_pass = true;
+  ws->threshold = threshold;
+  ws->forced_ids.assign(forced.begin(), forced.end());
   for (int id : forced) ws->forced[id] = 1;
-  ws->stack.assign(tree.roots().begin(), tree.roots().end());
   ws->changed_vars.clear();
+  ws->visited_ids.clear();
+  int solved = 0;
+  for (int target : first) {
+    ws->path.clear();
+    for (int id = target; id != Clique::kNone && ws->visited[id] == 0;) {
+      ws->path.push_back(id);
+      id = tree.clique(id).parent();
+    }
+    // Top down; below a clique the rule skipped, the full pass would not have gone either.
+    for (auto it = ws->path.rbegin(); it != ws->path.rend(); ++it) {
+      const int id = *it;
+      const Clique& clique = tree.clique(id);
+      const int parent = clique.parent();
+      const bool reached = parent == Clique::kNone || ws->visited[parent] == kSolved;
+      const bool solve = reached && NeedsSolve(clique, id, *ws);
+      if (solve) {
+        SolveAndMark(clique, var_offsets, delta, ws);
+        ++solved;
+      }
+      ws->visited[id] = solve ? kSolved : kSkipped;
+      ws->visited_ids.push_back(id);
+    }
+  }
+  return solved;
+}
+
+int WildfireFinish(const BayesTree& tree, std::span<const int> var_offsets, Eigen::VectorXd* delta,
+                   WildfireWorkspace* ws) {
+  SLAMD_CHECK(ws->in_pass) << "WildfireFinish without WildfireBegin";
+  ws->stack.assign(tree.roots().begin(), tree.roots().end());
   int solved = 0;
   while (!ws->stack.empty()) {
     const int id = ws->stack.back();
     ws->stack.pop_back();
     const Clique& clique = tree.clique(id);
-    bool solve = ws->forced[id] != 0;
-    for (int k = 0; k < clique.num_separator() && !solve; ++k) {
-      solve = ws->changed[clique.separator()[k]] != 0;
-    }
-    if (!solve) continue;  // nothing above moved: the subtree keeps its solution
-    ws->frontal_changes.resize(clique.num_frontals());
-    SolveClique(clique, var_offsets, delta, &ws->scratch, ws->frontal_changes);
-    ++solved;
-    for (int k = 0; k < clique.num_frontals(); ++k) {
-      if (ws->frontal_changes[k] > threshold) {
-        ws->changed[clique.frontal(k)] = 1;
-        ws->changed_vars.push_back(clique.frontal(k));
-      }
+    if (ws->visited[id] == kSkipped) continue;  // decided by WildfireBegin
+    if (ws->visited[id] == 0) {
+      if (!NeedsSolve(clique, id, *ws)) continue;  // nothing above moved: the subtree stands
+      SolveAndMark(clique, var_offsets, delta, ws);
+      ++solved;
     }
     ws->stack.insert(ws->stack.end(), clique.children().begin(), clique.children().end());
   }
-  // Leave the workspace clean for the next call (O(touched), not O(n)).
-  for (int id : forced) ws->forced[id] = 0;
+  // Leave the workspace clean for the next pass (O(touched), not O(n)).
+  for (int id : ws->forced_ids) ws->forced[id] = 0;
+  for (int id : ws->visited_ids) ws->visited[id] = 0;
   for (int v : ws->changed_vars) ws->changed[v] = 0;
+  ws->in_pass = false;
   return solved;
+}
+
+int WildfireBackSubstitute(const BayesTree& tree, std::span<const int> forced, double threshold,
+                           std::span<const int> var_offsets, Eigen::VectorXd* delta,
+                           WildfireWorkspace* ws) {
+  return WildfireBegin(tree, forced, threshold, {}, var_offsets, delta, ws) +
+         WildfireFinish(tree, var_offsets, delta, ws);
 }
 
 }  // namespace slamd::core

@@ -34,13 +34,18 @@ void BackSubstitute(const BayesTree& tree, std::span<const int> var_offsets,
                     Eigen::VectorXd* delta);
 
 // Scratch for WildfireBackSubstitute; keep one per solver to avoid allocation per call.
+// Between WildfireBegin and WildfireFinish it also holds the pass's state.
 struct WildfireWorkspace {
   std::vector<double> scratch;
   std::vector<double> frontal_changes;
   std::vector<char> changed;  // per variable id: moved more than the threshold in this pass
   std::vector<char> forced;   // per clique id
+  std::vector<char> visited;  // per clique id: 0, or kSolved / kSkipped by WildfireBegin
   std::vector<int> stack;
   std::vector<int> changed_vars;
+  std::vector<int> forced_ids, visited_ids, path;
+  double threshold = 0.0;
+  bool in_pass = false;  // WildfireBegin ran and WildfireFinish has not
 };
 
 // Partial back-substitution ("wildfire"): walks down from the roots; a clique is re-solved if it
@@ -53,5 +58,18 @@ struct WildfireWorkspace {
 int WildfireBackSubstitute(const BayesTree& tree, std::span<const int> forced, double threshold,
                            std::span<const int> var_offsets, Eigen::VectorXd* delta,
                            WildfireWorkspace* workspace);
+
+// The same pass in two parts, for a caller that needs some variables before the rest (slamd
+// publishes each robot's newest pose before the rest of its map is solved). WildfireBegin
+// solves, by the same rule, the cliques on the paths from the roots to `first` (clique ids),
+// top down; WildfireFinish solves the rest. Each clique reads only what its ancestors solved, so
+// the two parts solve the same cliques to the same values as WildfireBackSubstitute. Between
+// them only the frontals of the paths' solved cliques hold their new values, and the tree and δ
+// must not change. Each returns the number of cliques it solved.
+int WildfireBegin(const BayesTree& tree, std::span<const int> forced, double threshold,
+                  std::span<const int> first, std::span<const int> var_offsets,
+                  Eigen::VectorXd* delta, WildfireWorkspace* workspace);
+int WildfireFinish(const BayesTree& tree, std::span<const int> var_offsets, Eigen::VectorXd* delta,
+                   WildfireWorkspace* workspace);
 
 }  // namespace slamd::core

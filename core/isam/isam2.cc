@@ -2,6 +2,8 @@
 // isam2_steps.cc.
 #include "core/isam/isam2.h"
 
+#include <algorithm>
+
 #include "core/base/timing.h"
 
 namespace slamd::core {
@@ -53,6 +55,7 @@ Isam2Result Isam2::UpdateWith(const FactorGraph& new_factors, const Values& new_
                               const Isam2UpdateOptions& options,
                               const Isam2Params::Relinearization& relinearization,
                               double wildfire_threshold) {
+  CheckNoPendingSolve("Update");
   Stopwatch total, phase;
   Isam2Result result;
   // 0. Validate everything before changing anything.
@@ -129,14 +132,33 @@ Isam2Result Isam2::UpdateWith(const FactorGraph& new_factors, const Values& new_
   tree_.ReleaseRemoved();  // the update stands: the detached top's cliques can be reused
 
   // 8. Partial back-substitution (Alg. 7, "wildfire") from the new cliques down.
-  result.solved_cliques =
-      BackSubstitute(new_cliques, options.force_full_solve || batch, wildfire_threshold);
+  result.solved_cliques = BackSubstitute(new_cliques, options.force_full_solve || batch,
+                                         wildfire_threshold, options.solve_first);
   result.seconds.solve = phase.Lap();
   result.seconds.total = total.Seconds();
   return result;
 }
 
+int Isam2::FinishBackSubstitution() {
+  if (!wildfire_.in_pass) return 0;
+  solved_first_.clear();
+  return WildfireFinish(tree_, offsets_, &delta_, &wildfire_);
+}
+
+void Isam2::CheckSolvedFirst(int slot) const {
+  SLAMD_CHECK(std::find(solved_first_.begin(), solved_first_.end(), slot) != solved_first_.end())
+      << "Isam2: δ of " << KeyToString(theta_.KeyAt(slot))
+      << " read before FinishBackSubstitution (only the solve_first keys are solved)";
+}
+
+void Isam2::CheckNoPendingSolve(const char* what) const {
+  SLAMD_CHECK(!wildfire_.in_pass) << "Isam2::" << what
+                                  << " while a back-substitution is pending (solve_first): "
+                                     "call FinishBackSubstitution first";
+}
+
 Values Isam2::CalculateEstimate() const {
+  CheckNoPendingSolve("CalculateEstimate");
   Values estimate = theta_;
   for (int v = 0; v < static_cast<int>(estimate.size()); ++v) {
     RetractInPlace(&estimate.MutableVariableAt(v), delta_.data() + offsets_[v]);
@@ -148,7 +170,7 @@ Variable Isam2::CalculateEstimate(Key key) const {
   const int v = theta_.SlotOf(key);
   SLAMD_CHECK(v >= 0) << "no variable named " << KeyToString(key);
   Variable x = theta_.VariableAt(v);
-  RetractInPlace(&x, delta_.data() + offsets_[v]);
+  RetractInPlace(&x, Delta(v));
   return x;
 }
 

@@ -86,6 +86,12 @@ class Isam2 {
   // count, whatever the time.
   RefineResult Refine(double budget_s, int max_rounds = std::numeric_limits<int>::max());
 
+  // The rest of the back-substitution an Update with Isam2UpdateOptions::solve_first left; no-op
+  // without one. Returns the number of cliques it solved.
+  int FinishBackSubstitution();
+  // An Update with solve_first left part of its back-substitution for FinishBackSubstitution.
+  bool back_substitution_pending() const { return wildfire_.in_pass; }
+
   // θ ⊕ δ for every variable (O(n)), or for one (O(1); the key must exist, checked).
   Values CalculateEstimate() const;
   Variable CalculateEstimate(Key key) const;
@@ -95,7 +101,10 @@ class Isam2 {
   const Values& linearization_point() const { return theta_; }
   // The current update δ of the variable in `slot` (linearization_point().SlotOf(key)): its
   // estimate is θ ⊕ δ. Valid until the next Update or Refine.
-  const double* Delta(int slot) const { return delta_.data() + offsets_[slot]; }
+  const double* Delta(int slot) const {
+    if (wildfire_.in_pass) CheckSolvedFirst(slot);
+    return delta_.data() + offsets_[slot];
+  }
   // The current factors (removed ones left out), in index order.
   FactorGraph Factors() const;
   // Every factor by its index (Isam2Result::new_factor_indices); null once removed.
@@ -167,7 +176,14 @@ class Isam2 {
   // then re-attaches the orphans. `last` (ids) are constrained to the end of the ordering.
   Status EliminateTop(const std::vector<int>& vars, const std::vector<int>& last,
                       std::vector<int>* new_cliques, Isam2Result* result);
-  int BackSubstitute(const std::vector<int>& new_cliques, bool full, double wildfire_threshold);
+  // Solves the tree from the new cliques down (all of it when `full`); with `first` (keys) only
+  // the paths to them, leaving the rest for FinishBackSubstitution.
+  int BackSubstitute(const std::vector<int>& new_cliques, bool full, double wildfire_threshold,
+                     const std::vector<Key>& first);
+  // Aborts unless the slot's δ is final while a back-substitution is pending (solve_first).
+  void CheckSolvedFirst(int slot) const;
+  // Aborts while a back-substitution is pending: `what` needs all of δ or changes the solver.
+  void CheckNoPendingSolve(const char* what) const;
   Status LinearizeFactor(int index);
   // Restores the state before the current update (after a numerical failure).
   void Rollback();
@@ -228,7 +244,8 @@ class Isam2 {
   std::vector<int> over_budget_, screened_, probe_factors_, probe_vars_;
   std::vector<double> probe_weights_, probe_sizes_;
   std::vector<Variable> probe_saved_;
-  WildfireWorkspace wildfire_;
+  WildfireWorkspace wildfire_;     // in_pass: Update with solve_first left a part for later
+  std::vector<int> solved_first_;  // ... and these slots' δ is final
   Undo undo_;
   // Relinearisation in progress (Relinearize .. FinishRelinearization): the factors, the next
   // chunk to take, whether helpers are on it, and the first failure (guarded by relin_mutex_).

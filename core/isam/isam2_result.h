@@ -38,6 +38,13 @@ struct Isam2UpdateOptions {
   // linearisation point falls behind, so a caller must not defer without rebuilding.
   // 0 = never defer. Ignored by the batch step (force_full, batch_every).
   int defer_relinearization_above = 0;
+  // Keys whose estimates the caller needs before the rest of the map (slamd: each robot's newest
+  // pose, published before the rest is solved). When non-empty, the back-substitution solves the
+  // cliques on the paths from the roots to these keys and Update returns; the rest of it waits
+  // for Isam2::FinishBackSubstitution(), which gives the same δ as without this option. Until
+  // then only these keys' estimates and δ may be read and nothing else of the solver may be
+  // called (checked: it aborts). Ignored by a full solve (force_full_solve, the batch step).
+  std::vector<Key> solve_first = {};
   // No relinearisation check in this update (what is due stays due). slamd's estimator while
   // its rebuild is in flight: the rebuild relinearises everything, and the check costs a scan of
   // every δ and evaluations of factors (4-6 ms per update on victoriaPark with a large backlog).
@@ -63,7 +70,8 @@ struct Isam2Result {
   int screened_variables = 0;
   int reeliminated_variables = 0;
   int reeliminated_cliques = 0;
-  int solved_cliques = 0;  // cliques back-substituted
+  // Cliques back-substituted (with solve_first: by Update; FinishBackSubstitution counts the rest).
+  int solved_cliques = 0;
   bool batch_step = false;
   // Seconds per step of the update (numbered as in isam2.cc).
   struct Seconds {
@@ -74,7 +82,7 @@ struct Isam2Result {
     double remove_top = 0.0;   // 4-5: affected set and detaching the top
     double order = 0.0;        // 6: constrained COLAMD
     double eliminate = 0.0;    // 7: dense elimination and re-attaching orphans
-    double solve = 0.0;        // 8: partial back-substitution
+    double solve = 0.0;        // 8: partial back-substitution (with solve_first: its first part)
     double total = 0.0;
   } seconds;
 

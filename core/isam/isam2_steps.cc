@@ -66,8 +66,8 @@ Status Isam2::CheckInput(const FactorGraph& new_factors, const Values& new_value
       return InvalidArgument("factor " + std::to_string(f) + " is listed twice for removal");
     }
   }
-  for (const std::vector<Key>* keys :
-       {&options.extra_reeliminate, &options.no_relinearize, &options.order_last}) {
+  for (const std::vector<Key>* keys : {&options.extra_reeliminate, &options.no_relinearize,
+                                       &options.order_last, &options.solve_first}) {
     for (Key key : *keys) {
       if (!theta_.Contains(key) && !new_values.Contains(key)) {
         return NotFound("update option names unknown variable " + KeyToString(key));
@@ -548,14 +548,25 @@ Status Isam2::EliminateTop(const std::vector<int>& vars, const std::vector<int>&
   return Status::Ok();
 }
 
-int Isam2::BackSubstitute(const std::vector<int>& new_cliques, bool full,
-                          double wildfire_threshold) {
+int Isam2::BackSubstitute(const std::vector<int>& new_cliques, bool full, double wildfire_threshold,
+                          const std::vector<Key>& first) {
   if (full) {
     core::BackSubstitute(tree_, offsets_, &delta_);
     return tree_.NumCliques();
   }
-  return WildfireBackSubstitute(tree_, new_cliques, wildfire_threshold, offsets_, &delta_,
-                                &wildfire_);
+  if (first.empty()) {
+    return WildfireBackSubstitute(tree_, new_cliques, wildfire_threshold, offsets_, &delta_,
+                                  &wildfire_);
+  }
+  solved_first_.clear();
+  std::vector<int> first_cliques;
+  for (Key key : first) {
+    const int slot = theta_.SlotOf(key);
+    solved_first_.push_back(slot);
+    first_cliques.push_back(tree_.CliqueOf(slot));
+  }
+  return WildfireBegin(tree_, new_cliques, wildfire_threshold, first_cliques, offsets_, &delta_,
+                       &wildfire_);
 }
 
 void Isam2::Rollback() {

@@ -318,20 +318,27 @@ int Daemon::StepEstimator(double timeout_s) {
   }
   if (n > 0) last_input_us_ = SteadyMicros();
   std::shared_ptr<const EstimateSnapshot> snap;
-  std::vector<std::int64_t> applied_received_us;
   if (!batch.empty()) {
     for (const Inbound& in : batch) {
       processed_sequence_ = std::max(processed_sequence_, in.journal_sequence);
     }
-    ProcessResult r = estimator_->Process(batch);
+    // The newest poses go out as soon as they are solved (and journaled); the rest of the map's
+    // back-substitution after them, before anything else reads the solver.
+    ProcessResult r = estimator_->Process(batch, /*finish_later=*/true);
     JournalUpdate(batch);
-    for (const core::Isam2Result& u : r.updates) {
-      Record(&update_us_, &update_us_next_, LatencyWindow(), u.seconds.total * 1e6);
-      log_->debug("update: {}", u.Brief());
+    PublishEstimatesAndLatencies(r.applied_received_us);
+    core::Stopwatch finish;
+    estimator_->FinishUpdate();
+    const double finish_us = finish.Seconds() * 1e6;
+    for (size_t k = 0; k < r.updates.size(); ++k) {
+      // The last update's time includes the back-substitution it left for FinishUpdate.
+      const double extra = k + 1 == r.updates.size() ? finish_us : 0.0;
+      Record(&update_us_, &update_us_next_, LatencyWindow(),
+             r.updates[k].seconds.total * 1e6 + extra);
+      log_->debug("update: {}", r.updates[k].Brief());
     }
     if (!r.status.ok()) log_->warn("solver update failed: {}", r.status.ToString());
     for (const Rejection& rej : r.rejections) PublishRejection(rej);
-    applied_received_us = std::move(r.applied_received_us);
   } else if (queries.empty() && RefineDue() && IdleMicros() >= params_.refine.idle_s * 1e6) {
     const core::Isam2::RefineResult r = estimator_->Refine(params_.refine.budget_s);
     if (!r.status.ok()) log_->warn("refine failed: {}", r.status.ToString());
@@ -346,8 +353,18 @@ int Daemon::StepEstimator(double timeout_s) {
   }
   MaybeSnapshot();
   snap = ShareSnapshot();
+  PublishEstimates(*snap, SteadyMicros());  // a refinement's (an update's went out above)
+  for (const QueryRequest& q : queries) AnswerAndPublish(q, snap->update_sequence);
+  MaybePublishMaps(*snap);
+  MaybePublishStatus(*snap);
+  // After this step's estimates went out: bringing a rebuilt solver up to date takes an update.
+  if (estimator_->RebuildReady()) SwapRebuild();
+  return n;
+}
+
+void Daemon::PublishEstimatesAndLatencies(std::span<const std::int64_t> applied_received_us) {
   const std::int64_t published_us = SteadyMicros();
-  PublishEstimates(*snap, published_us);
+  PublishEstimates(*ShareSnapshot(), published_us);
   // Ingest-to-publish latency of every message that took effect: the first of several that
   // shared an update waited longest.
   for (std::int64_t received_us : applied_received_us) {
@@ -356,12 +373,6 @@ int Daemon::StepEstimator(double timeout_s) {
              static_cast<double>(published_us - received_us));
     }
   }
-  for (const QueryRequest& q : queries) AnswerAndPublish(q, snap->update_sequence);
-  MaybePublishMaps(*snap);
-  MaybePublishStatus(*snap);
-  // After this step's estimates went out: bringing a rebuilt solver up to date takes an update.
-  if (estimator_->RebuildReady()) SwapRebuild();
-  return n;
 }
 
 void Daemon::SwapRebuild() {

@@ -38,6 +38,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <string>
 #include <thread>
 #include <vector>
@@ -115,6 +116,9 @@ class Daemon {
   std::string InboundChannel(const Inbound& in) const;
   // now_steady: the publication time that latency_us counts to.
   void PublishEstimates(const EstimateSnapshot& snap, std::int64_t now_steady);
+  // The current snapshot's estimates, now, and the ingest-to-publish latency of the messages
+  // received at `applied_received_us` [µs, steady clock] that took effect in it.
+  void PublishEstimatesAndLatencies(std::span<const std::int64_t> applied_received_us);
   void PublishStatus(const EstimateSnapshot& snap);
   void MaybePublishStatus(const EstimateSnapshot& snap);
   void MaybePublishMaps(const EstimateSnapshot& snap);

@@ -114,9 +114,22 @@ core::Isam2UpdateOptions Estimator::UpdateOptions() const {
           .skip_relinearization = rebuild_ != nullptr};
 }
 
-void Estimator::AfterUpdate(const core::Isam2Result& update) {
-  if (update.relinearization_deferred > 0 && !rebuild_) StartRebuild();
-  if (update.relinearization_deferred == 0) rebuild_failed_ = false;
+core::Isam2UpdateOptions Estimator::ProcessUpdateOptions() const {
+  core::Isam2UpdateOptions options = UpdateOptions();
+  if (finish_later_) options.solve_first = NewestPoses();
+  return options;
+}
+
+void Estimator::AfterUpdate(int relinearization_deferred) {
+  if (relinearization_deferred > 0 && !rebuild_) StartRebuild();
+  if (relinearization_deferred == 0) rebuild_failed_ = false;
+}
+
+void Estimator::FinishUpdate() {
+  if (!isam_->back_substitution_pending()) return;
+  isam_->FinishBackSubstitution();
+  PublishSnapshot(false);  // the chi2, when due, now that all of δ is solved
+  AfterUpdate(pending_deferred_);
 }
 
 void Estimator::StartRebuild() {
@@ -273,6 +286,7 @@ std::vector<Key> Estimator::NewestPoses() const {
 }
 
 core::Result<bool> Estimator::FinishRebuild(std::span<const int> replay_rounds) {
+  FinishUpdate();
   if (!rebuild_) return false;
   if (rebuild_->thread.joinable()) rebuild_->thread.join();
   SLAMD_CHECK(replay_rounds.empty() || rebuild_->rounds.empty())
@@ -333,7 +347,7 @@ core::Result<bool> Estimator::FinishRebuild(std::span<const int> replay_rounds) 
     chi2_time_ = std::chrono::steady_clock::now();  // as if computed here: not due again yet
   }
   PublishSnapshot(true);
-  AfterUpdate(update);
+  AfterUpdate(update.relinearization_deferred);
   return true;
 }
 
@@ -607,7 +621,9 @@ void Estimator::Reject(const Inbound& in, RejectReason reason, std::string messa
   result->rejections.push_back({in, Verdict{reason, std::move(message)}});
 }
 
-ProcessResult Estimator::Process(std::vector<Inbound> batch) {
+ProcessResult Estimator::Process(std::vector<Inbound> batch, bool finish_later) {
+  FinishUpdate();
+  finish_later_ = finish_later;
   ProcessResult result;
   counters_.processed += static_cast<std::int64_t>(batch.size());
   std::vector<Inbound> segment;
@@ -623,6 +639,7 @@ ProcessResult Estimator::Process(std::vector<Inbound> batch) {
     }
   }
   ApplyBatch(std::move(segment), &result);  // also ages held messages when empty
+  finish_later_ = false;
   return result;
 }
 
@@ -688,7 +705,8 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
     PublishSnapshot(false);
     return;
   }
-  result.updates.push_back(isam_->Update(s.factors, s.values, UpdateOptions()));
+  FinishUpdate();  // a removal's update earlier in this Process
+  result.updates.push_back(isam_->Update(s.factors, s.values, ProcessUpdateOptions()));
   const core::Isam2Result& update = result.updates.back();
   if (!update.status.ok()) {
     if (result.status.ok()) result.status = update.status;
@@ -717,7 +735,11 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
   settled_ = false;
   PublishSnapshot(true);
   LogForRebuild(s.factors, s.values, update, {});
-  AfterUpdate(update);
+  if (isam_->back_substitution_pending()) {
+    pending_deferred_ = update.relinearization_deferred;
+  } else {
+    AfterUpdate(update.relinearization_deferred);
+  }
 }
 
 std::optional<Estimator::MeasurementId> Estimator::RemovalId(const RemoveFactorRequest& r,
@@ -766,7 +788,8 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
     Reject(in, RejectReason::kUnknownFactor, std::move(why), result);
     return;
   }
-  core::Isam2UpdateOptions options = UpdateOptions();
+  FinishUpdate();  // an earlier update of this Process
+  core::Isam2UpdateOptions options = ProcessUpdateOptions();
   options.remove_factors = {solver_index_[it->second]};
   result->updates.push_back(isam_->Update({}, {}, options));
   const core::Isam2Result& update = result->updates.back();
@@ -787,7 +810,11 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
   settled_ = false;
   PublishSnapshot(true);
   LogForRebuild({}, {}, update, options.remove_factors);
-  AfterUpdate(update);
+  if (isam_->back_substitution_pending()) {
+    pending_deferred_ = update.relinearization_deferred;
+  } else {
+    AfterUpdate(update.relinearization_deferred);
+  }
 }
 
 std::vector<Rejection> Estimator::RejectHeld(const std::string& why) {
@@ -802,6 +829,7 @@ std::vector<Rejection> Estimator::RejectHeld(const std::string& why) {
 }
 
 core::Isam2::RefineResult Estimator::Refine(double budget_s, int max_rounds) {
+  FinishUpdate();
   core::Isam2::RefineResult r = isam_->Refine(budget_s, max_rounds);
   ++counters_.refinements;
   settled_ = r.converged;
@@ -956,7 +984,8 @@ void Estimator::PublishSnapshot(bool bump) {
   const double since = std::chrono::duration<double>(now - chi2_time_).count();
   const double interval = params_.chi2_interval_s;
   const bool due = since >= interval && (interval == 0.0 || since * kChi2MaxLoad >= chi2_cost_s_);
-  if (chi2_sequence_ < 0 || (chi2_sequence_ != sequence_ && (due || settled_))) {
+  const bool solved = !isam_->back_substitution_pending();  // chi2 needs all of δ
+  if (solved && (chi2_sequence_ < 0 || (chi2_sequence_ != sequence_ && (due || settled_)))) {
     chi2_ = isam_->Chi2();
     chi2_sequence_ = sequence_;
     chi2_time_ = std::chrono::steady_clock::now();

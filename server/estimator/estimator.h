@@ -139,7 +139,14 @@ class Estimator {
   EstimatorState ExportState() const;
 
   // Applies `batch` (see the file comment) with one Isam2::Update; publishes a new snapshot.
-  ProcessResult Process(std::vector<Inbound> batch);
+  // With `finish_later`, the update's back-substitution stops once every robot's newest pose
+  // is solved (Isam2UpdateOptions::solve_first; a robot's newest pose is what estimate_t
+  // carries): the snapshot then holds the new poses and Marginal() answers for them, and
+  // FinishUpdate() must come before any other call.
+  ProcessResult Process(std::vector<Inbound> batch, bool finish_later = false);
+  // The rest of what Process(batch, true) left (the back-substitution of the rest of the map,
+  // the snapshot's chi2 when due, starting a rebuild); no-op when nothing is left.
+  void FinishUpdate();
 
   // Background relinearisation (file comment). A rebuild is in flight / done and waiting for
   // FinishRebuild.
@@ -246,7 +253,10 @@ class Estimator {
   void PublishSnapshot(bool bump);
   // Options for every update from messages (the deferral), and what follows an update.
   core::Isam2UpdateOptions UpdateOptions() const;
-  void AfterUpdate(const core::Isam2Result& update);
+  // After an update and its whole back-substitution: starts a rebuild for what it deferred.
+  void AfterUpdate(int relinearization_deferred);
+  // Options for an update of Process: solve_first when it may finish later.
+  core::Isam2UpdateOptions ProcessUpdateOptions() const;
   void StartRebuild();
   // The newest pose of every anchored robot (what the next updates most likely touch).
   std::vector<core::Key> NewestPoses() const;
@@ -306,6 +316,10 @@ class Estimator {
   std::thread retire_thread_;    // frees the solver a rebuild replaced
   std::vector<int> last_swap_rounds_;
   bool replaying_ = false;  // SetReplaying
+  // Process(batch, true) is running (its updates may finish later), and what the update left
+  // for FinishUpdate reported as deferred relinearisation (AfterUpdate's argument).
+  bool finish_later_ = false;
+  int pending_deferred_ = 0;
   std::deque<Held> held_;
   EstimatorCounters counters_;
   std::int64_t sequence_ = 0;

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <set>
 
 #include "core/inference/consistency_check.h"
 #include "tests/core/inference/random_linear_system.h"
@@ -90,6 +91,64 @@ TEST(BackSubstitutionTest, WildfireStopsWhereChangesAreSmall) {
   EXPECT_EQ(WildfireBackSubstitute(tree, tree.roots(), 0.0, offsets, &perturbed, &ws),
             tree.NumCliques());
   EXPECT_LT((perturbed - exact).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+// The pass in two parts (WildfireBegin, then WildfireFinish) against the one-part pass and the
+// dense solution: the same cliques solved to the same values, and the paths' frontals final
+// after the first part.
+TEST(BackSubstitutionTest, WildfireInTwoPartsSolvesThePathsFirstAndEndsTheSame) {
+  const RandomLinearSystem s = MakeRandomSystem(60, 45, false, 7);
+  const std::vector<int> order = ColamdOrdering(s.NumVars(), s.Incidence()).value();
+  BayesTree tree;
+  EliminationResult result;
+  ASSERT_NO_FATAL_FAILURE(EliminateAll(s, order, &tree, &result));
+  ASSERT_EQ(tree.roots().size(), 1u);
+  const std::vector<int> offsets = StackedOffsets(s.dims);
+  const Eigen::VectorXd exact = s.DenseSolve();
+  // Targets: the cliques of three variables eliminated early (deep in the tree), twice one.
+  const std::vector<int> first = {tree.CliqueOf(order[0]), tree.CliqueOf(order[5]),
+                                  tree.CliqueOf(order[0]), tree.CliqueOf(order[20])};
+  std::set<int> on_paths;
+  for (int c : first) {
+    for (int id = c; id != Clique::kNone; id = tree.clique(id).parent()) on_paths.insert(id);
+  }
+  ASSERT_LT(on_paths.size(), static_cast<size_t>(tree.NumCliques()));
+
+  // From zero with threshold 0: the first part solves exactly the paths, and their frontals are
+  // already the solution.
+  WildfireWorkspace ws;
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(offsets.back());
+  const int begun = WildfireBegin(tree, tree.roots(), 0.0, first, offsets, &x, &ws);
+  EXPECT_EQ(begun, static_cast<int>(on_paths.size()));
+  for (int id : on_paths) {
+    for (int v : tree.clique(id).frontals()) {
+      EXPECT_LT((x - exact).segment(offsets[v], s.dims[v]).cwiseAbs().maxCoeff(), 1e-9) << v;
+    }
+  }
+  EXPECT_EQ(begun + WildfireFinish(tree, offsets, &x, &ws), tree.NumCliques());
+  EXPECT_LT((x - exact).cwiseAbs().maxCoeff(), 1e-9);
+
+  // From a start perturbed unevenly, with a threshold that stops part of the way: the same count
+  // and bit for bit the same δ as the one-part pass.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::VectorXd start = exact;
+  for (int i = 0; i < start.size(); ++i) start[i] += 1e-3 * u(rng) * (i % 3 == 0 ? 10.0 : 0.01);
+  Eigen::VectorXd one = start, two = start;
+  const int solved_one = WildfireBackSubstitute(tree, tree.roots(), 1e-4, offsets, &one, &ws);
+  EXPECT_GT(solved_one, 1);
+  EXPECT_LT(solved_one, tree.NumCliques());
+  const int solved_first = WildfireBegin(tree, tree.roots(), 1e-4, first, offsets, &two, &ws);
+  for (int c : first) {
+    for (int v : tree.clique(c).frontals()) {
+      for (int j = 0; j < s.dims[v]; ++j) EXPECT_EQ(two[offsets[v] + j], one[offsets[v] + j]);
+    }
+  }
+  EXPECT_EQ(solved_first + WildfireFinish(tree, offsets, &two, &ws), solved_one);
+  for (int i = 0; i < one.size(); ++i) EXPECT_EQ(two[i], one[i]) << i;
+  // The workspace is clean again: a one-part pass from the same start gives the same count.
+  two = start;
+  EXPECT_EQ(WildfireBackSubstitute(tree, tree.roots(), 1e-4, offsets, &two, &ws), solved_one);
 }
 
 }  // namespace

@@ -2,10 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
-#include <memory>
 #include <map>
+#include <memory>
 #include <set>
 
 #include "core/batch/batch_solver.h"
@@ -491,6 +492,61 @@ TEST(Isam2Test, OrderLastPutsTheVariablesInTheRootClique) {
   r = constrained->Update({}, {}, {.order_last = {MakeKey('x', 500)}});
   EXPECT_EQ(r.status.code(), StatusCode::kNotFound);
   EXPECT_NE(r.status.message().find("x500"), std::string::npos);
+}
+
+TEST(Isam2Test, SolveFirstGivesItsKeysAtOnceAndTheRestAfterBitwiseTheSame) {
+  const ExampleProblem p = testing::MakePlanarProblem(150, 20, 4);
+  auto plain = MakeIsam2();
+  auto split = MakeIsam2();
+  int pose = 0, partial_updates = 0;
+  for (const testing::ExampleStep& step : testing::StreamByPose(p)) {
+    // The step's pose (StreamByPose: one per step) and, once there, x2: deep in the tree.
+    const Key newest = MakeKey('x', pose++);
+    std::vector<Key> first = {newest};
+    if (pose > 3) first.push_back(MakeKey('x', 2));
+    const Isam2Result a = plain->Update(step.factors, step.values);
+    const Isam2Result b = split->Update(step.factors, step.values, {.solve_first = first});
+    ASSERT_TRUE(a.status.ok() && b.status.ok()) << a.status.ToString() << b.status.ToString();
+    ASSERT_TRUE(split->back_substitution_pending());
+    // δ of a key in both solvers, bit for bit (their linearisation points stay the same: they
+    // relinearise by the same δ).
+    const auto same_delta = [&](Key key) {
+      const int slot = plain->linearization_point().SlotOf(key);
+      const int dim = plain->linearization_point().DimAt(slot);
+      return std::equal(plain->Delta(slot), plain->Delta(slot) + dim, split->Delta(slot));
+    };
+    for (Key key : first) ASSERT_TRUE(same_delta(key)) << KeyToString(key);  // final already
+    const int rest = split->FinishBackSubstitution();
+    EXPECT_FALSE(split->back_substitution_pending());
+    EXPECT_EQ(b.solved_cliques + rest, a.solved_cliques);
+    if (rest > 0) ++partial_updates;
+    ASSERT_EQ(a.relinearized_variables, b.relinearized_variables);
+    for (Key key : plain->linearization_point().keys()) {
+      ASSERT_TRUE(same_delta(key)) << KeyToString(key);
+    }
+    EXPECT_EQ(split->FinishBackSubstitution(), 0);  // nothing left: a no-op
+  }
+  EXPECT_GT(partial_updates, 10);  // the first part was not the whole pass
+}
+
+TEST(Isam2Test, ReadingWhatSolveFirstLeftUnsolvedAborts) {
+  const ExampleProblem p = testing::MakePlanarProblem(40, 5, 2);
+  auto isam = MakeIsam2();
+  const Key newest = MakeKey('x', 39);
+  ASSERT_TRUE(isam->Update(p.graph, p.initial, {.solve_first = {newest}}).status.ok());
+  ASSERT_TRUE(isam->back_substitution_pending());
+  (void)isam->CalculateEstimate(newest);  // allowed
+  EXPECT_DEATH((void)isam->CalculateEstimate(MakeKey('x', 3)), "x3.*FinishBackSubstitution");
+  EXPECT_DEATH((void)isam->CalculateEstimate(), "CalculateEstimate while a back-substitution");
+  EXPECT_DEATH((void)isam->Chi2(), "FinishBackSubstitution");
+  EXPECT_DEATH((void)isam->Update({}, {}), "Update while a back-substitution");
+  EXPECT_DEATH((void)isam->Refine(1.0), "Update while a back-substitution");
+  isam->FinishBackSubstitution();
+  EXPECT_TRUE(std::isfinite(isam->Chi2()));
+  // An unknown key is refused before anything changes.
+  const Isam2Result r = isam->Update({}, {}, {.solve_first = {MakeKey('x', 500)}});
+  EXPECT_EQ(r.status.code(), StatusCode::kNotFound);
+  EXPECT_FALSE(isam->back_substitution_pending());
 }
 
 }  // namespace

@@ -549,8 +549,9 @@ TEST(DaemonTest, StopWithoutJournalRejectsHeldMessages) {
 namespace slamd::server {
 namespace {
 
-// An InProcessBus that notes, as each estimate_t is published, its pose and how far the
-// daemon's journal is durable at that moment.
+// An InProcessBus that notes, as each estimate_t is published, its pose, how far the daemon's
+// journal is durable at that moment, and whether the solver still had part of its
+// back-substitution to do.
 class DurabilityProbeBus final : public Bus {
  public:
   core::Status Publish(std::string_view channel, std::span<const std::uint8_t> bytes) override {
@@ -559,7 +560,9 @@ class DurabilityProbeBus final : public Bus {
       slamd::estimate_t m;
       EXPECT_GT(m.decode(bytes.data(), 0, static_cast<int>(bytes.size())), 0);
       std::lock_guard lock(mutex);
-      published.push_back({m.pose_index, d->journal_for_tests()->durable_offset()});
+      const Journal* journal = d->journal_for_tests();
+      published.push_back({m.pose_index, journal ? journal->durable_offset() : -1});
+      solve_pending.push_back(d->estimator_for_tests().solver().back_substitution_pending());
     }
     return inner.Publish(channel, bytes);
   }
@@ -575,7 +578,41 @@ class DurabilityProbeBus final : public Bus {
   std::atomic<const Daemon*> daemon{nullptr};
   std::mutex mutex;
   std::vector<std::pair<std::int64_t, std::int64_t>> published;  // (pose, durable offset)
+  std::vector<bool> solve_pending;
 };
+
+// Each update's estimate goes out once the newest pose is solved, before the rest of the map's
+// back-substitution (Estimator::Process with finish_later), which is done when the step ends.
+TEST(DaemonTest, EstimatesGoOutBeforeTheRestOfTheMapIsSolved) {
+  DurabilityProbeBus bus;
+  auto daemon = Daemon::Create(Params(), &bus).value();
+  bus.daemon = daemon.get();
+  ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", Prior()).ok());
+  for (int i = 0; i < 60; ++i) {
+    ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(i, i + 1)).ok());
+    if (i % 10 == 9) {
+      slamd::loop_closure_t loop;
+      ToLcm(LoopClosureMeasurement{20,
+                                   "r",
+                                   static_cast<std::uint64_t>(i + 1),
+                                   "r",
+                                   static_cast<std::uint64_t>(i - 8),
+                                   core::Pose2(0.5, 0.2, 0.1),
+                                   Noise(3, 0.2),
+                                   {}},
+            &loop);
+      ASSERT_TRUE(Publish(bus, "SLAMD_LOOP_CLOSURE", loop).ok());
+    }
+    ASSERT_TRUE(daemon->PumpIntake(0).ok());
+    ASSERT_GT(daemon->StepEstimator(0.0), 0);
+    EXPECT_FALSE(daemon->estimator_for_tests().solver().back_substitution_pending());
+  }
+  bus.daemon = nullptr;
+  std::lock_guard lock(bus.mutex);
+  ASSERT_EQ(bus.published.size(), 60u);
+  EXPECT_EQ(bus.published.back().first, 60);
+  for (size_t k = 0; k < bus.solve_pending.size(); ++k) EXPECT_TRUE(bus.solve_pending[k]) << k;
+}
 
 // journal.sync = ALWAYS, the daemon's own threads: no estimate goes out before the messages it
 // reflects are durable (the estimator commits after each update, then publishes).
