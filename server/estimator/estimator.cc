@@ -125,6 +125,14 @@ void Estimator::AfterUpdate(int relinearization_deferred) {
   if (relinearization_deferred == 0) rebuild_failed_ = false;
 }
 
+void Estimator::AfterUpdateOnceSolved(int relinearization_deferred) {
+  if (isam_->back_substitution_pending()) {
+    pending_deferred_ = relinearization_deferred;  // FinishUpdate's
+  } else {
+    AfterUpdate(relinearization_deferred);
+  }
+}
+
 void Estimator::FinishUpdate() {
   if (!isam_->back_substitution_pending()) return;
   isam_->FinishBackSubstitution();
@@ -735,11 +743,7 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
   settled_ = false;
   PublishSnapshot(true);
   LogForRebuild(s.factors, s.values, update, {});
-  if (isam_->back_substitution_pending()) {
-    pending_deferred_ = update.relinearization_deferred;
-  } else {
-    AfterUpdate(update.relinearization_deferred);
-  }
+  AfterUpdateOnceSolved(update.relinearization_deferred);
 }
 
 std::optional<Estimator::MeasurementId> Estimator::RemovalId(const RemoveFactorRequest& r,
@@ -810,11 +814,7 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
   settled_ = false;
   PublishSnapshot(true);
   LogForRebuild({}, {}, update, options.remove_factors);
-  if (isam_->back_substitution_pending()) {
-    pending_deferred_ = update.relinearization_deferred;
-  } else {
-    AfterUpdate(update.relinearization_deferred);
-  }
+  AfterUpdateOnceSolved(update.relinearization_deferred);
 }
 
 std::vector<Rejection> Estimator::RejectHeld(const std::string& why) {

@@ -255,6 +255,8 @@ class Estimator {
   core::Isam2UpdateOptions UpdateOptions() const;
   // After an update and its whole back-substitution: starts a rebuild for what it deferred.
   void AfterUpdate(int relinearization_deferred);
+  // AfterUpdate now, or in FinishUpdate when the update left part of its back-substitution.
+  void AfterUpdateOnceSolved(int relinearization_deferred);
   // Options for an update of Process: solve_first when it may finish later.
   core::Isam2UpdateOptions ProcessUpdateOptions() const;
   void StartRebuild();
