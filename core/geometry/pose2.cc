@@ -2,12 +2,10 @@
 
 #include <cmath>
 
+#include "core/geometry/small_angle.h"
+
 namespace slamd::core {
 namespace {
-
-// Below this |theta| the closed-form coefficients cancel catastrophically; use series instead
-// (truncation error < 1e-20 at the threshold).
-constexpr double kSmallAngle = 1e-2;
 
 // Coefficients of the SE(2) exponential and its Jacobian for angle th:
 //   A = sin(th)/th, B = (1-cos th)/th, a = (th - sin th)/th^2, b = (1-cos th)/th^2.

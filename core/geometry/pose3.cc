@@ -2,11 +2,10 @@
 
 #include <cmath>
 
+#include "core/geometry/small_angle.h"
+
 namespace slamd::core {
 namespace {
-
-// Below this angle the closed-form coefficients cancel; use series (truncation < 1e-20).
-constexpr double kSmallAngle = 1e-2;
 
 // The off-diagonal block of the SE(3) right Jacobian in (v, omega) order, Q_r(v, w) = Q(-v, -w),
 // where Q is Barfoot's left-Jacobian block ("State Estimation for Robotics", sec. 7.1.5):

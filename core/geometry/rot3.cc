@@ -3,11 +3,10 @@
 #include <Eigen/SVD>
 #include <cmath>
 
+#include "core/geometry/small_angle.h"
+
 namespace slamd::core {
 namespace {
-
-// Below this angle the closed-form coefficients cancel; use series (truncation < 1e-20).
-constexpr double kSmallAngle = 1e-2;
 
 // Shepperd's method: quaternion (w, v) of R from the largest of trace and diagonal, so the
 // square root argument is always >= 1 and every component is accurate. Returns w >= 0.
