@@ -172,7 +172,7 @@ void RunIsam2(const BenchOptions& opt) {
   Ate(opt, isam.CalculateEstimate(), &accuracy);
 
   // Step-time growth: p50 over two windows (steps 500-1000 and the last 500), of all steps and
-  // of the odometry-only steps among them (the O(1) criterion: the share of loop-closure
+  // of the odometry-only steps among them (the O(1) criterion: the share of loop-closure
   // steps differs between windows, and they are slower).
   const auto window = [&](std::size_t a, std::size_t b, bool odometry) {
     if (b > step_ms.size() || a >= b) return 0.0;

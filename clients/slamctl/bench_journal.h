@@ -1,4 +1,4 @@
-// `slamctl journal bench DATASET`: durability figures of slamd on a dataset (issue 7 item 6):
+// `slamctl journal bench DATASET`: durability figures of slamd on a dataset:
 //   1. journal overhead: the dataset's messages appended through server::Journal as the daemon
 //      does in lock-step (one update boundary + Commit per dataset step), per sync policy
 //      (never / interval / always) [µs per message, µs per update];

@@ -201,7 +201,9 @@ int WildfireFinish(const BayesTree& tree, std::span<const int> var_offsets, Eige
     const Clique& clique = tree.clique(id);
     // Prefetches (hints, no faults): the walk visits cliques scattered over the heap, and each
     // visit first reads the clique, then its separator ids; asking for them a visit ahead took
-    // 7% off manhattan's summed solve time and more on victoriaPark (BENCHMARKS.md, session 15).
+    // manhattan's summed solve time from 124.5 to 116.2 ms (medians of 8 interleaved runs of
+    // `slamctl bench F --solver isam2 --step-times`, solve_ms summed), lower in 6 of 6 pairs
+    // on victoriaPark.
     if (!ws->stack.empty()) __builtin_prefetch(tree.clique(ws->stack.back()).separator().data());
     if (ws->visited[id] == kSkipped) continue;  // decided by WildfireBegin
     if (ws->visited[id] == 0) {

@@ -275,7 +275,8 @@ core::Result<int> Daemon::PumpIntake(int timeout_ms) {
   // pose's odometry and loop closures are cheaper in one update than in two (at 1 kHz,
   // ingest-to-publish p99 lower in 18 of 26 interleaved manhattan runs and 4 of 4 on
   // victoriaPark). Without that cost the smaller updates publish sooner (manhattan: p99 higher
-  // in 8 of 8 when coalesced). BENCHMARKS, session 11.
+  // in 8 of 8 when coalesced). Measured as the server publish p99 of interleaved pairs of
+  // `SLAMD_BENCH_RATES=1000 [SLAMD_BENCH_SYNC=NEVER] scripts/bench-server`.
   constexpr int kMaxBurst = 16;
   const bool coalesce = journal_ && params_.journal.sync == SyncPolicy::kAlways;
   int dispatched = r.ok() ? r.value() : 0;

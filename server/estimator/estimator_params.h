@@ -43,17 +43,18 @@ struct EstimatorParams {
   // one took meanwhile. Such relinearisations re-eliminate most of the tree (1-5 ms on
   // manhattan.g2o and victoriaPark.txt, against ~0.01 ms for an odometry step), and every
   // message queued behind them waited: at 1 kHz the ingest-to-publish p99 went from 5.4-6.3 to
-  // 1.9-2.3 ms (manhattan) and 4.5-5.4 to 2.5-3.5 ms (victoriaPark); BENCHMARKS.md. 256: no
-  // clear difference (more rebuilds, which compete for the 2 cores). 0 = never (every
+  // 1.9-2.3 ms (manhattan) and 4.5-5.4 to 2.5-3.5 ms (victoriaPark) in
+  // `SLAMD_BENCH_RATES=1000 SLAMD_BENCH_SYNC=NEVER scripts/bench-server`. 256: no clear
+  // difference (more rebuilds, which compete for the 2 cores). 0 = never (every
   // relinearisation in the update, as `slamctl bench` runs the solver). >= 0.
   int background_relinearization_above = 512;
   // At most this many catch-up rounds on the rebuild's helper thread, on what the live solver
   // took while it built (see estimator.h); the swap takes the rest in one update on the
   // estimator thread. On a large map a rebuild takes a second, and that second's messages made
-  // the swap a 100-140 ms update (soak, >60k variables); with rounds it is 1 ms on average, 7 ms
-  // at most. The cost: ~40-50% more RSS on such maps (glibc keeps what the helper's thread
-  // allocated and the estimator thread later freed; BENCHMARKS.md, session 7). 0 = no rounds.
-  // 0..64.
+  // the swap a 100-140 ms update (`scripts/soak`, >60k variables); with rounds it is 1 ms on
+  // average, 7 ms at most. The cost: ~40-50% more RSS on such maps (glibc keeps what the
+  // helper's thread allocated and the estimator thread later freed; `scripts/soak` at ~250k
+  // variables: 3718 MB with rounds, 2477 MB without). 0 = no rounds. 0..64.
   int rebuild_catch_up_rounds = 8;
 
   core::Status Validate() const;

@@ -15,7 +15,7 @@ struct Case {
   InitialGuess init;
   bool covariance_noise;
   double chi2;       // pinned final chi2 (BENCHMARKS.md)
-  double reference;  // best known chi2 from the issue (0 when none): we must not be above it
+  double reference;  // best known chi2 (0 when none): we must not be above it
 };
 
 void PrintTo(const Case& c, std::ostream* os) { *os << c.file; }

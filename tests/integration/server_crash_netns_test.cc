@@ -1,5 +1,5 @@
-// Crash test of the real `slamd` (issue 7, item 5a), over udpm:// ttl=0 inside a private network
-// namespace (scripts/netns-run; ctest label netns, skipped with 77 where none can be made).
+// Crash test of the real `slamd`, over udpm:// ttl=0 inside a private network namespace
+// (scripts/netns-run; ctest label netns, skipped with 77 where none can be made).
 //
 // Two servers run side by side on different channel prefixes, each on its own data directory:
 // A runs uninterrupted, B is killed with SIGKILL at 12 random steps (fixed seed) and restarted on

@@ -1,4 +1,4 @@
-// Lock-step over udpm:// (ttl=0, private network namespace; issue 6, item 4): a client streams
+// Lock-step over udpm:// (ttl=0, private network namespace): a client streams
 // all of input_M3500 into the real `slamd` (refinement off, and background relinearisation: its
 // swaps come when a helper thread is done), one step per pose, waiting for each
 // pose's estimate_t before the next step; every published estimate must equal offline Isam2 fed

@@ -188,7 +188,7 @@ TEST(BenchTest, CorruptDatasetFailsWithFileAndLine) {
   EXPECT_NE(r.out.find(":2:"), std::string::npos) << r.out;
 }
 
-// --robust and --ground-truth (issue #9): on a small simulated world with 30% outlier loop
+// --robust and --ground-truth: on a small simulated world with 30% outlier loop
 // closures the kernel brings the ATE back; both solvers report it; bad arguments exit 2.
 TEST(BenchTest, RobustKernelAndGroundTruthAte) {
   const std::string dir = (std::filesystem::temp_directory_path() /
