@@ -19,15 +19,14 @@ using server::RelativePose;
 
 // The measured relative pose of a between factor; false for other factors.
 bool BetweenOf(const core::Factor& f, RelativePose* measured) {
-  if (const auto* b2 = dynamic_cast<const core::BetweenFactor<Pose2>*>(&f)) {
-    *measured = b2->measured();
-    return true;
+  const std::optional<core::Variable> z = core::MeasuredRelativePose(f);
+  if (!z) return false;
+  if (const Pose2* p = std::get_if<Pose2>(&*z)) {
+    *measured = *p;
+  } else {
+    *measured = std::get<Pose3>(*z);
   }
-  if (const auto* b3 = dynamic_cast<const core::BetweenFactor<Pose3>*>(&f)) {
-    *measured = b3->measured();
-    return true;
-  }
-  return false;
+  return true;
 }
 
 // z⁻¹ and its first-order noise H Σ Hᵀ (H = ∂z⁻¹/∂z for right perturbations).
@@ -60,16 +59,18 @@ bool LandmarkOf(const core::Factor& f, std::int64_t utime, const std::string& ro
                                 .kind = server::LandmarkKind::kBearingRange2,
                                 .measured = server::BearingRange{},
                                 .noise = f.noise_model()};
-  if (const auto* br = dynamic_cast<const core::BearingRangeFactor*>(&f)) {
-    m.measured = server::BearingRange{br->bearing(), br->range()};
-  } else if (const auto* r2 =
-                 dynamic_cast<const core::RelativePointFactor<Pose2, core::Point2>*>(&f)) {
+  // The landmark message kinds by the factor type they become (server/ingest/conversion.h).
+  const std::string_view type = f.Name();
+  std::vector<double> measured;
+  f.EncodeMeasured(&measured);
+  if (type == core::BearingRangeFactor::TypeName()) {
+    m.measured = server::BearingRange{measured[0], measured[1]};
+  } else if (type == core::RelativePointFactor<Pose2, core::Point2>::TypeName()) {
     m.kind = server::LandmarkKind::kRelativePoint2;
-    m.measured = r2->measured();
-  } else if (const auto* r3 =
-                 dynamic_cast<const core::RelativePointFactor<Pose3, core::Point3>*>(&f)) {
+    m.measured = core::Point2(measured[0], measured[1]);
+  } else if (type == core::RelativePointFactor<Pose3, core::Point3>::TypeName()) {
     m.kind = server::LandmarkKind::kRelativePoint3;
-    m.measured = r3->measured();
+    m.measured = core::Point3(measured[0], measured[1], measured[2]);
   } else {
     return false;
   }

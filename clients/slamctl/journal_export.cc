@@ -291,14 +291,9 @@ class Exporter {
           const std::uint64_t a = core::KeyIndex(f->keys()[0]), b = core::KeyIndex(f->keys()[1]);
           const std::uint64_t other = a == i ? b : a;
           if (value.count(other)) continue;
-          if (const auto* e2 = dynamic_cast<const core::BetweenFactor<core::Pose2>*>(f)) {
-            const core::Pose2& pi = std::get<core::Pose2>(value[i]);
-            value[other] = a == i ? pi * e2->measured() : pi * e2->measured().Inverse();
-          } else {
-            const auto* e3 = dynamic_cast<const core::BetweenFactor<core::Pose3>*>(f);
-            const core::Pose3& pi = std::get<core::Pose3>(value[i]);
-            value[other] = a == i ? pi * e3->measured() : pi * e3->measured().Inverse();
-          }
+          const std::optional<core::Variable> predicted = f->Predict(a == i ? 0 : 1, value[i]);
+          SLAMD_CHECK(predicted) << f->Name() << " between poses predicts no pose";
+          value[other] = *predicted;
           queue.push_back(other);
         }
       }
@@ -320,10 +315,9 @@ class Exporter {
     for (const core::FactorPtr& f : data->graph.factors()) {
       const core::Key l = f->keys()[1];
       if (core::KeySymbol(l) != 'l' || data->initial.Contains(l)) continue;
-      const auto* rp =
-          dynamic_cast<const core::RelativePointFactor<core::Pose2, core::Point2>*>(f.get());
-      const core::Pose2& pose = std::get<core::Pose2>(value[core::KeyIndex(f->keys()[0])]);
-      SLAMD_RETURN_IF_ERROR(data->initial.Insert(l, pose.TransformFrom(rp->measured())));
+      const std::optional<core::Variable> point = f->Predict(0, value[core::KeyIndex(f->keys()[0])]);
+      SLAMD_CHECK(point) << f->Name() << " on a landmark predicts no point";
+      SLAMD_RETURN_IF_ERROR(data->initial.Insert(l, *point));
     }
     for (std::uint64_t j : g.landmarks) data->landmarks.push_back(Landmark(j));
     return core::Status();

@@ -232,7 +232,7 @@ core::Result<LiveScene> BuildLiveScene(const std::vector<slamd::map_t>& pages,
           "robot " + name + (pose ? " pose x" : " landmark l") + std::to_string(e.index);
       core::Result<core::Variable> value = EntryValue(*e.entry, is3d, pose, what);
       if (!value.ok()) return value.status();
-      const Eigen::Vector2d position = PlanarPosition(*value);
+      const Eigen::Vector2d position = *core::PlanarPosition(*value);  // a pose or a point
       (pose ? out.trajectory : out.landmarks).push_back(position);
       if (!want_ellipse) return core::Status::Ok();
       core::Result<Eigen::MatrixXd> cov =
@@ -243,7 +243,7 @@ core::Result<LiveScene> BuildLiveScene(const std::vector<slamd::map_t>& pages,
         return core::Status::Ok();
       }
       (pose ? out.pose_ellipses : out.landmark_ellipses)
-          .push_back(CovarianceEllipse(position, WorldXyCovariance(*value, *cov), options.sigma));
+          .push_back(CovarianceEllipse(position, core::PlanarCovariance(*value, *cov), options.sigma));
       return core::Status::Ok();
     };
     for (std::size_t i = 0; i < n; ++i) {

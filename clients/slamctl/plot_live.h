@@ -17,7 +17,7 @@
 //     (x, y[, z]). 3D maps are projected top-down (z dropped), as 3D datasets are.
 //   * Covariances are tangent space, translation first; poses in the body frame (right
 //     perturbation), landmarks in the world frame, i.e. exactly slamd's charts, so
-//     plot::WorldXyCovariance turns them into the world x-y covariance of the ellipse.
+//     core::PlanarCovariance turns them into the world x-y covariance of the ellipse.
 //   * Pose ellipses are subsampled as for datasets: poses 0, K, 2K, ... in pose order and the
 //     last pose, K = ellipse_every (0: about 50 per robot); entries without a covariance (not
 //     requested, or not ready in the server's query budget) get none.

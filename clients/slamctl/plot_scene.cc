@@ -75,22 +75,6 @@ std::size_t PlotScene::NumEllipses() const {
   return n;
 }
 
-Eigen::Matrix2d WorldXyCovariance(const core::Variable& value, const Eigen::MatrixXd& tangent_cov) {
-  const int dim = core::TangentDim(core::TypeOf(value));
-  SLAMD_CHECK(tangent_cov.rows() == dim && tangent_cov.cols() == dim)
-      << "covariance is " << tangent_cov.rows() << "x" << tangent_cov.cols() << ", expected " << dim;
-  if (const auto* p = std::get_if<core::Pose2>(&value)) {
-    const Eigen::Matrix2d R = p->rotation().matrix();
-    return R * tangent_cov.topLeftCorner<2, 2>() * R.transpose();
-  }
-  if (const auto* p = std::get_if<core::Pose3>(&value)) {
-    const Eigen::Matrix3d& R = p->rotation().matrix();
-    const Eigen::Matrix3d world = R * tangent_cov.topLeftCorner<3, 3>() * R.transpose();
-    return world.topLeftCorner<2, 2>();
-  }
-  return tangent_cov.topLeftCorner<2, 2>();  // Point2, Point3: additive chart
-}
-
 Ellipse CovarianceEllipse(const Eigen::Vector2d& center, const Eigen::Matrix2d& cov, double sigma) {
   const Eigen::Matrix2d sym = 0.5 * (cov + cov.transpose());
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(sym);  // eigenvalues ascending
@@ -106,11 +90,16 @@ Ellipse CovarianceEllipse(const Eigen::Vector2d& center, const Eigen::Matrix2d& 
                  .angle = angle};
 }
 
-Eigen::Vector2d PlanarPosition(const core::Variable& value) {
-  if (const auto* p = std::get_if<core::Pose2>(&value)) return p->translation();
-  if (const auto* p = std::get_if<core::Pose3>(&value)) return p->translation().head<2>();
-  if (const auto* p = std::get_if<core::Point2>(&value)) return *p;
-  return std::get<core::Point3>(value).head<2>();
+// The x-y position of a variable a plot draws (poses and points; VariableTraits::kPlotted).
+core::Result<Eigen::Vector2d> DrawnPosition(const core::Values& values, core::Key key) {
+  const core::Variable& v = values.Get(key);
+  const std::optional<Eigen::Vector2d> p = core::PlanarPosition(v);
+  if (!p) {
+    return core::InvalidArgument(core::KeyToString(key) + " is a " +
+                                 core::VariableTypeName(core::TypeOf(v)) +
+                                 ", which a plot does not draw");
+  }
+  return *p;
 }
 
 core::Result<PlotRobot> BuildRobot(const std::string& name, const core::Dataset& data,
@@ -126,13 +115,17 @@ core::Result<PlotRobot> BuildRobot(const std::string& name, const core::Dataset&
   for (core::Key key : data.poses) {
     if (!values.Contains(key)) return core::InvalidArgument("no value for pose " + core::KeyToString(key));
     order.emplace(key, robot.trajectory.size());
-    robot.trajectory.push_back(PlanarPosition(values.Get(key)));
+    core::Result<Eigen::Vector2d> position = DrawnPosition(values, key);
+    if (!position.ok()) return position.status();
+    robot.trajectory.push_back(*position);
   }
   for (core::Key key : data.landmarks) {
     if (!values.Contains(key)) {
       return core::InvalidArgument("no value for landmark " + core::KeyToString(key));
     }
-    robot.landmarks.push_back(PlanarPosition(values.Get(key)));
+    core::Result<Eigen::Vector2d> position = DrawnPosition(values, key);
+    if (!position.ok()) return position.status();
+    robot.landmarks.push_back(*position);
   }
   for (const core::FactorPtr& f : data.graph) {
     if (f->keys().size() != 2) continue;
@@ -147,7 +140,8 @@ core::Result<PlotRobot> BuildRobot(const std::string& name, const core::Dataset&
     const auto it = marginals->find(key);
     if (it == marginals->end()) return;
     const core::Variable& v = values.Get(key);
-    out->push_back(CovarianceEllipse(PlanarPosition(v), WorldXyCovariance(v, it->second), options.sigma));
+    out->push_back(CovarianceEllipse(*core::PlanarPosition(v), core::PlanarCovariance(v, it->second),
+                                     options.sigma));
   };
   const std::size_t n = data.poses.size();
   for (std::size_t i = 0; i < n; i += options.ellipse_every) add_ellipse(data.poses[i], &robot.pose_ellipses);

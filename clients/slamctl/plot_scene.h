@@ -24,7 +24,7 @@
 #include "core/base/status.h"
 #include "core/factors/factor_graph.h"
 #include "core/factors/values.h"
-#include "core/factors/variable.h"
+#include "core/variables/variable.h"
 #include "core/io/dataset.h"
 
 namespace slamd::clients::plot {
@@ -85,16 +85,9 @@ struct SceneOptions {
 // Marginal covariances by key, in the tangent space at the plotted values (see file comment).
 using MarginalTable = std::unordered_map<core::Key, Eigen::MatrixXd>;
 
-// The world x-y covariance (2x2) of a variable's position from its tangent-space marginal
-// (dimension TangentDim of its type; checked). See the file comment for the frames.
-Eigen::Matrix2d WorldXyCovariance(const core::Variable& value, const Eigen::MatrixXd& tangent_cov);
-
 // The k-sigma ellipse of a 2x2 covariance (symmetrised first; negative eigenvalues from
 // round-off are clamped to 0).
 Ellipse CovarianceEllipse(const Eigen::Vector2d& center, const Eigen::Matrix2d& cov, double sigma);
-
-// The x-y position of a pose or point (z dropped).
-Eigen::Vector2d PlanarPosition(const core::Variable& value);
 
 // One robot from a dataset: positions from `values` (the dataset's initial guess or an optimised
 // estimate; every key of data.poses / data.landmarks must be in it, else kInvalidArgument),

@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <memory>
 
-#include "core/factors/between_factor.h"
+#include "core/factors/factor_registry.h"
 
 namespace slamd::clients {
 namespace {
@@ -18,24 +18,11 @@ bool IsOdometryPair(core::Key a, core::Key b) {
   return (i > j ? i - j : j - i) == 1;
 }
 
-// The same between factor with another kernel; null when `factor` is no pose between factor.
-template <typename T>
-core::FactorPtr Rebuild(const core::Factor& factor, const RobustKernel& kernel) {
-  const auto* between = dynamic_cast<const core::BetweenFactor<T>*>(&factor);
-  if (between == nullptr) return nullptr;
-  return std::make_shared<const core::BetweenFactor<T>>(factor.keys()[0], factor.keys()[1],
-                                                        between->measured(), factor.noise_model(), kernel);
-}
-
-bool IsPoseBetween(const core::Factor& factor) {
-  return dynamic_cast<const core::BetweenFactor<core::Pose2>*>(&factor) != nullptr ||
-         dynamic_cast<const core::BetweenFactor<core::Pose3>*>(&factor) != nullptr;
-}
-
 }  // namespace
 
 bool IsLoopClosure(const core::Factor& factor) {
-  return IsPoseBetween(factor) && !IsOdometryPair(factor.keys()[0], factor.keys()[1]);
+  return core::MeasuredRelativePose(factor).has_value() &&
+         !IsOdometryPair(factor.keys()[0], factor.keys()[1]);
 }
 
 core::FactorGraph RobustifyLoopClosures(const core::FactorGraph& graph, const RobustKernel& kernel,
@@ -48,9 +35,9 @@ core::FactorGraph RobustifyLoopClosures(const core::FactorGraph& graph, const Ro
       continue;
     }
     ++count;
-    core::FactorPtr rebuilt = Rebuild<core::Pose2>(*factor, kernel);
-    if (rebuilt == nullptr) rebuilt = Rebuild<core::Pose3>(*factor, kernel);
-    out.Add(std::move(rebuilt));
+    core::Result<core::FactorPtr> rebuilt = core::WithRobustKernel(*factor, kernel);
+    SLAMD_CHECK(rebuilt.ok()) << rebuilt.status().ToString();  // a valid factor re-encoded
+    out.Add(std::move(rebuilt).value());
   }
   if (loop_closures != nullptr) *loop_closures = count;
   return out;

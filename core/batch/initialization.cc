@@ -6,9 +6,8 @@
 #include <vector>
 
 #include "core/batch/batch_solver.h"
-#include "core/factors/between_factor.h"
-#include "core/factors/predict.h"
-#include "core/factors/relative_point_factor.h"
+#include "core/factors/prior_factor.h"
+#include "core/factors/factor.h"
 
 namespace slamd::core {
 namespace {
@@ -33,20 +32,33 @@ struct PlanarGraph {
   std::vector<std::vector<int>> edges_of;  // per slot: indices into edges
 };
 
+// The point a factor on (Pose2, Point2) measures in the pose's frame, if its error is that
+// difference (relative point factors; not bearing-range ones).
+std::optional<Point2> RelativePoint2Of(const Factor& f) {
+  if (f.keys().size() != 2 || f.KeyType(0) != kVariableType<Pose2> ||
+      f.KeyType(1) != kVariableType<Point2>) {
+    return std::nullopt;
+  }
+  const std::optional<Variable> z = f.Measured();
+  if (!z || !std::holds_alternative<Point2>(*z)) return std::nullopt;
+  return std::get<Point2>(*z);
+}
+
 PlanarGraph Collect(const FactorGraph& graph, const Values& values) {
   PlanarGraph g;
   g.edges_of.resize(values.size());
   for (const FactorPtr& f : graph) {
-    if (const auto* b = dynamic_cast<const BetweenFactor<Pose2>*>(f.get())) {
-      const int i = values.SlotOf(b->keys()[0]), j = values.SlotOf(b->keys()[1]);
+    const std::optional<Variable> between = MeasuredRelativePose(*f);
+    if (between && std::holds_alternative<Pose2>(*between)) {
+      const int i = values.SlotOf(f->keys()[0]), j = values.SlotOf(f->keys()[1]);
       if (i < 0 || j < 0 || i == j) continue;
       g.edges_of[i].push_back(static_cast<int>(g.edges.size()));
       g.edges_of[j].push_back(static_cast<int>(g.edges.size()));
-      g.edges.push_back({i, j, b->measured(), b->noise_model().Information()});
-    } else if (const auto* r = dynamic_cast<const RelativePointFactor<Pose2, Point2>*>(f.get())) {
-      const int i = values.SlotOf(r->keys()[0]), l = values.SlotOf(r->keys()[1]);
+      g.edges.push_back({i, j, std::get<Pose2>(*between), f->noise_model().Information()});
+    } else if (const std::optional<Point2> z = RelativePoint2Of(*f)) {
+      const int i = values.SlotOf(f->keys()[0]), l = values.SlotOf(f->keys()[1]);
       if (i < 0 || l < 0) continue;
-      g.observations.push_back({i, l, r->measured(), r->noise_model().Information()});
+      g.observations.push_back({i, l, *z, f->noise_model().Information()});
     }
   }
   return g;
@@ -93,7 +105,7 @@ void ComposeTree(const PlanarGraph& g, const std::vector<int>& parent, const std
 
 Status CheckReached(const Values& values, const std::vector<int>& parent, int root) {
   for (int s = 0; s < static_cast<int>(values.size()); ++s) {
-    if (values.TypeAt(s) == VariableType::kPose2 && s != root && parent[s] < 0) {
+    if (values.TypeAt(s) == kVariableType<Pose2> && s != root && parent[s] < 0) {
       return InvalidArgument("pose " + KeyToString(values.KeyAt(s)) +
                              " is not connected to the root by pose-pose measurements");
     }
@@ -108,14 +120,14 @@ void PlaceLandmarksFromFirstObservation(const FactorGraph& graph, std::vector<ch
   for (int pass = 0; pass < 2; ++pass) {
     for (const FactorPtr& f : graph) {
       if (f->keys().size() != 2) continue;
-      const bool relative = dynamic_cast<const RelativePointFactor<Pose2, Point2>*>(f.get()) != nullptr;
+      const bool relative = RelativePoint2Of(*f).has_value();
       if (relative != (pass == 0)) continue;
       const int p = values->SlotOf(f->keys()[0]), l = values->SlotOf(f->keys()[1]);
-      if (p < 0 || l < 0 || done[l] || values->TypeAt(p) != VariableType::kPose2 ||
-          values->TypeAt(l) != VariableType::kPoint2) {
+      if (p < 0 || l < 0 || done[l] || values->TypeAt(p) != kVariableType<Pose2> ||
+          values->TypeAt(l) != kVariableType<Point2>) {
         continue;
       }
-      if (const std::optional<Variable> v = PredictFromFactor(*f, 0, values->VariableAt(p))) {
+      if (const std::optional<Variable> v = f->Predict(0, values->VariableAt(p))) {
         values->MutableVariableAt(l) = *v;
         done[l] = 1;
       }
@@ -139,7 +151,7 @@ bool SolveSparse(int n, const std::vector<Eigen::Triplet<double>>& triplets, con
 
 Result<Values> InitializeSpanningTree(const FactorGraph& graph, const Values& initial, Key root) {
   const int r = initial.SlotOf(root);
-  if (r < 0 || initial.TypeAt(r) != VariableType::kPose2) {
+  if (r < 0 || initial.TypeAt(r) != kVariableType<Pose2>) {
     return InvalidArgument("root " + KeyToString(root) + " is not a Pose2 variable of the values");
   }
   Values values = initial;
@@ -166,14 +178,14 @@ Result<Values> InitializeLago(const FactorGraph& graph, const Values& initial, K
   int num_angles = 0, num_positions = 0;
   for (int s = 0; s < n; ++s) {
     if (s == r) continue;
-    if (values.TypeAt(s) == VariableType::kPose2) {
+    if (values.TypeAt(s) == kVariableType<Pose2>) {
       angle_index[s] = num_angles++;
       position_index[s] = num_positions++;
     }
   }
   std::vector<char> placed(n, 0);
   for (const Observation& o : g.observations) {
-    if (position_index[o.landmark] < 0 && values.TypeAt(o.landmark) == VariableType::kPoint2) {
+    if (position_index[o.landmark] < 0 && values.TypeAt(o.landmark) == kVariableType<Point2>) {
       position_index[o.landmark] = num_positions++;
       placed[o.landmark] = 1;
     }
@@ -183,7 +195,7 @@ Result<Values> InitializeLago(const FactorGraph& graph, const Values& initial, K
   // marginal information of the angle (1 / Σ_θθ).
   std::vector<double> theta(n, 0.0);
   for (int s = 0; s < n; ++s) {
-    if (values.TypeAt(s) == VariableType::kPose2) theta[s] = values.At<Pose2>(values.KeyAt(s)).theta();
+    if (values.TypeAt(s) == kVariableType<Pose2>) theta[s] = values.At<Pose2>(values.KeyAt(s)).theta();
   }
   {
     std::vector<Eigen::Triplet<double>> t;
@@ -217,7 +229,7 @@ Result<Values> InitializeLago(const FactorGraph& graph, const Values& initial, K
   // l − t_i = R_i z (weight R_i Ω R_iᵀ).
   std::vector<Point2> position(n, Point2::Zero());
   for (int s = 0; s < n; ++s) {
-    if (values.TypeAt(s) == VariableType::kPose2) position[s] = values.At<Pose2>(values.KeyAt(s)).translation();
+    if (values.TypeAt(s) == kVariableType<Pose2>) position[s] = values.At<Pose2>(values.KeyAt(s)).translation();
   }
   {
     std::vector<Eigen::Triplet<double>> t;
@@ -262,7 +274,7 @@ Result<Values> InitializeLago(const FactorGraph& graph, const Values& initial, K
 
   for (int s = 0; s < n; ++s) {
     if (s == r) continue;
-    if (values.TypeAt(s) == VariableType::kPose2) {
+    if (values.TypeAt(s) == kVariableType<Pose2>) {
       values.MutableVariableAt(s) = Pose2(Rot2::FromAngle(theta[s]), position[s]);
     } else if (placed[s]) {
       values.MutableVariableAt(s) = position[s];
@@ -330,7 +342,7 @@ Result<Values> InitializeIncremental(const FactorGraph& graph, const Values& ini
       const int a = estimate.SlotOf(f->keys()[0]), b = estimate.SlotOf(f->keys()[1]);
       if (a < 0 || b < 0 || placed[a] == placed[b]) continue;
       const int known = placed[a] ? 0 : 1;
-      const std::optional<Variable> v = PredictFromFactor(*f, known, estimate.VariableAt(placed[a] ? a : b));
+      const std::optional<Variable> v = f->Predict(known, estimate.VariableAt(placed[a] ? a : b));
       if (!v) continue;
       estimate.MutableVariableAt(placed[a] ? b : a) = *v;
       placed[a] = placed[b] = 1;

@@ -49,13 +49,14 @@ NormalEquations::NormalEquations(const FactorGraph& graph, const Values& values,
 
 void NormalEquations::Linearize(const Values& values) {
   system_.SetZero();
-  LinearizedFactor lf;
-  const double* blocks[kMaxFactorKeys];
+  LinearizedFactor lf;  // reused: allocates only for the largest factor met
+  std::vector<const double*> blocks;
   const int num_factors = static_cast<int>(graph_.size());
   for (int f = 0; f < num_factors; ++f) {
     graph_[f]->Linearize(values, &lf);
-    for (int k = 0; k < lf.num_keys; ++k) blocks[k] = lf.A[k].data();
-    system_.AddFactor(f, blocks, lf.b.data(), lf.rows);
+    blocks.resize(lf.num_keys());
+    for (int k = 0; k < lf.num_keys(); ++k) blocks[k] = lf.A(k);
+    system_.AddFactor(f, blocks.data(), lf.b(), lf.rows());
   }
 }
 

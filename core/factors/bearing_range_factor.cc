@@ -4,9 +4,25 @@
 
 namespace slamd::core {
 
+Result<FactorPtr> BearingRangeFactor::Decode(const FactorRecord& r, NoiseModel noise) {
+  if (r.measured.size() != 2) {
+    return InvalidArgument("measured: (bearing, range) is 2 numbers, not " +
+                           std::to_string(r.measured.size()));
+  }
+  return FactorPtr(std::make_shared<const BearingRangeFactor>(
+      r.keys[0], r.keys[1], r.measured[0], r.measured[1], std::move(noise), r.robust));
+}
+
+std::optional<Variable> BearingRangeFactor::Predict(int known, const Variable& known_value) const {
+  if (known != 0) return std::nullopt;
+  const Point2 local = range_ * Point2(std::cos(bearing_), std::sin(bearing_));
+  return std::get<Pose2>(known_value).TransformFrom(local);
+}
+
 BearingRangeFactor::ErrorVector BearingRangeFactor::Evaluate(const Pose2& pose,
-                                                             const Point2& landmark, Jacobian1* H1,
-                                                             Jacobian2* H2) const {
+                                                             const Point2& landmark,
+                                                             JacobianAt<0>* H1,
+                                                             JacobianAt<1>* H2) const {
   Matrix23 Hd_pose;
   Matrix2 Hd_point;
   const Point2 d = pose.TransformTo(landmark, H1 ? &Hd_pose : nullptr, H2 ? &Hd_point : nullptr);

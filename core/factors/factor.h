@@ -1,37 +1,44 @@
 // Factor: one measurement's term in the nonlinear least-squares problem.
 //
-// A factor on variables x₁..x_k with error function e(x) (dimension m ≤ 6) and noise model R
+// A factor on variables x₁..x_k with error function e(x) (dimension m) and noise model R
 // contributes ρ(|R·e(x)|²) to the objective (ρ = identity without a robust kernel). Solvers call
 // Linearize() to get the whitened residual b = R·e and the whitened Jacobian blocks
-// A_i = R·∂e/∂δ_i (δ_i the right perturbation of x_i, see variable.h), scaled by √ρ'(s) when a
-// robust kernel is set (iteratively reweighted least squares). The linear sub-problem is then
-// min Σ |Σ_i A_i δ_i + b|².
+// A_i = R·∂e/∂δ_i (δ_i the right perturbation of x_i, see variables/variable.h), scaled by √ρ'(s)
+// when a robust kernel is set (iteratively reweighted least squares). The linear sub-problem is
+// then min Σ |Σ_i A_i δ_i + b|².
+//
+// Two bases implement Linearize for concrete factors:
+//  - TypedFactor<Derived, M, V...>: an M-dimensional error on keys of the variable types V...,
+//    with fixed-size Jacobians (no heap allocation per linearisation);
+//  - DynamicFactor: sizes known only at run time (e.g. LinearContainerFactor).
+// Each concrete factor's own files declare its type name, how its measurement is encoded
+// (EncodeMeasured, read back by the registry, factor_registry.h), the formats that have it, and
+// the initial guesses it gives (Predict).
 //
 // Factors are immutable after construction and shared between graphs and threads
-// (std::shared_ptr<const Factor>); Linearize allocates nothing.
+// (std::shared_ptr<const Factor>).
 #pragma once
 
 #include <array>
 #include <memory>
+#include <optional>
+#include <span>
+#include <tuple>
+#include <vector>
 
 #include "core/base/key.h"
+#include "core/factors/factor_record.h"
+#include "core/factors/linearized_factor.h"
 #include "core/factors/noise_model.h"
 #include "core/factors/robust_kernel.h"
 #include "core/factors/values.h"
 
 namespace slamd::core {
 
-// The most variables a factor touches (unary priors, binary between/landmark factors).
-inline constexpr int kMaxFactorKeys = 2;
-
-// Linearisation output with a fixed capacity: no heap allocation.
-struct LinearizedFactor {
-  using Block = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor,
-                              kMaxResidualDim, kMaxVariableDim>;
-  int rows = 0;                                     // residual dimension m
-  int num_keys = 0;                                 // how many blocks of A are used
-  NoiseModel::Vector b;                             // whitened (reweighted) residual, m entries
-  std::array<Block, kMaxFactorKeys> A;              // A[i]: m x dim(keys[i]), column-major
+// Where a factor type appears in text formats (nullptr: the format has no such record).
+struct FactorFormats {
+  const char* g2o = nullptr;   // g2o edge tag, e.g. "EDGE_SE2"
+  const char* isam = nullptr;  // iSAM line tag, e.g. "ODOMETRY"
 };
 
 class Factor {
@@ -47,21 +54,50 @@ class Factor {
   const NoiseModel& noise_model() const { return noise_; }
   const RobustKernel& robust_kernel() const { return robust_; }
 
-  // A short type name for messages and files, e.g. "BetweenPose2".
+  // The registered type name (factor_registry.h), e.g. "BetweenPose2".
   virtual const char* Name() const = 0;
   // The variable type keys()[i] must have.
   virtual VariableType KeyType(int i) const = 0;
 
-  // The unwhitened error e(x). The variables must exist with the right types (see
-  // FactorGraph::CheckAgainst); this is checked only in debug builds.
-  virtual NoiseModel::Vector Error(const Values& values) const = 0;
+  // The unwhitened error e(x), dim() entries written to `e`. The variables must exist with the
+  // right types (see FactorGraph::CheckAgainst); this is checked only in debug builds.
+  virtual void EvaluateError(const Values& values, double* e) const = 0;
   // Whitened residual and Jacobians at `values` (see the file comment).
   virtual void Linearize(const Values& values, LinearizedFactor* out) const = 0;
 
+  // The measured quantity in the type's own layout of numbers (snapshots, exports); with the
+  // keys, noise and kernel it rebuilds the factor (DecodeFactor, factor_registry.h).
+  virtual void EncodeMeasured(std::vector<double>* out) const = 0;
+  // Values the factor carries besides its measurement (LinearContainerFactor: its linearisation
+  // point), for FactorRecord::values; none by default.
+  virtual std::vector<Variable> CarriedValues() const { return {}; }
+  // The measurement as a value, for factors whose error is the chart difference between it and a
+  // prediction of the same kind from the keys: between factors (the relative pose), priors (the
+  // value), relative points (the point in the pose's frame). Nothing for other factors.
+  virtual std::optional<Variable> Measured() const { return std::nullopt; }
+  // The value this factor puts the variable keys()[1 - known] at, given keys()[known] =
+  // `known_value` (initial guesses); nothing when it cannot (the default, and e.g. a landmark
+  // does not place its pose). `known_value` must have KeyType(known) (checked).
+  virtual std::optional<Variable> Predict(int known, const Variable& known_value) const {
+    (void)known;
+    (void)known_value;
+    return std::nullopt;
+  }
+  // The text formats that have this factor type.
+  virtual FactorFormats Formats() const { return {}; }
+
+  // e(x) as a vector (allocates: for tests and tools, not for solvers).
+  Eigen::VectorXd Error(const Values& values) const;
   // |R·e(x)|²: this factor's share of chi2.
   double Chi2(const Values& values) const;
   // ρ(|R·e(x)|²): this factor's share of the (robust) objective; equals Chi2 without a kernel.
   double Cost(const Values& values) const { return robust_.Cost(Chi2(values)); }
+
+ protected:
+  // √ρ'(|R·e|²) for a whitened residual w, or 1 without a kernel.
+  double RobustScale(double whitened2) const {
+    return robust_.is_none() ? 1.0 : std::sqrt(robust_.Weight(whitened2));
+  }
 
  private:
   KeyVector keys_;
@@ -71,91 +107,101 @@ class Factor {
 
 using FactorPtr = std::shared_ptr<const Factor>;
 
-namespace internal {
+// The relative pose a factor on two poses of one kind measures (between factors: odometry and
+// loop closures): its Measured() when that is a pose of its keys' kind; nothing otherwise.
+std::optional<Variable> MeasuredRelativePose(const Factor& factor);
 
-// Applies whitening and the robust weight to a fixed-size residual and its Jacobians, and
-// copies them into `out`. Shared by the typed factor templates below.
-template <int M, int... Ds>
-void FinishLinearization(const NoiseModel& noise, const RobustKernel& robust,
-                         Eigen::Matrix<double, M, 1>& e, LinearizedFactor* out,
-                         Eigen::Matrix<double, M, Ds>&... H) {
-  noise.WhitenInPlace(&e);
-  (noise.WhitenInPlace(&H), ...);
-  if (!robust.is_none()) {
-    const double sqrt_w = std::sqrt(robust.Weight(e.squaredNorm()));
-    e *= sqrt_w;
-    ((H *= sqrt_w), ...);
-  }
-  out->rows = M;
-  out->num_keys = sizeof...(Ds);
-  out->b = e;
-  int i = 0;
-  ((out->A[i++] = H), ...);
-}
-
-}  // namespace internal
-
-// A factor on one variable of type V with an M-dimensional error. Derived provides
-//   Eigen::Matrix<double, M, 1> Evaluate(const V& x, Eigen::Matrix<double, M, Dim(V)>* H) const;
-// (H may be null), plus Name().
-template <typename Derived, int M, typename V>
-class UnaryFactor : public Factor {
+// A factor on the variable types V... with an M-dimensional error. Derived provides
+//   static const char* TypeName();  (the registered name)
+//   Eigen::Matrix<double, M, 1> Evaluate(const V&... x, JacobianAt<i>*... H) const;
+// (each H may be null: error only) and EncodeMeasured; Measured, Predict and Formats as it has
+// them.
+template <typename Derived, int M, typename... V>
+class TypedFactor : public Factor {
  public:
-  static constexpr int kDim = VariableTraits<V>::kDim;
-  using Jacobian = Eigen::Matrix<double, M, kDim>;
+  static_assert(M >= 1 && M <= kMaxResidualDim, "residual dimension out of range");
+  static_assert(sizeof...(V) >= 1, "a factor has at least one key");
+  static constexpr int kNumKeys = sizeof...(V);
+  static constexpr int kResidualDim = M;
   using ErrorVector = Eigen::Matrix<double, M, 1>;
+  template <int I>
+  using JacobianAt =
+      Eigen::Matrix<double, M, VariableTraits<std::tuple_element_t<I, std::tuple<V...>>>::kDim>;
 
-  UnaryFactor(Key key, NoiseModel noise, RobustKernel robust)
-      : Factor({key}, std::move(noise), robust) {
-    SLAMD_CHECK(noise_model().dim() == M) << "noise dimension " << noise_model().dim()
-                                          << " != error dimension " << M;
+  TypedFactor(KeyVector keys, NoiseModel noise, RobustKernel robust)
+      : Factor(std::move(keys), std::move(noise), robust) {
+    SLAMD_CHECK(static_cast<int>(this->keys().size()) == kNumKeys)
+        << Derived::TypeName() << ": " << this->keys().size() << " keys, expected " << kNumKeys;
+    SLAMD_CHECK(noise_model().dim() == M)
+        << Derived::TypeName() << ": noise dimension " << noise_model().dim()
+        << " != error dimension " << M;
   }
-  VariableType KeyType(int) const final { return VariableTraits<V>::kType; }
-  NoiseModel::Vector Error(const Values& values) const final {
-    return self().Evaluate(values.At<V>(keys()[0]), nullptr);
+
+  const char* Name() const final { return Derived::TypeName(); }
+  VariableType KeyType(int i) const final {
+    static constexpr std::array<VariableType, kNumKeys> kTypes = {kVariableType<V>...};
+    return kTypes[i];
+  }
+  void EvaluateError(const Values& values, double* e) const final {
+    Eigen::Map<ErrorVector>{e} = Call(values, Indices{}, static_cast<JacobianOf<V>*>(nullptr)...);
   }
   void Linearize(const Values& values, LinearizedFactor* out) const final {
-    Jacobian H;
-    ErrorVector e = self().Evaluate(values.At<V>(keys()[0]), &H);
-    internal::FinishLinearization<M>(noise_model(), robust_kernel(), e, out, H);
+    std::tuple<JacobianOf<V>...> H;
+    ErrorVector e = CallWith(values, &H, Indices{});
+    noise_model().WhitenInPlace(&e);
+    const double scale = RobustScale(e.squaredNorm());
+    static constexpr std::array<int, kNumKeys> kDims = {VariableTraits<V>::kDim...};
+    out->Reset(M, kDims);
+    Eigen::Map<ErrorVector>{out->b()} = scale * e;
+    Store(&H, scale, out, Indices{});
   }
 
  private:
+  using Indices = std::index_sequence_for<V...>;
+  template <typename T>
+  using JacobianOf = Eigen::Matrix<double, M, VariableTraits<T>::kDim>;
+
   const Derived& self() const { return static_cast<const Derived&>(*this); }
+  template <std::size_t... I, typename... H>
+  ErrorVector Call(const Values& values, std::index_sequence<I...>, H*... jacobians) const {
+    return self().Evaluate(values.At<V>(keys()[I])..., jacobians...);
+  }
+  template <std::size_t... I>
+  ErrorVector CallWith(const Values& values, std::tuple<JacobianOf<V>...>* H,
+                       std::index_sequence<I...>) const {
+    return self().Evaluate(values.At<V>(keys()[I])..., &std::get<I>(*H)...);
+  }
+  template <std::size_t... I>
+  void Store(std::tuple<JacobianOf<V>...>* H, double scale, LinearizedFactor* out,
+             std::index_sequence<I...>) const {
+    ((noise_model().WhitenInPlace(&std::get<I>(*H)),
+      Eigen::Map<JacobianOf<V>>{out->A(static_cast<int>(I))} = scale * std::get<I>(*H)),
+     ...);
+  }
 };
 
-// A factor on two variables of types V1, V2 with an M-dimensional error. Derived provides
-//   Eigen::Matrix<double, M, 1> Evaluate(const V1&, const V2&, Eigen::Matrix<double, M, D1>* H1,
-//                                        Eigen::Matrix<double, M, D2>* H2) const;
-template <typename Derived, int M, typename V1, typename V2>
-class BinaryFactor : public Factor {
+// A factor whose key count and residual size are known only at run time. Derived provides
+//   Eigen::VectorXd Evaluate(std::span<const Variable* const> x,
+//                            std::vector<Eigen::MatrixXd>* H) const;
+// the unwhitened error at the keys' values x and, when H is not null, ∂e/∂δ_k in (*H)[k]
+// (dim() x TangentDim(KeyType(k)); H comes sized to the number of keys). Linearising
+// allocates.
+class DynamicFactor : public Factor {
  public:
-  static constexpr int kDim1 = VariableTraits<V1>::kDim;
-  static constexpr int kDim2 = VariableTraits<V2>::kDim;
-  using Jacobian1 = Eigen::Matrix<double, M, kDim1>;
-  using Jacobian2 = Eigen::Matrix<double, M, kDim2>;
-  using ErrorVector = Eigen::Matrix<double, M, 1>;
+  DynamicFactor(KeyVector keys, std::vector<VariableType> types, NoiseModel noise,
+                RobustKernel robust);
 
-  BinaryFactor(Key key1, Key key2, NoiseModel noise, RobustKernel robust)
-      : Factor({key1, key2}, std::move(noise), robust) {
-    SLAMD_CHECK(noise_model().dim() == M) << "noise dimension " << noise_model().dim()
-                                          << " != error dimension " << M;
-  }
-  VariableType KeyType(int i) const final {
-    return i == 0 ? VariableTraits<V1>::kType : VariableTraits<V2>::kType;
-  }
-  NoiseModel::Vector Error(const Values& values) const final {
-    return self().Evaluate(values.At<V1>(keys()[0]), values.At<V2>(keys()[1]), nullptr, nullptr);
-  }
-  void Linearize(const Values& values, LinearizedFactor* out) const final {
-    Jacobian1 H1;
-    Jacobian2 H2;
-    ErrorVector e = self().Evaluate(values.At<V1>(keys()[0]), values.At<V2>(keys()[1]), &H1, &H2);
-    internal::FinishLinearization<M>(noise_model(), robust_kernel(), e, out, H1, H2);
-  }
+  VariableType KeyType(int i) const final { return types_[i]; }
+  void EvaluateError(const Values& values, double* e) const final;
+  void Linearize(const Values& values, LinearizedFactor* out) const final;
+
+  virtual Eigen::VectorXd Evaluate(std::span<const Variable* const> x,
+                                   std::vector<Eigen::MatrixXd>* H) const = 0;
 
  private:
-  const Derived& self() const { return static_cast<const Derived&>(*this); }
+  std::vector<const Variable*> Gather(const Values& values) const;
+
+  std::vector<VariableType> types_;
 };
 
 }  // namespace slamd::core

@@ -2,9 +2,10 @@
 // information matrix R (Ω = RᵀR = Σ⁻¹), which is what whitening needs: a whitened residual is
 // R·e, and a whitened Jacobian is R·J, so that |R·e|² is the Mahalanobis distance eᵀΩe.
 //
-// One representation for every kind (isotropic, diagonal, full): R is at most 6x6, so a
-// triangular product is as cheap as a diagonal scaling and there is no virtual call. The kind is
-// kept only to describe the model (and to write files back in their own form).
+// One representation for every kind (isotropic, diagonal, full): R is small for a measurement
+// (at most kMaxResidualDim rows), so a triangular product is as cheap as a diagonal scaling and
+// there is no virtual call. The kind is kept only to describe the model (and to write files back
+// in their own form).
 //
 // Construction validates the input and returns an error that says what is wrong (not square, not
 // symmetric, not finite, not positive definite with its smallest eigenvalue, ill-conditioned).
@@ -17,16 +18,15 @@
 
 namespace slamd::core {
 
-// The largest residual dimension a factor may have (a Pose3 residual).
-inline constexpr int kMaxResidualDim = 6;
+// The largest residual dimension of a fixed-size factor (TypedFactor, factor.h): a 9-parameter
+// calibration's prior. Factors whose size is known only at run time may be larger.
+inline constexpr int kMaxResidualDim = 9;
 
 class NoiseModel {
  public:
   enum class Kind { kIsotropic, kDiagonal, kGaussian };
-  // Small matrices with a fixed capacity: no heap allocation.
-  using Matrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor,
-                               kMaxResidualDim, kMaxResidualDim>;
-  using Vector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxResidualDim, 1>;
+  // R is sized exactly (allocated once, when the model is made).
+  using Matrix = Eigen::MatrixXd;
 
   // Condition numbers (largest / smallest eigenvalue of Ω) above this are rejected: such a
   // matrix is numerically singular in double precision and would poison the solve.

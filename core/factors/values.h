@@ -10,7 +10,7 @@
 #include "core/base/key.h"
 #include "core/base/key_slots.h"
 #include "core/base/status.h"
-#include "core/factors/variable.h"
+#include "core/variables/variable.h"
 
 namespace slamd::core {
 
@@ -42,7 +42,7 @@ class Values {
   template <typename T>
   const T& At(Key key) const {
     const T* v = Find<T>(key);
-    SLAMD_CHECK(v != nullptr) << "no " << VariableTypeName(VariableTraits<T>::kType) << " named "
+    SLAMD_CHECK(v != nullptr) << "no " << VariableTraits<T>::kName << " named "
                               << KeyToString(key);
     return *v;
   }

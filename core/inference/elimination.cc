@@ -49,6 +49,9 @@ void ScatterJacobian(const double* data, int rows, const internal::ScatterBlock*
   }
 }
 
+// The most variables of a factor ScatterUniformJacobian takes.
+constexpr int kUniformMaxVars = 4;
+
 // ScatterJacobian for the usual shape, kRows rows on variables of kDim each (a between factor
 // of poses): each pair of variables is one fixed-size product AₐᵀA_b that Eigen unrolls and
 // vectorises, where the plain loops above were scalar dot products of length kRows. The
@@ -60,7 +63,7 @@ void ScatterUniformJacobian(const double* data, const internal::ScatterBlock* bl
   using Target = Eigen::Map<Eigen::Matrix<double, kDim, kDim>, 0, Eigen::OuterStride<>>;
   const Eigen::Map<const Eigen::Matrix<double, kRows, 1>> b(data + p * kDim * kRows);
   const int n = blocks[p].target;  // the right-hand side's row and column
-  Eigen::Matrix<double, kDim, kRows> At[JacobianFactor::kMaxVars];
+  Eigen::Matrix<double, kDim, kRows> At[kUniformMaxVars];
   for (int a = 0; a < p; ++a) {
     At[a] = Eigen::Map<const Eigen::Matrix<double, kRows, kDim>>(data + blocks[a].source * kRows)
                 .transpose();
@@ -95,8 +98,11 @@ void ScatterUniformJacobian(const double* data, const internal::ScatterBlock* bl
 
 void ScatterFactor(const JacobianFactor& f, const int* offset, int n, double* M, double* ref) {
   const int p = f.num_vars();
-  internal::ScatterBlock blocks[JacobianFactor::kMaxVars + 1];
-  bool uniform = true;  // every variable of dim f.dim(0)
+  // On the stack for the usual few variables; a factor on more (a dense container) allocates.
+  internal::ScatterBlock stack_blocks[kUniformMaxVars + 1];
+  std::vector<internal::ScatterBlock> heap_blocks(p > kUniformMaxVars ? p + 1 : 0);
+  internal::ScatterBlock* blocks = p > kUniformMaxVars ? heap_blocks.data() : stack_blocks;
+  bool uniform = p <= kUniformMaxVars;  // every variable of dim f.dim(0)
   for (int k = 0; k < p; ++k) {
     blocks[k] = {offset[f.var(k)], f.dim(k), f.offset(k)};
     uniform = uniform && f.dim(k) == f.dim(0);

@@ -49,10 +49,10 @@ Result<HessianFactor> HessianFactor::Create(std::span<const int> vars, std::span
 }
 
 HessianFactor HessianFactor::FromJacobian(const JacobianFactor& jacobian) {
-  std::array<int, JacobianFactor::kMaxVars> dims{};
+  std::vector<int> dims(jacobian.num_vars());
   for (int k = 0; k < jacobian.num_vars(); ++k) dims[k] = jacobian.dim(k);
   HessianFactor h;
-  h.Reset(jacobian.vars(), std::span<const int>(dims.data(), jacobian.num_vars()));
+  h.Reset(jacobian.vars(), dims);
   h.mutable_info().noalias() = jacobian.Ab().transpose() * jacobian.Ab();
   h.SetReferenceToDiagonal();
   return h;

@@ -11,8 +11,8 @@ Result<JacobianFactor> JacobianFactor::Create(std::span<const int> vars,
     return InvalidArgument("JacobianFactor: " + std::to_string(vars.size()) + " variables but " +
                            std::to_string(blocks.size()) + " blocks");
   }
-  std::array<int, kMaxVars> dims{};
-  for (size_t k = 0; k < blocks.size() && k < dims.size(); ++k) {
+  std::vector<int> dims(blocks.size());
+  for (size_t k = 0; k < blocks.size() && k < vars.size(); ++k) {
     if (blocks[k].rows() != b.size()) {
       return InvalidArgument("JacobianFactor: block " + std::to_string(k) + " has " +
                              std::to_string(blocks[k].rows()) + " rows, b has " +
@@ -31,70 +31,62 @@ Result<JacobianFactor> JacobianFactor::Create(std::span<const int> vars,
 
 Status JacobianFactor::Reset(int rows, std::span<const int> vars, std::span<const int> dims) {
   if (rows < 1) return InvalidArgument("JacobianFactor: rows = " + std::to_string(rows) + " < 1");
-  if (vars.empty() || vars.size() > static_cast<size_t>(kMaxVars)) {
-    return InvalidArgument("JacobianFactor: " + std::to_string(vars.size()) +
-                           " variables, expected 1.." + std::to_string(kMaxVars));
-  }
   if (dims.size() != vars.size()) {
     return InvalidArgument("JacobianFactor: " + std::to_string(dims.size()) + " dims for " +
                            std::to_string(vars.size()) + " variables");
   }
   for (size_t k = 0; k < vars.size(); ++k) {
-    if (vars[k] < 0) return InvalidArgument("JacobianFactor: negative variable id");
     if (dims[k] < 1) {
       return InvalidArgument("JacobianFactor: variable " + std::to_string(vars[k]) + " has dim " +
                              std::to_string(dims[k]));
     }
+  }
+  linear_.Reset(rows, dims);
+  SLAMD_RETURN_IF_ERROR(SetVars(vars));
+  linear_.MutableAb().setZero();
+  return Status::Ok();
+}
+
+Status JacobianFactor::SetVars(std::span<const int> ids) {
+  if (ids.empty()) return InvalidArgument("JacobianFactor: no variables");
+  if (static_cast<int>(ids.size()) != linear_.num_keys()) {
+    return InvalidArgument("JacobianFactor: " + std::to_string(ids.size()) +
+                           " ids for a factor on " + std::to_string(linear_.num_keys()) + " keys");
+  }
+  for (size_t k = 0; k < ids.size(); ++k) {
+    if (ids[k] < 0) return InvalidArgument("JacobianFactor: negative variable id");
     for (size_t j = 0; j < k; ++j) {
-      if (vars[j] == vars[k]) {
-        return InvalidArgument("JacobianFactor: variable " + std::to_string(vars[k]) +
+      if (ids[j] == ids[k]) {
+        return InvalidArgument("JacobianFactor: variable " + std::to_string(ids[k]) +
                                " listed twice");
       }
     }
   }
-  rows_ = rows;
-  num_vars_ = static_cast<int>(vars.size());
-  offsets_[0] = 0;
-  for (int k = 0; k < num_vars_; ++k) {
-    vars_[k] = vars[k];
-    offsets_[k + 1] = offsets_[k] + dims[k];
-  }
-  data_.assign(static_cast<size_t>(rows_) * (Dim() + 1), 0.0);
+  vars_.assign(ids);
   return Status::Ok();
 }
 
 Status JacobianFactor::Assign(const LinearizedFactor& linearized, std::span<const int> ids) {
-  if (static_cast<int>(ids.size()) != linearized.num_keys) {
-    return InvalidArgument("JacobianFactor::Assign: " + std::to_string(ids.size()) +
-                           " ids for a factor on " + std::to_string(linearized.num_keys) + " keys");
+  if (linearized.num_keys() < 1 || linearized.rows() < 1) {
+    return InvalidArgument("JacobianFactor::Assign: an empty linearised factor");
   }
-  if (linearized.num_keys < 1 || linearized.num_keys > kMaxFactorKeys) {
-    return InvalidArgument("JacobianFactor::Assign: num_keys = " +
-                           std::to_string(linearized.num_keys));
-  }
-  std::array<int, kMaxVars> dims{};
-  for (int k = 0; k < linearized.num_keys; ++k) {
-    if (linearized.A[k].rows() != linearized.rows) {
-      return InvalidArgument("JacobianFactor::Assign: block " + std::to_string(k) + " has " +
-                             std::to_string(linearized.A[k].rows()) + " rows, expected " +
-                             std::to_string(linearized.rows));
-    }
-    dims[k] = static_cast<int>(linearized.A[k].cols());
-  }
-  if (linearized.b.size() != linearized.rows) {
-    return InvalidArgument("JacobianFactor::Assign: b has " + std::to_string(linearized.b.size()) +
-                           " entries, expected " + std::to_string(linearized.rows));
-  }
-  SLAMD_RETURN_IF_ERROR(Reset(linearized.rows, ids, std::span<const int>(dims.data(), ids.size())));
-  for (int k = 0; k < num_vars_; ++k) mutable_A(k) = linearized.A[k].topRows(rows_);
-  mutable_b() = linearized.b.head(rows_);
+  linear_ = linearized;
+  SLAMD_RETURN_IF_ERROR(SetVars(ids));
   if (!Ab().allFinite()) return InvalidArgument("JacobianFactor::Assign: non-finite entries");
+  return Status::Ok();
+}
+
+Status JacobianFactor::Linearize(const Factor& factor, const Values& values,
+                                 std::span<const int> ids) {
+  factor.Linearize(values, &linear_);
+  SLAMD_RETURN_IF_ERROR(SetVars(ids));
+  if (!Ab().allFinite()) return InvalidArgument("non-finite entries");
   return Status::Ok();
 }
 
 double JacobianFactor::Error(std::span<const int> var_offsets, const Eigen::VectorXd& delta) const {
   Eigen::VectorXd r = b();
-  for (int k = 0; k < num_vars_; ++k)
+  for (int k = 0; k < num_vars(); ++k)
     r.noalias() += A(k) * delta.segment(var_offsets[vars_[k]], dim(k));
   return r.squaredNorm();
 }

@@ -4,8 +4,7 @@
 #include <optional>
 #include <unordered_map>
 
-#include "core/factors/between_factor.h"
-#include "core/factors/predict.h"
+#include "core/factors/factor.h"
 
 namespace slamd::core {
 namespace {
@@ -14,7 +13,7 @@ namespace {
 Variable InitialLandmark(const Dataset& dataset, const Factor& factor, Key key) {
   const KeyVector& keys = factor.keys();
   if (keys.size() == 2 && keys[1] == key) {
-    const std::optional<Variable> v = PredictFromFactor(factor, 0, dataset.initial.Get(keys[0]));
+    const std::optional<Variable> v = factor.Predict(0, dataset.initial.Get(keys[0]));
     if (v) return *v;
   }
   return dataset.initial.Get(key);  // checked: aborts if the dataset has no value for it
@@ -25,10 +24,7 @@ void ChooseOdometry(const std::unordered_map<Key, int>& step_of_pose, Key previo
                     DatasetStep* step) {
   int best_step = -1;
   for (const FactorPtr& factor : step->factors) {
-    if (!dynamic_cast<const BetweenFactor<Pose2>*>(factor.get()) &&
-        !dynamic_cast<const BetweenFactor<Pose3>*>(factor.get())) {
-      continue;
-    }
+    if (!MeasuredRelativePose(*factor)) continue;
     const KeyVector& keys = factor->keys();
     const Key other = keys[0] == step->pose ? keys[1] : keys[0];
     const auto it = step_of_pose.find(other);
@@ -121,7 +117,7 @@ Variable PredictPose(const DatasetStep& step, const Variable& from) {
   SLAMD_CHECK(step.odometry != nullptr)
       << "PredictPose: step of " << KeyToString(step.pose) << " has no odometry";
   const int known = step.odometry->keys()[0] == step.odometry_from ? 0 : 1;
-  const std::optional<Variable> pose = PredictFromFactor(*step.odometry, known, from);
+  const std::optional<Variable> pose = step.odometry->Predict(known, from);
   SLAMD_CHECK(pose.has_value()) << "PredictPose: the odometry is a " << step.odometry->Name();
   return *pose;
 }
@@ -140,7 +136,7 @@ void PrepareStep(const DatasetStep& step, const std::function<Variable(Key)>& es
       if (f->keys().size() != 2 || f->keys()[1] != key) continue;
       const Key observer = f->keys()[0];
       const Variable from = observer == step.pose ? pose : estimate(observer);
-      if (std::optional<Variable> v = PredictFromFactor(*f, 0, from)) {
+      if (std::optional<Variable> v = f->Predict(0, from)) {
         guess = *v;
         break;
       }

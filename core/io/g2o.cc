@@ -1,12 +1,12 @@
 // The g2o format: reading one line (ReadG2oLine) and writing a whole Dataset (WriteG2o).
 // Layouts and conventions: dataset.h.
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fstream>
 #include <string>
 
-#include "core/factors/between_factor.h"
-#include "core/factors/relative_point_factor.h"
+#include "core/factors/factor.h"
 #include "core/io/dataset.h"
 #include "core/io/reader_internal.h"
 
@@ -149,6 +149,20 @@ Status CheckKey(Key key, unsigned char symbol) {
                          "' key without a robot id, so it has no g2o id");
 }
 
+// A value in g2o's layout: Pose2 x y θ, Pose3 x y z qx qy qz qw, Point2 x y (the kinds g2o has
+// here; checked by the callers).
+void WriteValue(const Variable& v, LineWriter* w) {
+  if (const Pose2* p = std::get_if<Pose2>(&v)) {
+    w->Num(p->x()).Num(p->y()).Num(p->theta());
+  } else if (const Pose3* p = std::get_if<Pose3>(&v)) {
+    const Point3& t = p->translation();
+    w->Num(t.x()).Num(t.y()).Num(t.z()).Quaternion(p->rotation());
+  } else {
+    const Point2& q = std::get<Point2>(v);
+    w->Num(q.x()).Num(q.y());
+  }
+}
+
 Status WriteVertex(const Dataset& dataset, Key key, bool landmark, std::string* out) {
   SLAMD_RETURN_IF_ERROR(CheckKey(key, landmark ? 'l' : 'x'));
   const int slot = dataset.initial.SlotOf(key);
@@ -164,52 +178,37 @@ Status WriteVertex(const Dataset& dataset, Key key, bool landmark, std::string* 
         ", expected a " +
         (landmark ? "point (it is in dataset.landmarks)" : "pose (it is in dataset.poses)"));
   }
-  if (const Pose2* p = std::get_if<Pose2>(&v)) {
-    w.Tag("VERTEX_SE2").Id(key).Num(p->x()).Num(p->y()).Num(p->theta()).End();
-  } else if (const Pose3* p = std::get_if<Pose3>(&v)) {
-    const Point3& t = p->translation();
-    w.Tag("VERTEX_SE3:QUAT")
-        .Id(key)
-        .Num(t.x())
-        .Num(t.y())
-        .Num(t.z())
-        .Quaternion(p->rotation())
-        .End();
-  } else if (const Point2* p = std::get_if<Point2>(&v)) {
-    w.Tag("VERTEX_XY").Id(key).Num(p->x()).Num(p->y()).End();
-  } else {
+  const char* tag = std::holds_alternative<Pose2>(v)   ? "VERTEX_SE2"
+                    : std::holds_alternative<Pose3>(v) ? "VERTEX_SE3:QUAT"
+                    : std::holds_alternative<Point2>(v) ? "VERTEX_XY"
+                                                         : nullptr;
+  if (tag == nullptr) {
     return InvalidArgument("WriteG2o: " + KeyToString(key) + " is a " +
                            VariableTypeName(TypeOf(v)) + ", which has no g2o vertex here");
   }
+  w.Tag(tag).Id(key);
+  WriteValue(v, &w);
+  w.End();
   return Status::Ok();
 }
 
 Status WriteFactor(const Factor& factor, std::size_t index, std::string* out) {
-  LineWriter w(out);
-  const KeyVector& keys = factor.keys();
-  const Eigen::MatrixXd information = factor.noise_model().Information();
-  if (const auto* f = dynamic_cast<const BetweenFactor<Pose2>*>(&factor)) {
-    SLAMD_RETURN_IF_ERROR(CheckKey(keys[0], 'x'));
-    SLAMD_RETURN_IF_ERROR(CheckKey(keys[1], 'x'));
-    const Pose2& z = f->measured();
-    w.Tag("EDGE_SE2").Id(keys[0]).Id(keys[1]).Num(z.x()).Num(z.y()).Num(z.theta());
-    w.UpperTriangle(information).End();
-  } else if (const auto* f = dynamic_cast<const BetweenFactor<Pose3>*>(&factor)) {
-    SLAMD_RETURN_IF_ERROR(CheckKey(keys[0], 'x'));
-    SLAMD_RETURN_IF_ERROR(CheckKey(keys[1], 'x'));
-    const Point3& t = f->measured().translation();
-    w.Tag("EDGE_SE3:QUAT").Id(keys[0]).Id(keys[1]).Num(t.x()).Num(t.y()).Num(t.z());
-    w.Quaternion(f->measured().rotation()).UpperTriangle(information).End();
-  } else if (const auto* f = dynamic_cast<const RelativePointFactor<Pose2, Point2>*>(&factor)) {
-    SLAMD_RETURN_IF_ERROR(CheckKey(keys[0], 'x'));
-    SLAMD_RETURN_IF_ERROR(CheckKey(keys[1], 'l'));
-    const Point2& z = f->measured();
-    w.Tag("EDGE_SE2_XY").Id(keys[0]).Id(keys[1]).Num(z.x()).Num(z.y());
-    w.UpperTriangle(information).End();
-  } else {
+  const char* tag = factor.Formats().g2o;
+  const std::optional<Variable> measured = factor.Measured();
+  if (tag == nullptr || !measured) {
     return InvalidArgument("WriteG2o: factor " + std::to_string(index) + " (" + factor.Name() +
                            ") has no g2o form");
   }
+  LineWriter w(out);
+  w.Tag(tag);
+  for (int k = 0; k < static_cast<int>(factor.keys().size()); ++k) {
+    // Poses (kinds with rotation entries) are g2o's 'x' vertices, points its 'l' ones.
+    const bool pose = std::ranges::count(EntryKinds(factor.KeyType(k)), EntryKind::kRotation) > 0;
+    SLAMD_RETURN_IF_ERROR(CheckKey(factor.keys()[k], pose ? 'x' : 'l'));
+    w.Id(factor.keys()[k]);
+  }
+  WriteValue(*measured, &w);
+  w.UpperTriangle(factor.noise_model().Information()).End();
   return Status::Ok();
 }
 

@@ -1,12 +1,12 @@
 // The iSAM text format (Kaess' iSAM data/*.txt): ODOMETRY / EDGE2, LANDMARK, EDGE3: reading one
 // line (ReadIsamLine) and writing a 2D Dataset (WriteIsam). Layouts and conventions: dataset.h.
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fstream>
 #include <string>
 
-#include "core/factors/between_factor.h"
-#include "core/factors/relative_point_factor.h"
+#include "core/factors/factor.h"
 #include "core/io/reader_internal.h"
 
 namespace slamd::core::internal {
@@ -134,25 +134,24 @@ Status CheckIsamKey(Key key, unsigned char symbol, std::size_t index) {
 // "<tag> i j <measurement> <upper triangle of R>".
 Status WriteIsamFactor(const Factor& factor, std::size_t index, std::string* out) {
   const KeyVector& keys = factor.keys();
-  std::string line;
-  if (const auto* f = dynamic_cast<const BetweenFactor<Pose2>*>(&factor)) {
-    SLAMD_RETURN_IF_ERROR(CheckIsamKey(keys[0], 'x', index));
-    SLAMD_RETURN_IF_ERROR(CheckIsamKey(keys[1], 'x', index));
-    line = "ODOMETRY";
-    line += " " + std::to_string(KeyIndex(keys[0])) + " " + std::to_string(KeyIndex(keys[1]));
-    AppendNumber(f->measured().x(), &line);
-    AppendNumber(f->measured().y(), &line);
-    AppendNumber(f->measured().theta(), &line);
-  } else if (const auto* f = dynamic_cast<const RelativePointFactor<Pose2, Point2>*>(&factor)) {
-    SLAMD_RETURN_IF_ERROR(CheckIsamKey(keys[0], 'x', index));
-    SLAMD_RETURN_IF_ERROR(CheckIsamKey(keys[1], 'l', index));
-    line = "LANDMARK";
-    line += " " + std::to_string(KeyIndex(keys[0])) + " " + std::to_string(KeyIndex(keys[1]));
-    AppendNumber(f->measured().x(), &line);
-    AppendNumber(f->measured().y(), &line);
-  } else {
+  const char* tag = factor.Formats().isam;
+  const std::optional<Variable> measured = factor.Measured();
+  if (tag == nullptr || !measured) {
     return InvalidArgument("WriteIsam: factor " + std::to_string(index) + " (" + factor.Name() +
                            ") has no iSAM form");
+  }
+  std::string line = tag;
+  for (int k = 0; k < static_cast<int>(keys.size()); ++k) {
+    // Poses (kinds with rotation entries) are iSAM's 'x' ids, landmarks its 'l' ones.
+    const bool pose = std::ranges::count(EntryKinds(factor.KeyType(k)), EntryKind::kRotation) > 0;
+    SLAMD_RETURN_IF_ERROR(CheckIsamKey(keys[k], pose ? 'x' : 'l', index));
+    line.append(" ").append(std::to_string(KeyIndex(keys[k])));
+  }
+  // iSAM writes a Pose2 as x y θ and a Point2 as x y (the kinds its format has).
+  if (const Pose2* p = std::get_if<Pose2>(&*measured)) {
+    for (double x : {p->x(), p->y(), p->theta()}) AppendNumber(x, &line);
+  } else {
+    for (double x : std::get<Point2>(*measured)) AppendNumber(x, &line);
   }
   const NoiseModel::Matrix& R = factor.noise_model().sqrt_information();
   for (int r = 0; r < R.rows(); ++r) {

@@ -18,7 +18,7 @@
 
 #include "core/base/status.h"
 #include "core/factors/noise_model.h"
-#include "core/factors/variable.h"
+#include "core/variables/variable.h"
 #include "core/io/dataset.h"
 
 namespace slamd::core::internal {

@@ -17,7 +17,18 @@ Isam2::Isam2(const Isam2Params& params)
     : params_(params),
       offsets_{0},
       eliminator_(params.elimination, params.threads),
-      relin_pool_(params.threads - 1) {}
+      relin_pool_(params.threads - 1) {
+  for (int t = 0; t < kNumVariableTypes; ++t) {
+    const std::span<const EntryKind> kinds = EntryKinds(static_cast<VariableType>(t));
+    int begin = static_cast<int>(kinds.size());
+    while (begin > 0 && kinds[begin - 1] == EntryKind::kRotation) --begin;
+    for (int k = 0; k < begin; ++k) {
+      SLAMD_CHECK(kinds[k] != EntryKind::kRotation)
+          << VariableTypeName(static_cast<VariableType>(t)) << ": rotation entries must be last";
+    }
+    rotation_begin_[t] = begin < static_cast<int>(kinds.size()) ? begin : -1;
+  }
+}
 
 Isam2Result Isam2::Update(const FactorGraph& new_factors, const Values& new_values,
                           const Isam2UpdateOptions& options) {
@@ -31,6 +42,8 @@ Isam2::RefineResult Isam2::Refine(double budget_s, int max_rounds) {
   const Isam2Params::Relinearization fine{
       .rotation_threshold = params_.refine_threshold,
       .translation_threshold = params_.refine_threshold,
+      .calibration_threshold = params_.refine_threshold,
+      .other_threshold = params_.refine_threshold,
       .error_threshold = params_.relinearization.error_threshold,
       .skip = 1,
       .max_variables = params_.refine_max_variables};

@@ -32,6 +32,7 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <vector>
 
 #include "core/base/worker_pool.h"
@@ -162,7 +163,7 @@ class Isam2 {
   void ProbeLinearizations(double threshold);
   // Moves θ of `relin` to θ ⊕ δ and appends the variables of their factors to *affected. The
   // factors are linearised there by the threads (params_.threads) in the background while the
-  // top is removed and ordered (steps 4-6, which read only the structure, factor_vars_); the
+  // top is removed and ordered (steps 4-6, which read only the structure, FactorVars); the
   // calling thread joins in and waits in FinishRelinearization, before eliminating.
   void Relinearize(const std::vector<int>& relin, std::vector<int>* affected, int* num_factors);
   // Linearises the relinearised factors not yet taken, waits for the threads; the first error.
@@ -211,7 +212,9 @@ class Isam2 {
   Isam2Params params_;
   Values theta_;                            // linearisation point; var id = slot
   std::vector<int> dims_;                   // tangent dimension per var id
-  std::vector<int> rotation_begin_;         // per var id: first rotation entry; -1: a point
+  std::vector<VariableType> var_types_;     // per var id
+  // Per variable type: its first rotation entry (the rotation entries are its last ones), or -1.
+  std::array<int, kNumVariableTypes> rotation_begin_;
   std::vector<int> offsets_;                // δ offsets per var id (size n + 1)
   Eigen::VectorXd delta_;                   // solution of the linearised system (tail unused)
   std::vector<FactorPtr> factors_;          // by factor index; null once removed
@@ -224,14 +227,26 @@ class Isam2 {
   // Per variable |δ_v|² when all its factors last passed the screen over budget (-1: not so);
   // while δ_v is exactly that, they are not walked again.
   std::vector<double> screened_norm2_;
-  // Per factor its variable ids (-1: none), compact for the screen (linearized_ is large).
-  std::vector<std::array<int, kMaxFactorKeys>> factor_vars_;
+  // Per factor its variable ids, compact for the screen (linearized_ is large): factor f's are
+  // factor_var_ids_[factor_var_begin_[f] .. factor_var_begin_[f + 1]).
+  std::vector<int> factor_var_begin_{0};
+  std::vector<int> factor_var_ids_;
+  std::span<const int> FactorVars(int f) const {
+    return {factor_var_ids_.data() + factor_var_begin_[f],
+            static_cast<std::size_t>(factor_var_begin_[f + 1] - factor_var_begin_[f])};
+  }
+  // k_f in the screen's budget 1 / (κ_f k_f): a bound on the factor's keys, at least 2 (the
+  // budgets of unary and binary factors are the same, as they were tuned).
+  int BudgetKeys(int f) const {
+    return std::max(2, factor_var_begin_[f + 1] - factor_var_begin_[f]);
+  }
   VariableIndex variable_index_;
   BayesTree tree_;
   Eliminator eliminator_;
   int num_updates_ = 0;
   bool relinearization_backlog_ = false;  // the last check left due variables (cap, deferral)
 
+  std::vector<double> probe_error_;  // a probed factor's error and its linear model's misfit
   // Scratch reused across updates (no allocation per step once warm).
   std::vector<int> mark_;  // per var id: 0, or 1 + position in the current elimination set
   std::vector<int> removed_frontals_, orphans_, elim_vars_, elim_factors_, order_;

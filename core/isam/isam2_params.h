@@ -3,8 +3,12 @@
 // threshold 0.1, relinearize skip 10, wildfire 0.001) so results can be compared.
 #pragma once
 
+#include <string>
+#include <vector>
+
 #include "core/base/status.h"
 #include "core/inference/elimination.h"
+#include "core/variables/variable.h"
 
 namespace slamd::core {
 
@@ -15,6 +19,19 @@ struct Isam2Params {
     double rotation_threshold = 0.1;
     // ... or a translation entry (metres; points have translation entries only). > 0.
     double translation_threshold = 0.1;
+    // ... or a calibration entry (in the calibration's units: pixels for focal lengths and
+    // principal points, none for distortion terms). > 0.
+    double calibration_threshold = 0.1;
+    // ... or any other entry. > 0.
+    double other_threshold = 0.1;
+    // Thresholds of one kind of entry of one variable type, in place of the four above, e.g.
+    // {.type = "Cal3DS2", .kind = EntryKind::kCalibration, .threshold = 1e-3}.
+    struct TypeThreshold {
+      std::string type;  // a variable type's name (VariableTypeName)
+      EntryKind kind = EntryKind::kOther;
+      double threshold = 0.1;  // > 0
+    };
+    std::vector<TypeThreshold> per_type = {};
     // ... or a factor on it has a stale linearisation: at the estimate θ ⊕ δ its whitened
     // residual differs from the linear model's prediction A·δ + b by more than this (in standard
     // deviations, |r(θ ⊕ δ) − (A·δ + b)|). The δ thresholds are in fixed units, blind to how
@@ -33,6 +50,9 @@ struct Isam2Params {
     // worst step: after a large loop closure nearly every δ exceeds the threshold at once, and
     // relinearising them all re-eliminates the whole tree in one update. 0 = no limit. >= 0.
     int max_variables = 0;
+
+    // The threshold of one entry kind of a variable type: its per_type entry, else the kind's.
+    double ThresholdOf(VariableType type, EntryKind kind) const;
   };
   Relinearization relinearization = {};
 

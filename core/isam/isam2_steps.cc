@@ -84,10 +84,7 @@ void Isam2::AddVariables(const Values& new_values) {
     dims_.push_back(new_values.DimAt(s));
     budget_.push_back(0.0);
     screened_norm2_.push_back(-1.0);
-    const VariableType type = new_values.TypeAt(s);
-    rotation_begin_.push_back(type == VariableType::kPose2   ? 2
-                              : type == VariableType::kPose3 ? 3
-                                                             : -1);
+    var_types_.push_back(new_values.TypeAt(s));
     offsets_.push_back(offsets_.back() + dims_.back());
   }
   // δ grows geometrically (the back-substitution accepts a longer vector; the tail stays zero),
@@ -102,17 +99,8 @@ void Isam2::AddVariables(const Values& new_values) {
 }
 
 Status Isam2::LinearizeFactor(int index) {
-  LinearizedFactor lf;
   const Factor& factor = *factors_[index];
-  factor.Linearize(theta_, &lf);
-  // The slots are known once the factor has been added (factor_vars_); a new factor looks them
-  // up (a hash lookup per key, which relinearising thousands of factors would repeat).
-  int ids[kMaxFactorKeys];
-  const bool known = factor_vars_[index][0] >= 0;
-  for (int k = 0; k < lf.num_keys; ++k) {
-    ids[k] = known ? factor_vars_[index][k] : theta_.SlotOf(factor.keys()[k]);
-  }
-  const Status s = linearized_[index].Assign(lf, std::span<const int>(ids, lf.num_keys));
+  const Status s = linearized_[index].Linearize(factor, theta_, FactorVars(index));
   if (!s.ok()) {
     return NumericalFailure("factor " + std::to_string(index) + " (" + factor.Name() + ") on " +
                             KeyToString(factor.keys()[0]) + " does not linearise: " + s.message());
@@ -126,19 +114,17 @@ Status Isam2::AddFactors(const FactorGraph& new_factors, std::vector<int>* indic
     factors_.push_back(f);
     linearized_.emplace_back();
     curvature_.push_back(-1.0f);
-    factor_vars_.emplace_back();
-    factor_vars_.back().fill(-1);
+    for (Key key : f->keys()) factor_var_ids_.push_back(theta_.SlotOf(key));
+    factor_var_begin_.push_back(static_cast<int>(factor_var_ids_.size()));
     if (Status s = LinearizeFactor(index); !s.ok()) {
       // Not in the variable index yet: drop it here, so that Rollback removes from the index
       // only the factors that were added to it.
       factors_.pop_back();
       linearized_.pop_back();
       curvature_.pop_back();
-      factor_vars_.pop_back();
+      factor_var_begin_.pop_back();
+      factor_var_ids_.resize(factor_var_begin_.back());
       return s;
-    }
-    for (int k = 0; k < linearized_[index].num_vars(); ++k) {
-      factor_vars_[index][k] = linearized_[index].var(k);
     }
     const Status added = variable_index_.AddFactor(index, linearized_[index].vars());
     SLAMD_CHECK(added.ok()) << added.ToString();
@@ -165,8 +151,14 @@ int Isam2::SelectRelinearization(const Isam2UpdateOptions& options, bool all,
   const int n = static_cast<int>(theta_.size());
   std::unordered_set<int> frozen;
   for (Key key : options.no_relinearize) frozen.insert(theta_.SlotOf(key));
-  const double rot = thresholds.rotation_threshold;
-  const double trans = thresholds.translation_threshold;
+  // Each entry's threshold by variable type (Relinearization::ThresholdOf).
+  std::array<std::array<double, kMaxVariableDim>, kNumVariableTypes> threshold{};
+  for (int t = 0; t < kNumVariableTypes; ++t) {
+    const std::span<const EntryKind> kinds = EntryKinds(static_cast<VariableType>(t));
+    for (std::size_t k = 0; k < kinds.size(); ++k) {
+      threshold[t][k] = thresholds.ThresholdOf(static_cast<VariableType>(t), kinds[k]);
+    }
+  }
   // Each variable's largest |δ entry| / threshold; > 1 means over the threshold.
   const double error_threshold = all ? 0.0 : thresholds.error_threshold;
   const double budget_unit = kStaleScreen * error_threshold;
@@ -176,10 +168,12 @@ int Isam2::SelectRelinearization(const Isam2UpdateOptions& options, bool all,
   for (int v = 0; v < n; ++v) {
     const double* d = delta_.data() + offsets_[v];
     double ratio = 0.0, norm2 = 0.0, rotation2 = 0.0;
-    const int rotation_begin = rotation_begin_[v] >= 0 ? rotation_begin_[v] : dims_[v];
+    const int type = static_cast<int>(var_types_[v]);
+    const int rotation_begin = rotation_begin_[type] >= 0 ? rotation_begin_[type] : dims_[v];
+    const double* entry_threshold = threshold[type].data();
     for (int k = 0; k < dims_[v]; ++k) {
       const bool rotation = k >= rotation_begin;
-      ratio = std::max(ratio, std::abs(d[k]) / (rotation ? rot : trans));
+      ratio = std::max(ratio, std::abs(d[k]) / entry_threshold[k]);
       norm2 += d[k] * d[k];
       rotation2 += rotation ? d[k] * d[k] : 0.0;
     }
@@ -238,8 +232,7 @@ void Isam2::FindStaleLinearizations(double threshold) {
       // would change nothing. The slowest steps relinearise most of the graph: this halves
       // their factor evaluations.
       bool all_over = true;
-      for (int u : factor_vars_[f]) {
-        if (u < 0) break;
+      for (int u : FactorVars(f)) {
         all_over = all_over && ratio_[u] > 1.0;
       }
       if (all_over) continue;
@@ -268,8 +261,7 @@ void Isam2::FindStaleLinearizations(double threshold) {
         break;
       }
       screened = screened && !probe_mark_[f];
-      // k_f <= kMaxFactorKeys (a bound, so that the factor's storage is not touched here).
-      if (kappa > 0.0) budget = std::min(budget, 1.0 / (kappa * kMaxFactorKeys));
+      if (kappa > 0.0) budget = std::min(budget, 1.0 / (kappa * BudgetKeys(f)));
     }
     budget_[v] = budget;
     screened_norm2_[v] = screened ? step_norms_[v].first : -1.0;
@@ -280,9 +272,8 @@ void Isam2::FindStaleLinearizations(double threshold) {
   for (int f : probe_factors_) {
     const double kappa = curvature_[f];
     if (kappa <= 0.0) continue;
-    for (int u : factor_vars_[f]) {
-      if (u < 0) break;
-      budget_[u] = std::min(budget_[u], 1.0 / (kappa * kMaxFactorKeys));
+    for (int u : FactorVars(f)) {
+      budget_[u] = std::min(budget_[u], 1.0 / (kappa * BudgetKeys(f)));
     }
   }
 }
@@ -292,9 +283,9 @@ double Isam2::StepSize(int f) const {
   // (step_norms_ holds them for the variables over budget; the others are read from δ).
   double all2 = 0.0, rotation2 = 0.0;
   bool poses_only = true;
-  for (int u : factor_vars_[f]) {
-    if (u < 0) break;
-    poses_only = poses_only && rotation_begin_[u] >= 0;
+  for (int u : FactorVars(f)) {
+    const int rotation_begin = rotation_begin_[static_cast<int>(var_types_[u])];
+    poses_only = poses_only && rotation_begin >= 0;
     if (over_budget_mark_[u]) {
       all2 += step_norms_[u].first;
       rotation2 += step_norms_[u].second;
@@ -303,7 +294,7 @@ double Isam2::StepSize(int f) const {
     const double* d = delta_.data() + offsets_[u];
     for (int k = 0; k < dims_[u]; ++k) {
       all2 += d[k] * d[k];
-      if (rotation_begin_[u] >= 0 && k >= rotation_begin_[u]) rotation2 += d[k] * d[k];
+      if (rotation_begin >= 0 && k >= rotation_begin) rotation2 += d[k] * d[k];
     }
   }
   return std::sqrt(all2 * (poses_only ? rotation2 : all2));
@@ -317,7 +308,10 @@ void Isam2::ProbeLinearizations(double threshold) {
   for (std::size_t i = 0; i < probe_factors_.size(); ++i) {
     const Factor& factor = *factors_[probe_factors_[i]];
     if (factor.robust_kernel().is_none()) continue;
-    const double s = factor.noise_model().SquaredMahalanobis(factor.Error(theta_));
+    probe_error_.resize(factor.dim());
+    factor.EvaluateError(theta_, probe_error_.data());
+    const double s = factor.noise_model().SquaredMahalanobis(
+        Eigen::Map<const Eigen::VectorXd>(probe_error_.data(), factor.dim()));
     probe_weights_[i] = std::sqrt(factor.robust_kernel().Weight(s));
   }
   // Move θ to θ ⊕ δ on the probed variables (restored below; mark_ is all zero between uses).
@@ -335,14 +329,16 @@ void Isam2::ProbeLinearizations(double threshold) {
   for (std::size_t i = 0; i < probe_factors_.size(); ++i) {
     const JacobianFactor& linear = linearized_[probe_factors_[i]];
     const Factor& factor = *factors_[probe_factors_[i]];
-    const NoiseModel::Vector e = factor.Error(theta_);
-    // d = √w·R·e − (b + A·δ), in plain loops: the blocks are at most 6 x 6, where Eigen's
-    // dynamic-size kernels cost more in set-up than in arithmetic.
     const int m = linear.rows();
+    probe_error_.resize(2 * m);  // e, then d
+    double* e = probe_error_.data();
+    double* d = e + m;
+    factor.EvaluateError(theta_, e);
+    // d = √w·R·e − (b + A·δ), in plain loops: the blocks are a few rows, where Eigen's
+    // dynamic-size kernels cost more in set-up than in arithmetic.
     const auto& R = factor.noise_model().sqrt_information();
     const double w = probe_weights_[i];
     const double* ab = linear.data();  // [A_0 ... A_{p-1} b], column-major, m rows
-    double d[kMaxResidualDim];
     for (int row = 0; row < m; ++row) {
       double whitened = 0.0;
       for (int col = row; col < m; ++col) whitened += R(row, col) * e[col];
@@ -388,8 +384,7 @@ void Isam2::Relinearize(const std::vector<int>& relin, std::vector<int>* affecte
   undo_.relinearized_factors.insert(undo_.relinearized_factors.end(), relin_factors_.begin(),
                                     relin_factors_.end());
   for (int f : relin_factors_) {
-    for (int v : factor_vars_[f]) {
-      if (v < 0) break;
+    for (int v : FactorVars(f)) {
       affected->push_back(v);
     }
   }
@@ -478,11 +473,10 @@ Status Isam2::EliminateTop(const std::vector<int>& vars, const std::vector<int>&
   // The factors entirely inside the eliminated set (the others are summarised by orphans).
   elim_factors_.clear();
   variable_index_.CollectFactors(vars, &elim_factors_);
-  // The structure comes from factor_vars_: relinearised factors may still be being written.
+  // The structure comes from FactorVars: relinearised factors may still be being written.
   elim_factors_.erase(std::remove_if(elim_factors_.begin(), elim_factors_.end(),
                                      [&](int f) {
-                                       for (int v : factor_vars_[f]) {
-                                         if (v < 0) break;
+                                       for (int v : FactorVars(f)) {
                                          if (!mark_[v]) return true;
                                        }
                                        return false;
@@ -494,8 +488,7 @@ Status Isam2::EliminateTop(const std::vector<int>& vars, const std::vector<int>&
   for (int f : elim_factors_) {
     elim_jacobians_.push_back(&linearized_[f]);
     local.clear();
-    for (int v : factor_vars_[f]) {
-      if (v < 0) break;
+    for (int v : FactorVars(f)) {
       local.push_back(mark_[v] - 1);
     }
     incidence.AddFactor(local);
@@ -589,7 +582,8 @@ void Isam2::Rollback() {
   factors_.resize(undo_.num_factors);
   linearized_.resize(undo_.num_factors);
   curvature_.resize(undo_.num_factors);
-  factor_vars_.resize(undo_.num_factors);
+  factor_var_begin_.resize(undo_.num_factors + 1);
+  factor_var_ids_.resize(factor_var_begin_.back());
   for (auto& [f, factor] : undo_.removed_factors) {
     factors_[f] = std::move(factor);
     const Status added = variable_index_.AddFactor(f, linearized_[f].vars());
@@ -604,7 +598,7 @@ void Isam2::Rollback() {
   dims_.resize(undo_.num_vars);
   budget_.resize(undo_.num_vars);
   screened_norm2_.resize(undo_.num_vars);
-  rotation_begin_.resize(undo_.num_vars);
+  var_types_.resize(undo_.num_vars);
   offsets_.resize(undo_.num_vars + 1);
   // The tree: the detached top back as it was (the failed elimination freed what it made, and
   // the orphans are detached roots). Not a re-elimination: in a new order, an ill-conditioned

@@ -73,30 +73,6 @@ int FrontalIndex(const Clique& c, int var) {
 
 }  // namespace
 
-TangentMatrix EstimateTangentJacobian(VariableType type, const double* delta) {
-  switch (type) {
-    case VariableType::kPose2: {
-      // θ·P(δ+ε) seen from E = θ·P(δ): P(δ)⁻¹P(δ+ε) = (Rot(ε_θ), R(δ_θ)ᵀ ε_xy), exactly linear.
-      const double c = std::cos(delta[2]), s = std::sin(delta[2]);
-      TangentMatrix J = TangentMatrix::Identity(3, 3);
-      J(0, 0) = c;
-      J(0, 1) = s;
-      J(1, 0) = -s;
-      J(1, 1) = c;
-      return J;
-    }
-    case VariableType::kPose3: {
-      // Log(Exp(δ)⁻¹ Exp(δ+ε)) = Jr(δ) ε + O(ε²).
-      Matrix6 H;
-      (void)Pose3::Exp(Eigen::Map<const Vector6>(delta), &H);
-      return H;
-    }
-    case VariableType::kPoint2: return TangentMatrix::Identity(2, 2);
-    case VariableType::kPoint3: return TangentMatrix::Identity(3, 3);
-  }
-  return {};
-}
-
 Status MarginalsParams::Validate() const {
   SLAMD_PARAM_CHECK(MarginalsParams, threads, >=, 1);
   return Status::Ok();

@@ -116,7 +116,7 @@
 #include "core/base/key.h"
 #include "core/base/status.h"
 #include "core/base/worker_pool.h"
-#include "core/factors/variable.h"
+#include "core/variables/variable.h"
 #include "core/inference/bayes_tree.h"
 #include "core/inference/subtree_split.h"
 
@@ -124,14 +124,6 @@ namespace slamd::core {
 
 class Isam2;
 
-// A square matrix of at most kMaxVariableDim rows, stored inline (no heap).
-using TangentMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor,
-                                    kMaxVariableDim, kMaxVariableDim>;
-
-// J such that Σ_E = J Σ_θ Jᵀ re-expresses a covariance of a variable's tangent at θ in the
-// tangent at the estimate E = θ ⊕ δ (see the file comment), for a variable of `type` and its
-// update δ (TangentDim(type) entries). It depends on δ only.
-TangentMatrix EstimateTangentJacobian(VariableType type, const double* delta);
 
 struct MarginalsParams {
   // A clique whose conditional is unchanged keeps its cached joint after its parent's joint

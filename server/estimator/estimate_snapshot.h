@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "core/factors/variable.h"
+#include "core/variables/variable.h"
 #include "server/ingest/reject_reason.h"
 
 namespace slamd::server {

@@ -4,21 +4,10 @@
 
 namespace slamd::server {
 
-std::vector<double> ToValues(const core::Pose2& pose) { return {pose.x(), pose.y(), pose.theta()}; }
-
-std::vector<double> ToValues(const core::Pose3& pose) {
-  const Eigen::Quaterniond q = pose.rotation().ToQuaternion();  // qw >= 0
-  const core::Point3& t = pose.translation();
-  return {t.x(), t.y(), t.z(), q.w(), q.x(), q.y(), q.z()};
-}
-
-std::vector<double> ToValues(const core::Point2& point) { return {point.x(), point.y()}; }
-std::vector<double> ToValues(const core::Point3& point) {
-  return {point.x(), point.y(), point.z()};
-}
-
 std::vector<double> ToValues(const core::Variable& variable) {
-  return std::visit([](const auto& v) { return ToValues(v); }, variable);
+  std::vector<double> out;
+  core::EncodeMessageValues(variable, &out);
+  return out;
 }
 
 std::vector<double> ToRowMajor(const Eigen::Ref<const Eigen::MatrixXd>& matrix) {

@@ -1,10 +1,9 @@
 // Core types -> the value and covariance arrays of the LCM types (the layouts documented in
 // msgs/lcm), and reject_t construction. Used by the publisher and by ToLcm (conversion.h).
 //
-//   Pose2  -> (x, y, theta)                        theta in (-pi, pi]
-//   Pose3  -> (x, y, z, qw, qx, qy, qz)             unit quaternion with qw >= 0
-//   Point2 -> (x, y), Point3 -> (x, y, z)
-//   matrix -> row-major
+//   variables -> VariableTraits::EncodeMessage (Pose2 (x, y, theta), theta in (-pi, pi];
+//                Pose3 (x, y, z, qw, qx, qy, qz), qw >= 0; Point2 (x, y), Point3 (x, y, z))
+//   matrix    -> row-major
 // Tangent orders are slamd's (translation first), so covariances are copied as they are.
 #pragma once
 
@@ -13,7 +12,7 @@
 #include <string_view>
 #include <vector>
 
-#include "core/factors/variable.h"
+#include "core/variables/variable.h"
 #include "core/geometry/pose2.h"
 #include "core/geometry/pose3.h"
 #include "server/ingest/validation.h"
@@ -24,11 +23,7 @@ class reject_t;
 
 namespace slamd::server {
 
-std::vector<double> ToValues(const core::Pose2& pose);
-std::vector<double> ToValues(const core::Pose3& pose);
-std::vector<double> ToValues(const core::Point2& point);
-std::vector<double> ToValues(const core::Point3& point);
-std::vector<double> ToValues(const core::Variable& variable);  // whichever of the above it holds
+std::vector<double> ToValues(const core::Variable& variable);
 std::vector<double> ToRowMajor(const Eigen::Ref<const Eigen::MatrixXd>& matrix);
 
 // Fills *out for a rejected message: `verdict` (not ok) gives reason and detail; `channel`,

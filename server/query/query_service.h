@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "core/factors/variable.h"
+#include "core/variables/variable.h"
 #include "server/estimator/estimator.h"
 #include "server/ingest/measurements.h"
 

@@ -3,11 +3,7 @@
 #include <Eigen/Core>
 #include <cmath>
 
-#include "core/factors/bearing_range_factor.h"
-#include "core/factors/between_factor.h"
-#include "core/factors/position_prior_factor.h"
-#include "core/factors/prior_factor.h"
-#include "core/factors/relative_point_factor.h"
+#include "core/factors/factor_registry.h"
 #include "server/estimator/inbound_codec.h"
 #include "slamd_proto/snapshot.pb.h"
 
@@ -20,54 +16,20 @@ using core::Point3;
 using core::Pose2;
 using core::Pose3;
 
-template <typename Field>
-void Append(const Pose2& p, Field* out) {
-  for (double v : {p.x(), p.y(), p.rotation().c(), p.rotation().s()}) out->Add(v);
-}
-template <typename Field>
-void Append(const Pose3& p, Field* out) {
-  for (int i = 0; i < 3; ++i) out->Add(p.translation()[i]);
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) out->Add(p.rotation().matrix()(r, c));
-  }
-}
-template <typename Field>
-void Append(const Point2& p, Field* out) {
-  out->Add(p.x());
-  out->Add(p.y());
-}
-template <typename Field>
-void Append(const Point3& p, Field* out) {
-  for (int i = 0; i < 3; ++i) out->Add(p[i]);
-}
-
-constexpr int kValueCount[] = {4, 12, 2, 3};  // Pose2, Pose3, Point2, Point3
 constexpr double kMaxSqrtInformation = 1e8;
 constexpr double kMaxAbsValue = 1e7;
 
-// Reads a value of `type` from v[0..kValueCount); the caller checked the count.
-core::Variable ReadValue(core::VariableType type, const double* v) {
-  switch (type) {
-    case core::VariableType::kPose2:
-      return Pose2(core::Rot2::FromCosSin(v[2], v[3]), Point2(v[0], v[1]));
-    case core::VariableType::kPose3: {
-      core::Matrix3 R;
-      for (int r = 0; r < 3; ++r) {
-        for (int c = 0; c < 3; ++c) R(r, c) = v[3 + 3 * r + c];
-      }
-      return Pose3(core::Rot3(R), Point3(v[0], v[1], v[2]));
-    }
-    case core::VariableType::kPoint2:
-      return Point2(v[0], v[1]);
-    case core::VariableType::kPoint3:
-      return Point3(v[0], v[1], v[2]);
-  }
-  return Point2();
-}
+// The type names of snapshots written before they stored names (the proto enums' order).
+constexpr const char* kLegacyVariableTypes[] = {"Pose2", "Pose3", "Point2", "Point3"};
+constexpr const char* kLegacyFactorTypes[] = {
+    "",           "BetweenPose2",   "BetweenPose3",   "PriorPose2",     "PriorPose3",
+    "PositionPrior2", "PositionPrior3", "BearingRange2", "RelativePoint2", "RelativePoint3"};
 
 void WriteVariable(const core::Variable& value, pb::Variable* out) {
-  out->set_type(static_cast<pb::Variable::Type>(value.index()));
-  std::visit([&](const auto& v) { Append(v, out->mutable_values()); }, value);
+  out->set_type_name(core::VariableTypeName(core::TypeOf(value)));
+  std::vector<double> numbers;
+  core::EncodeVariable(value, &numbers);
+  out->mutable_values()->Add(numbers.begin(), numbers.end());
 }
 
 // Values within what validated messages can produce (server/ingest Limits::max_abs_value).
@@ -79,15 +41,23 @@ bool Plausible(const double* v, int n) {
 }
 
 core::Result<core::Variable> ReadVariable(const pb::Variable& in, const std::string& what) {
-  const int type = static_cast<int>(in.type());
-  if (type < 0 || type > 3 || in.values_size() != kValueCount[type]) {
-    return core::DataLoss("snapshot: " + what + ": variable of type " + std::to_string(type) +
-                          " with " + std::to_string(in.values_size()) + " values");
+  std::string name = in.type_name();
+  if (name.empty()) {
+    const int legacy = static_cast<int>(in.type());
+    if (legacy < 0 || legacy >= static_cast<int>(std::size(kLegacyVariableTypes))) {
+      return core::DataLoss("snapshot: " + what + ": unknown variable type " +
+                            std::to_string(legacy));
+    }
+    name = kLegacyVariableTypes[legacy];
   }
+  const std::optional<core::VariableType> type = core::VariableTypeFromName(name);
+  if (!type) return core::DataLoss("snapshot: " + what + ": unknown variable type '" + name + "'");
   if (!Plausible(in.values().data(), in.values_size())) {
     return core::DataLoss("snapshot: " + what + ": a value is not finite or beyond 1e7");
   }
-  return ReadValue(static_cast<core::VariableType>(type), in.values().data());
+  core::Result<core::Variable> v = core::DecodeVariable(*type, {in.values().data(), static_cast<std::size_t>(in.values_size())});
+  if (!v.ok()) return core::DataLoss("snapshot: " + what + ": " + v.status().message());
+  return v;
 }
 
 void WriteValues(const core::Values& values,
@@ -111,123 +81,69 @@ core::Status ReadValues(const google::protobuf::RepeatedPtrField<pb::KeyedVariab
   return core::Status::Ok();
 }
 
-// The factor types a snapshot can hold: every factor the estimator creates.
+// Any registered factor type, as its core::FactorRecord.
 void WriteFactor(const core::Factor& f, pb::Factor* out) {
-  auto* m = out->mutable_measured();
-  if (const auto* b2 = dynamic_cast<const core::BetweenFactor<Pose2>*>(&f)) {
-    out->set_type(pb::Factor::BETWEEN_POSE2);
-    Append(b2->measured(), m);
-  } else if (const auto* b3 = dynamic_cast<const core::BetweenFactor<Pose3>*>(&f)) {
-    out->set_type(pb::Factor::BETWEEN_POSE3);
-    Append(b3->measured(), m);
-  } else if (const auto* p2 = dynamic_cast<const core::PriorFactor<Pose2>*>(&f)) {
-    out->set_type(pb::Factor::PRIOR_POSE2);
-    Append(p2->measured(), m);
-  } else if (const auto* p3 = dynamic_cast<const core::PriorFactor<Pose3>*>(&f)) {
-    out->set_type(pb::Factor::PRIOR_POSE3);
-    Append(p3->measured(), m);
-  } else if (const auto* q2 = dynamic_cast<const core::PositionPriorFactor<Pose2>*>(&f)) {
-    out->set_type(pb::Factor::POSITION_PRIOR_POSE2);
-    Append(q2->measured(), m);
-  } else if (const auto* q3 = dynamic_cast<const core::PositionPriorFactor<Pose3>*>(&f)) {
-    out->set_type(pb::Factor::POSITION_PRIOR_POSE3);
-    Append(q3->measured(), m);
-  } else if (const auto* br = dynamic_cast<const core::BearingRangeFactor*>(&f)) {
-    out->set_type(pb::Factor::BEARING_RANGE);
-    m->Add(br->bearing());
-    m->Add(br->range());
-  } else if (const auto* r2 = dynamic_cast<const core::RelativePointFactor<Pose2, Point2>*>(&f)) {
-    out->set_type(pb::Factor::RELATIVE_POINT_POSE2);
-    Append(r2->measured(), m);
-  } else if (const auto* r3 = dynamic_cast<const core::RelativePointFactor<Pose3, Point3>*>(&f)) {
-    out->set_type(pb::Factor::RELATIVE_POINT_POSE3);
-    Append(r3->measured(), m);
-  } else {
-    SLAMD_CHECK(false) << "snapshot: no encoding for factor " << f.Name();
+  const core::FactorRecord r = core::EncodeFactor(f);
+  out->set_type_name(r.type);
+  for (core::Key k : r.keys) out->add_keys(k);
+  out->mutable_measured()->Add(r.measured.begin(), r.measured.end());
+  for (int row = 0; row < r.sqrt_information.rows(); ++row) {
+    for (int col = 0; col < r.sqrt_information.cols(); ++col) {
+      out->add_sqrt_information(r.sqrt_information(row, col));
+    }
   }
-  for (core::Key k : f.keys()) out->add_keys(k);
-  const auto& R = f.noise_model().sqrt_information();
-  for (int r = 0; r < R.rows(); ++r) {
-    for (int c = 0; c < R.cols(); ++c) out->add_sqrt_information(R(r, c));
-  }
-  out->set_robust_kind(static_cast<int>(f.robust_kernel().kind()));
-  out->set_robust_parameter(f.robust_kernel().parameter());
+  out->set_robust_kind(static_cast<int>(r.robust.kind()));
+  out->set_robust_parameter(r.robust.parameter());
+  for (const core::Variable& v : r.values) WriteVariable(v, out->add_values());
 }
 
 core::Result<core::FactorPtr> ReadFactor(const pb::Factor& in, int index) {
   const std::string what = "factor " + std::to_string(index);
-  struct Shape {
-    int keys, values, dim;
-  };
-  static constexpr Shape kShapes[] = {{0, 0, 0}, {2, 4, 3}, {2, 12, 6}, {1, 4, 3}, {1, 12, 6},
-                                      {1, 2, 2}, {1, 3, 3}, {2, 2, 2},  {2, 2, 2}, {2, 3, 3}};
-  const int type = static_cast<int>(in.type());
-  if (type <= 0 || type >= static_cast<int>(std::size(kShapes))) {
-    return core::DataLoss("snapshot: " + what + ": unknown type " + std::to_string(type));
+  core::FactorRecord r;
+  r.type = in.type_name();
+  if (r.type.empty()) {
+    const int legacy = static_cast<int>(in.type());
+    if (legacy <= 0 || legacy >= static_cast<int>(std::size(kLegacyFactorTypes))) {
+      return core::DataLoss("snapshot: " + what + ": unknown type " + std::to_string(legacy));
+    }
+    r.type = kLegacyFactorTypes[legacy];
   }
-  const Shape shape = kShapes[type];
-  if (in.keys_size() != shape.keys || in.measured_size() != shape.values ||
-      in.sqrt_information_size() != shape.dim * shape.dim) {
-    return core::DataLoss("snapshot: " + what + ": wrong number of keys, values or R entries");
-  }
+  r.keys.assign(in.keys().begin(), in.keys().end());
   if (!Plausible(in.measured().data(), in.measured_size())) {
     return core::DataLoss("snapshot: " + what + ": a measured value is not finite or beyond 1e7");
   }
-  Eigen::MatrixXd R(shape.dim, shape.dim);
-  for (int r = 0; r < shape.dim; ++r) {
-    for (int c = 0; c < shape.dim; ++c) R(r, c) = in.sqrt_information(r * shape.dim + c);
+  r.measured.assign(in.measured().begin(), in.measured().end());
+  const int dim = static_cast<int>(std::lround(std::sqrt(in.sqrt_information_size())));
+  if (dim < 1 || dim * dim != in.sqrt_information_size()) {
+    return core::DataLoss("snapshot: " + what + ": " + std::to_string(in.sqrt_information_size()) +
+                          " square-root information entries are no square matrix");
+  }
+  r.sqrt_information.resize(dim, dim);
+  for (int row = 0; row < dim; ++row) {
+    for (int col = 0; col < dim; ++col) {
+      r.sqrt_information(row, col) = in.sqrt_information(row * dim + col);
+    }
   }
   // A square-root information entry beyond 1e8 (a standard deviation below 1e-8 m or rad) is
   // not something slamd writes from validated messages; a file that holds one is damaged, and
   // eliminating it would lose all precision.
-  if (!(R.cwiseAbs().maxCoeff() <= kMaxSqrtInformation)) {
+  if (!(r.sqrt_information.cwiseAbs().maxCoeff() <= kMaxSqrtInformation)) {
     return core::DataLoss("snapshot: " + what + ": square-root information entry beyond 1e8");
   }
-  core::Result<core::NoiseModel> noise = core::NoiseModel::FromSqrtInformation(R);
-  if (!noise.ok()) return core::DataLoss("snapshot: " + what + ": " + noise.status().message());
-  core::RobustKernel robust;
   if (in.robust_kind() != 0) {
     core::Result<core::RobustKernel> k = core::RobustKernel::Create(
         static_cast<core::RobustKernel::Kind>(in.robust_kind()), in.robust_parameter());
     if (!k.ok()) return core::DataLoss("snapshot: " + what + ": " + k.status().message());
-    robust = k.value();
+    r.robust = k.value();
   }
-  const double* v = in.measured().data();
-  const core::Key a = in.keys(0), b = shape.keys > 1 ? in.keys(1) : 0;
-  const core::NoiseModel& n = noise.value();
-  using VT = core::VariableType;
-  switch (in.type()) {
-    case pb::Factor::BETWEEN_POSE2:
-      return core::FactorPtr(std::make_shared<core::BetweenFactor<Pose2>>(
-          a, b, std::get<Pose2>(ReadValue(VT::kPose2, v)), n, robust));
-    case pb::Factor::BETWEEN_POSE3:
-      return core::FactorPtr(std::make_shared<core::BetweenFactor<Pose3>>(
-          a, b, std::get<Pose3>(ReadValue(VT::kPose3, v)), n, robust));
-    case pb::Factor::PRIOR_POSE2:
-      return core::FactorPtr(std::make_shared<core::PriorFactor<Pose2>>(
-          a, std::get<Pose2>(ReadValue(VT::kPose2, v)), n, robust));
-    case pb::Factor::PRIOR_POSE3:
-      return core::FactorPtr(std::make_shared<core::PriorFactor<Pose3>>(
-          a, std::get<Pose3>(ReadValue(VT::kPose3, v)), n, robust));
-    case pb::Factor::POSITION_PRIOR_POSE2:
-      return core::FactorPtr(
-          std::make_shared<core::PositionPriorFactor<Pose2>>(a, Point2(v[0], v[1]), n, robust));
-    case pb::Factor::POSITION_PRIOR_POSE3:
-      return core::FactorPtr(std::make_shared<core::PositionPriorFactor<Pose3>>(
-          a, Point3(v[0], v[1], v[2]), n, robust));
-    case pb::Factor::BEARING_RANGE:
-      return core::FactorPtr(
-          std::make_shared<core::BearingRangeFactor>(a, b, v[0], v[1], n, robust));
-    case pb::Factor::RELATIVE_POINT_POSE2:
-      return core::FactorPtr(std::make_shared<core::RelativePointFactor<Pose2, Point2>>(
-          a, b, Point2(v[0], v[1]), n, robust));
-    case pb::Factor::RELATIVE_POINT_POSE3:
-      return core::FactorPtr(std::make_shared<core::RelativePointFactor<Pose3, Point3>>(
-          a, b, Point3(v[0], v[1], v[2]), n, robust));
-    default:
-      break;
+  for (const pb::Variable& v : in.values()) {
+    core::Result<core::Variable> value = ReadVariable(v, what);
+    if (!value.ok()) return value.status();
+    r.values.push_back(std::move(value).value());
   }
-  return core::DataLoss("snapshot: " + what + ": unknown type");
+  core::Result<core::FactorPtr> f = core::DecodeFactor(r);
+  if (!f.ok()) return core::DataLoss("snapshot: " + what + ": " + f.status().message());
+  return f;
 }
 
 }  // namespace

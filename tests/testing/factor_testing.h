@@ -15,12 +15,12 @@ inline void ExpectJacobiansMatchNumerical(const core::Factor& factor, const core
                                           double tol = 1e-7) {
   core::LinearizedFactor lf;
   factor.Linearize(values, &lf);
-  ASSERT_EQ(lf.rows, factor.dim());
-  ASSERT_EQ(lf.num_keys, static_cast<int>(factor.keys().size()));
+  ASSERT_EQ(lf.rows(), factor.dim());
+  ASSERT_EQ(lf.num_keys(), static_cast<int>(factor.keys().size()));
   const Eigen::MatrixXd R = factor.noise_model().sqrt_information();
   const Eigen::VectorXd e0 = factor.Error(values);
-  EXPECT_TRUE((Eigen::VectorXd(lf.b) - R * e0).isZero(1e-9)) << factor.Name() << ": b != R e";
-  for (int k = 0; k < lf.num_keys; ++k) {
+  EXPECT_TRUE((Eigen::VectorXd(lf.Rhs()) - R * e0).isZero(1e-9)) << factor.Name() << ": b != R e";
+  for (int k = 0; k < lf.num_keys(); ++k) {
     const core::Key key = factor.keys()[k];
     const int slot = values.SlotOf(key);
     const int dim = values.DimAt(slot);
@@ -31,7 +31,7 @@ inline void ExpectJacobiansMatchNumerical(const core::Factor& factor, const core
           return Eigen::VectorXd(R * Eigen::VectorXd(factor.Error(perturbed)));
         },
         Eigen::VectorXd::Zero(dim));
-    const Eigen::MatrixXd analytic = lf.A[k];
+    const Eigen::MatrixXd analytic = lf.Block(k);
     EXPECT_TRUE(analytic.isApprox(numerical, tol) || (analytic - numerical).norm() < tol)
         << factor.Name() << " Jacobian for " << core::KeyToString(key) << "\nanalytic:\n"
         << analytic << "\nnumerical:\n"

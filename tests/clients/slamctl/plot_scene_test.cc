@@ -98,13 +98,13 @@ TEST(WorldXyCovarianceTest, Pose2RotatesBodyTranslationIntoWorld) {
   // At θ = 90° the body x axis is world y: diag(4, 1) in the body is diag(1, 4) in the world.
   const core::Pose2 X(3.0, 4.0, kPi / 2);
   const Eigen::Matrix3d body = Eigen::Vector3d(4.0, 1.0, 0.5).asDiagonal();
-  const Eigen::Matrix2d world = WorldXyCovariance(X, body);
+  const Eigen::Matrix2d world = core::PlanarCovariance(X, body);
   EXPECT_NEAR((world - Eigen::Matrix2d(Eigen::Vector2d(1.0, 4.0).asDiagonal())).norm(), 0.0, 1e-12) << world;
   std::mt19937 rng(7);
   for (double theta : {-2.5, 0.3, 1.9}) {
     const core::Pose2 Y(1.0, -2.0, theta);
     const Eigen::Matrix3d cov = RandomCovariance<3>(&rng);
-    EXPECT_NEAR((WorldXyCovariance(Y, cov) - NumericalWorldXy<core::Pose2, 3>(Y, cov)).norm(), 0.0, 1e-8);
+    EXPECT_NEAR((core::PlanarCovariance(Y, cov) - NumericalWorldXy<core::Pose2, 3>(Y, cov)).norm(), 0.0, 1e-8);
   }
 }
 
@@ -116,7 +116,7 @@ TEST(WorldXyCovarianceTest, Pose3RotatesTranslationBlockBeforeProjecting) {
     for (int i = 0; i < 6; ++i) xi(i) = n(rng);
     const core::Pose3 X = core::Pose3::Exp(xi);
     const core::Matrix6 cov = RandomCovariance<6>(&rng);
-    const Eigen::Matrix2d world = WorldXyCovariance(X, cov);
+    const Eigen::Matrix2d world = core::PlanarCovariance(X, cov);
     EXPECT_NEAR((world - NumericalWorldXy<core::Pose3, 6>(X, cov)).norm(), 0.0, 1e-7);
     // Taking the x-y block before rotating would be wrong for a tilted pose.
     EXPECT_GT((world - (X.rotation().matrix().topLeftCorner<2, 2>() * cov.topLeftCorner<2, 2>() *
@@ -129,9 +129,9 @@ TEST(WorldXyCovarianceTest, Pose3RotatesTranslationBlockBeforeProjecting) {
 TEST(WorldXyCovarianceTest, PointsAreAdditive) {
   const Eigen::Matrix3d cov = Eigen::Vector3d(2.0, 3.0, 4.0).asDiagonal();
   const Eigen::Matrix2d expected = Eigen::Vector2d(2.0, 3.0).asDiagonal();
-  EXPECT_EQ(WorldXyCovariance(core::Point3(1.0, 2.0, 3.0), cov), expected);
+  EXPECT_EQ(core::PlanarCovariance(core::Point3(1.0, 2.0, 3.0), cov), expected);
   const Eigen::Matrix2d block = cov.topLeftCorner<2, 2>();
-  EXPECT_EQ(WorldXyCovariance(core::Point2(1.0, 2.0), block), block);
+  EXPECT_EQ(core::PlanarCovariance(core::Point2(1.0, 2.0), block), block);
 }
 
 core::Dataset SmallDataset() {
@@ -161,8 +161,8 @@ TEST(BuildRobotTest, TrajectoryLandmarksAndLoopClosures) {
   const Box box = scene.Bounds();
   Eigen::Vector2d lo(1e9, 1e9), hi(-1e9, -1e9);
   for (core::Key key : data.initial.keys()) {
-    lo = lo.cwiseMin(PlanarPosition(data.initial.Get(key)));
-    hi = hi.cwiseMax(PlanarPosition(data.initial.Get(key)));
+    lo = lo.cwiseMin(*core::PlanarPosition(data.initial.Get(key)));
+    hi = hi.cwiseMax(*core::PlanarPosition(data.initial.Get(key)));
   }
   EXPECT_EQ(box.min, lo);
   EXPECT_EQ(box.max, hi);
@@ -216,10 +216,10 @@ Eigen::MatrixXd DenseCovariance(const core::FactorGraph& graph, const core::Valu
   core::LinearizedFactor lin;
   for (const core::FactorPtr& f : graph) {
     f->Linearize(values, &lin);
-    for (int i = 0; i < lin.num_keys; ++i) {
-      for (int j = 0; j < lin.num_keys; ++j) {
+    for (int i = 0; i < lin.num_keys(); ++i) {
+      for (int j = 0; j < lin.num_keys(); ++j) {
         const int oi = (*offsets)[values.SlotOf(f->keys()[i])], oj = (*offsets)[values.SlotOf(f->keys()[j])];
-        H.block(oi, oj, lin.A[i].cols(), lin.A[j].cols()) += lin.A[i].transpose() * lin.A[j];
+        H.block(oi, oj, lin.Block(i).cols(), lin.Block(j).cols()) += lin.Block(i).transpose() * lin.Block(j);
       }
     }
   }

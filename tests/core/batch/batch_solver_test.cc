@@ -18,9 +18,9 @@ double GradientNorm(const FactorGraph& graph, const Values& values) {
   for (const FactorPtr& f : graph) {
     LinearizedFactor lf;
     f->Linearize(values, &lf);
-    for (int k = 0; k < lf.num_keys; ++k) {
+    for (int k = 0; k < lf.num_keys(); ++k) {
       const int s = values.SlotOf(f->keys()[k]);
-      g.segment(offset[s], values.DimAt(s)) += Eigen::MatrixXd(lf.A[k]).transpose() * Eigen::VectorXd(lf.b);
+      g.segment(offset[s], values.DimAt(s)) += Eigen::MatrixXd(lf.Block(k)).transpose() * Eigen::VectorXd(lf.Rhs());
     }
   }
   return g.norm();

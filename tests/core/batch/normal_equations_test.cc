@@ -19,15 +19,15 @@ void DenseSystem(const FactorGraph& graph, const Values& values, Eigen::MatrixXd
   for (const FactorPtr& f : graph) {
     LinearizedFactor lf;
     f->Linearize(values, &lf);
-    Eigen::MatrixXd rows = Eigen::MatrixXd::Zero(lf.rows, n);
-    for (int k = 0; k < lf.num_keys; ++k) {
+    Eigen::MatrixXd rows = Eigen::MatrixXd::Zero(lf.rows(), n);
+    for (int k = 0; k < lf.num_keys(); ++k) {
       const int s = values.SlotOf(f->keys()[k]);
-      rows.middleCols(offset[s], values.DimAt(s)) = lf.A[k];
+      rows.middleCols(offset[s], values.DimAt(s)) = lf.Block(k);
     }
-    A.conservativeResize(A.rows() + lf.rows, n);
-    A.bottomRows(lf.rows) = rows;
-    r.conservativeResize(r.size() + lf.rows);
-    r.tail(lf.rows) = lf.b;
+    A.conservativeResize(A.rows() + lf.rows(), n);
+    A.bottomRows(lf.rows()) = rows;
+    r.conservativeResize(r.size() + lf.rows());
+    r.tail(lf.rows()) = lf.Rhs();
   }
   *H = A.transpose() * A;
   *b = -A.transpose() * r;

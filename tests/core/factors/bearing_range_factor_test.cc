@@ -47,8 +47,8 @@ TEST(BearingRangeFactorTest, ZeroRangeGivesFiniteLinearization) {
   ASSERT_TRUE(v.Insert(kL, Point2(1, 1)).ok());
   LinearizedFactor lf;
   f.Linearize(v, &lf);
-  EXPECT_TRUE(Eigen::VectorXd(lf.b).allFinite());
-  EXPECT_TRUE(Eigen::MatrixXd(lf.A[0]).allFinite());
+  EXPECT_TRUE(Eigen::VectorXd(lf.Rhs()).allFinite());
+  EXPECT_TRUE(Eigen::MatrixXd(lf.Block(0)).allFinite());
 }
 
 }  // namespace

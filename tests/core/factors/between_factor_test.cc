@@ -72,8 +72,8 @@ TEST(BetweenFactorTest, RobustKernelScalesResidualAndJacobians) {
   robust.Linearize(v, &b);
   const double s = plain.Chi2(v);
   const double sqrt_w = std::sqrt(cauchy.Weight(s));
-  EXPECT_TRUE((Eigen::VectorXd(b.b) - sqrt_w * Eigen::VectorXd(a.b)).isZero(1e-12));
-  EXPECT_TRUE((Eigen::MatrixXd(b.A[1]) - sqrt_w * Eigen::MatrixXd(a.A[1])).isZero(1e-12));
+  EXPECT_TRUE((Eigen::VectorXd(b.Rhs()) - sqrt_w * Eigen::VectorXd(a.Rhs())).isZero(1e-12));
+  EXPECT_TRUE((Eigen::MatrixXd(b.Block(1)) - sqrt_w * Eigen::MatrixXd(a.Block(1))).isZero(1e-12));
   EXPECT_NEAR(robust.Cost(v), cauchy.Cost(s), 1e-12);
   EXPECT_NEAR(robust.Chi2(v), s, 1e-12);
 }

@@ -107,8 +107,13 @@ TEST(NoiseModelTest, RejectsBadInputWithReasons) {
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.status().message().find("not square"), std::string::npos);
 
-  r = NoiseModel::FromInformation(Eigen::MatrixXd::Identity(7, 7));
-  EXPECT_FALSE(r.ok());
+  r = NoiseModel::FromInformation(Eigen::MatrixXd(0, 0));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("empty"), std::string::npos);
+  // Any size is fine (a dense container factor's residual may be large).
+  r = NoiseModel::FromInformation(Eigen::MatrixXd::Identity(17, 17));
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->dim(), 17);
 
   Eigen::Matrix2d ill = Eigen::Matrix2d::Identity();
   ill(1, 1) = 1e-16;

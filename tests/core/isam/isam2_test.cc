@@ -161,23 +161,21 @@ class TrapFactor : public Factor {
   TrapFactor(Key key, double start_x, double target_x)
       : Factor({key}, NoiseModel::Unit(1), RobustKernel()), start_x_(start_x), target_x_(target_x) {}
   const char* Name() const override { return "Trap"; }
-  VariableType KeyType(int) const override { return VariableType::kPose2; }
-  NoiseModel::Vector Error(const Values& values) const override {
-    NoiseModel::Vector e(1);
-    e(0) = kWeight * (values.At<Pose2>(keys()[0]).x() - target_x_);
-    return e;
+  VariableType KeyType(int) const override { return kVariableType<Pose2>; }
+  void EvaluateError(const Values& values, double* e) const override {
+    e[0] = kWeight * (values.At<Pose2>(keys()[0]).x() - target_x_);
   }
   void Linearize(const Values& values, LinearizedFactor* out) const override {
     const Pose2& x = values.At<Pose2>(keys()[0]);
-    out->rows = 1;
-    out->num_keys = 1;
-    out->b = Error(values);
-    out->A[0].setZero(1, 3);
+    const int dims[] = {3};
+    out->Reset(1, dims);
+    EvaluateError(values, out->b());
+    Eigen::Map<Eigen::RowVector3d> A(out->A(0));
     // d x / d δ for the right perturbation x ⊕ δ: the rotated translation's first row.
-    out->A[0](0, 0) = kWeight * std::cos(x.theta());
-    out->A[0](0, 1) = -kWeight * std::sin(x.theta());
-    if (std::abs(x.x() - start_x_) > 0.5) out->A[0](0, 0) = std::numeric_limits<double>::quiet_NaN();
+    A << kWeight * std::cos(x.theta()), -kWeight * std::sin(x.theta()), 0.0;
+    if (std::abs(x.x() - start_x_) > 0.5) A(0) = std::numeric_limits<double>::quiet_NaN();
   }
+  void EncodeMeasured(std::vector<double>* out) const override { out->push_back(target_x_); }
 
  private:
   static constexpr double kWeight = 100.0;
@@ -469,6 +467,38 @@ TEST(Isam2Test, SkippedRelinearizationLeavesTheLinearizationPoint) {
     skipped_due += next.relinearized_variables > 0;
   }
   EXPECT_GT(skipped_due, 0);
+}
+
+// The δ thresholds are per variable type and kind of entry: raising the landmarks' translation
+// threshold keeps them at their linearisation point while the poses move.
+TEST(Isam2Test, PerTypeThresholdsDecideWhichVariablesRelinearize) {
+  const ExampleProblem p = testing::MakePlanarProblem(30, 6, 13);
+  const Isam2Params::Relinearization base{.error_threshold = 0.0, .skip = 1};
+  Isam2Params::Relinearization landmarks_fixed = base;
+  landmarks_fixed.per_type = {{.type = "Point2", .kind = EntryKind::kTranslation, .threshold = 1e9}};
+  auto plain = MakeIsam2({.relinearization = base});
+  auto fixed = MakeIsam2({.relinearization = landmarks_fixed});
+  ASSERT_TRUE(plain->Update(p.graph, p.initial).status.ok());
+  ASSERT_TRUE(fixed->Update(p.graph, p.initial).status.ok());
+  const Isam2Result a = plain->Update({}, {});
+  const Isam2Result b = fixed->Update({}, {});
+  ASSERT_TRUE(a.status.ok() && b.status.ok());
+  int moved_landmarks = 0;
+  for (Key key : p.initial.keys()) {
+    const bool landmark = KeySymbol(key) == 'l';
+    const double moved_plain =
+        LocalCoordinates(p.initial.Get(key), plain->linearization_point().Get(key)).norm();
+    const double moved_fixed =
+        LocalCoordinates(p.initial.Get(key), fixed->linearization_point().Get(key)).norm();
+    if (landmark) {
+      EXPECT_EQ(moved_fixed, 0.0) << KeyToString(key);
+      moved_landmarks += moved_plain > 0.0;
+    } else {
+      EXPECT_EQ(moved_fixed, moved_plain) << KeyToString(key);  // poses: the same decision
+    }
+  }
+  ASSERT_GT(moved_landmarks, 0);
+  EXPECT_EQ(a.relinearized_variables - b.relinearized_variables, moved_landmarks);
 }
 
 // Isam2UpdateOptions::order_last: a whole graph given in one update puts those variables in the

@@ -60,12 +60,12 @@ DenseReference Dense(const Isam2& isam) {
   LinearizedFactor lf;
   for (const FactorPtr& f : isam.Factors()) {
     f->Linearize(theta, &lf);
-    for (int i = 0; i < lf.num_keys; ++i) {
+    for (int i = 0; i < lf.num_keys(); ++i) {
       const int si = theta.SlotOf(f->keys()[i]);
-      for (int j = 0; j < lf.num_keys; ++j) {
+      for (int j = 0; j < lf.num_keys(); ++j) {
         const int sj = theta.SlotOf(f->keys()[j]);
         H.block(ref.offsets[si], ref.offsets[sj], ref.dims[si], ref.dims[sj]) +=
-            lf.A[i].transpose() * lf.A[j];
+            lf.Block(i).transpose() * lf.Block(j);
       }
     }
   }

@@ -6,7 +6,10 @@
 #include <cmath>
 #include <tuple>
 
+#include "core/factors/factor_registry.h"
 #include "core/geometry/rot3.h"
+#include "slamd_proto/snapshot.pb.h"
+#include "tests/testing/factor_examples.h"
 
 namespace slamd::server {
 namespace {
@@ -199,6 +202,70 @@ TEST(StateCodecTest, CorruptBytesGiveDataLossNamingThePart) {
   EXPECT_EQ(bad.status().code(), core::StatusCode::kDataLoss);
   EXPECT_NE(bad.status().message().find("newest pose 1000"), std::string::npos)
       << bad.status().ToString();
+}
+
+// Snapshots store a factor by its registered type name (core/factors/factor_registry.h): every
+// type, including the dense linear container, reads back as the same factor.
+TEST(StateCodecTest, EveryRegisteredFactorTypeRoundTrips) {
+  for (const testing::FactorExample& e : testing::EveryFactorTypeExample(11)) {
+    SCOPED_TRACE(e.factor->Name());
+    EstimatorState state;
+    state.factors.push_back(e.factor);
+    state.linearization_point = e.values;
+    JournalPosition position;
+    core::Result<EstimatorState> back = DecodeState(EncodeState(state, {}), &position);
+    ASSERT_TRUE(back.ok()) << back.status().ToString();
+    ASSERT_EQ(back->factors.size(), 1u);
+    const core::FactorRecord a = core::EncodeFactor(*e.factor);
+    const core::FactorRecord b = core::EncodeFactor(*back->factors[0]);
+    EXPECT_EQ(a.type, b.type);
+    EXPECT_EQ(a.keys, b.keys);
+    EXPECT_EQ(a.measured, b.measured);
+    EXPECT_LT((a.sqrt_information - b.sqrt_information).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_EQ(a.values.size(), b.values.size());
+    for (core::Key key : e.values.keys()) {  // bit for bit
+      std::vector<double> a_values, b_values;
+      core::EncodeVariable(e.values.Get(key), &a_values);
+      core::EncodeVariable(back->linearization_point.Get(key), &b_values);
+      EXPECT_EQ(a_values, b_values) << core::KeyToString(key);
+    }
+  }
+}
+
+// A snapshot written before factors and variables were stored by type name (the enums) loads.
+TEST(StateCodecTest, SnapshotsWrittenBeforeTypeNamesLoad) {
+  snapshot::EstimatorState old;
+  snapshot::KeyedVariable* v = old.add_linearization_point();
+  v->set_key(core::MakeKey('x', 0));
+  v->mutable_value()->set_type(snapshot::Variable::POSE2);
+  for (double x : {1.0, 2.0, std::cos(0.3), std::sin(0.3)}) v->mutable_value()->add_values(x);
+  v = old.add_linearization_point();
+  v->set_key(core::MakeKey('l', 0));
+  v->mutable_value()->set_type(snapshot::Variable::POINT2);
+  for (double x : {4.0, 5.0}) v->mutable_value()->add_values(x);
+  snapshot::Factor* f = old.add_factors();
+  f->set_type(snapshot::Factor::BEARING_RANGE);
+  f->add_keys(core::MakeKey('x', 0));
+  f->add_keys(core::MakeKey('l', 0));
+  f->add_measured(0.25);
+  f->add_measured(3.5);
+  for (double r : {10.0, 0.0, 0.0, 20.0}) f->add_sqrt_information(r);
+  JournalPosition position;
+  core::Result<EstimatorState> state = DecodeState(old.SerializeAsString(), &position);
+  ASSERT_TRUE(state.ok()) << state.status().ToString();
+  ASSERT_EQ(state->factors.size(), 1u);
+  EXPECT_STREQ(state->factors[0]->Name(), "BearingRange2");
+  EXPECT_EQ(core::EncodeFactor(*state->factors[0]).measured, (std::vector<double>{0.25, 3.5}));
+  EXPECT_NEAR(state->linearization_point.At<Pose2>(core::MakeKey('x', 0)).theta(), 0.3, 1e-15);
+  EXPECT_EQ(state->linearization_point.At<core::Point2>(core::MakeKey('l', 0)).y(), 5.0);
+
+  // A type this build does not know is refused by name.
+  f->set_type_name("TrifocalTensor");
+  state = DecodeState(old.SerializeAsString(), &position);
+  ASSERT_FALSE(state.ok());
+  EXPECT_EQ(state.status().code(), core::StatusCode::kDataLoss);
+  EXPECT_NE(state.status().message().find("TrifocalTensor"), std::string::npos)
+      << state.status().ToString();
 }
 
 }  // namespace

@@ -1,0 +1,103 @@
+#include "core/factors/factor_registry.h"
+
+#include <array>
+#include <string>
+
+#include "core/factors/bearing_range_factor.h"
+#include "core/factors/between_factor.h"
+#include "core/factors/linear_container_factor.h"
+#include "core/factors/position_prior_factor.h"
+#include "core/factors/prior_factor.h"
+#include "core/factors/relative_point_factor.h"
+
+namespace slamd::core {
+namespace {
+
+struct FactorType {
+  const char* name;
+  int num_keys;      // -1: any
+  int residual_dim;  // -1: any
+  Result<FactorPtr> (*decode)(const FactorRecord&, NoiseModel);
+};
+
+template <typename F>
+FactorType Entry() {
+  if constexpr (std::is_base_of_v<DynamicFactor, F>) {
+    return {F::TypeName(), -1, -1, &F::Decode};
+  } else {
+    return {F::TypeName(), F::kNumKeys, F::kResidualDim, &F::Decode};
+  }
+}
+
+template <std::size_t... I>
+std::vector<FactorType> PriorsOfEveryKind(std::index_sequence<I...>) {
+  return {Entry<PriorFactor<std::variant_alternative_t<I, Variable>>>()...};
+}
+
+// The list of factor types. Adding a factor type: one line here.
+const std::vector<FactorType>& Registry() {
+  static const std::vector<FactorType> registry = [] {
+    std::vector<FactorType> r = PriorsOfEveryKind(internal::VariableIndices{});
+    r.push_back(Entry<BetweenFactor<Pose2>>());
+    r.push_back(Entry<BetweenFactor<Pose3>>());
+    r.push_back(Entry<PositionPriorFactor<Pose2>>());
+    r.push_back(Entry<PositionPriorFactor<Pose3>>());
+    r.push_back(Entry<BearingRangeFactor>());
+    r.push_back(Entry<RelativePointFactor<Pose2, Point2>>());
+    r.push_back(Entry<RelativePointFactor<Pose3, Point3>>());
+    r.push_back(Entry<LinearContainerFactor>());
+    return r;
+  }();
+  return registry;
+}
+
+}  // namespace
+
+FactorRecord EncodeFactor(const Factor& factor) {
+  FactorRecord r;
+  r.type = factor.Name();
+  r.keys = factor.keys();
+  factor.EncodeMeasured(&r.measured);
+  r.sqrt_information = factor.noise_model().sqrt_information();
+  r.robust = factor.robust_kernel();
+  r.values = factor.CarriedValues();
+  return r;
+}
+
+Result<FactorPtr> DecodeFactor(const FactorRecord& record) {
+  const FactorType* type = nullptr;
+  for (const FactorType& t : Registry()) {
+    if (record.type == t.name) type = &t;
+  }
+  if (type == nullptr) return NotFound("unknown factor type '" + record.type + "'");
+  const std::string what = "factor type " + record.type + ": ";
+  if (type->num_keys >= 0 && static_cast<int>(record.keys.size()) != type->num_keys) {
+    return InvalidArgument(what + std::to_string(record.keys.size()) + " keys, expected " +
+                           std::to_string(type->num_keys));
+  }
+  if (record.keys.empty()) return InvalidArgument(what + "no keys");
+  const Eigen::Index rows = record.sqrt_information.rows();
+  if (type->residual_dim >= 0 && rows != type->residual_dim) {
+    return InvalidArgument(what + "a noise model of dimension " + std::to_string(rows) +
+                           ", expected " + std::to_string(type->residual_dim));
+  }
+  Result<NoiseModel> noise = NoiseModel::FromSqrtInformation(record.sqrt_information);
+  if (!noise.ok()) return InvalidArgument(what + noise.status().message());
+  Result<FactorPtr> factor = type->decode(record, std::move(noise).value());
+  if (!factor.ok()) return InvalidArgument(what + factor.status().message());
+  return factor;
+}
+
+Result<FactorPtr> WithRobustKernel(const Factor& factor, const RobustKernel& kernel) {
+  FactorRecord r = EncodeFactor(factor);
+  r.robust = kernel;
+  return DecodeFactor(r);
+}
+
+std::vector<std::string_view> FactorTypeNames() {
+  std::vector<std::string_view> names;
+  for (const FactorType& t : Registry()) names.push_back(t.name);
+  return names;
+}
+
+}  // namespace slamd::core

@@ -1,0 +1,30 @@
+// The registry of factor types: every factor type slamd can store, export and read back, by its
+// type name. The list is written once, in factor_registry.cc; what each type stores is declared
+// in its own files (Factor::EncodeMeasured, a static Decode, Factor::Formats).
+//
+// A FactorRecord (factor_record.h) is a factor as plain data; EncodeFactor and DecodeFactor are
+// exact inverses (the noise model's R may be re-factored to the same information).
+#pragma once
+
+#include <string_view>
+#include <vector>
+
+#include "core/factors/factor.h"
+
+namespace slamd::core {
+
+// The factor as data: type name, keys, measurement, noise, kernel and carried values.
+FactorRecord EncodeFactor(const Factor& factor);
+
+// Rebuilds a factor. NotFound for a type name not in the registry; InvalidArgument naming the
+// type and what is wrong for a wrong key count, measurement size or noise model, or invalid
+// values.
+Result<FactorPtr> DecodeFactor(const FactorRecord& record);
+
+// The same factor with another robust kernel (an encode/decode round trip).
+Result<FactorPtr> WithRobustKernel(const Factor& factor, const RobustKernel& kernel);
+
+// The registered type names, in list order.
+std::vector<std::string_view> FactorTypeNames();
+
+}  // namespace slamd::core

@@ -1,0 +1,48 @@
+// LinearContainerFactor: a dense Gaussian factor |Σ_k A_k δ_k + b|² over any number of variables
+// of any types, fixed at the linearisation point x₀ it was made at: what marginalising variables
+// out leaves on their Markov blanket (Carlevaris-Bianco, Kaess, Eustice, "Generic Node Removal
+// for Factor-Graph SLAM", T-RO 2014), or any linearised factor kept as it is.
+//
+// At other values it is re-linearised by the first-order rule (as GTSAM's LinearContainerFactor):
+// e(x) = A·(x₀ ⊖ x) + b, with x₀ ⊖ x the stacked LocalCoordinates(x₀_k, x_k), and Jacobians A_k
+// unchanged. A and b are already whitened: the noise model is the unit one and there is no
+// robust kernel. Encoded as b then A (column-major); its keys' x₀ are its carried values.
+#pragma once
+
+#include "core/factors/factor.h"
+
+namespace slamd::core {
+
+class LinearContainerFactor : public DynamicFactor {
+ public:
+  static const char* TypeName() { return "LinearContainer"; }
+
+  // A is m x Σ TangentDim(x₀_k), its columns in key order; b has m entries. InvalidArgument on
+  // no keys, repeated keys, a count or size that does not match, or non-finite entries.
+  static Result<FactorPtr> Create(KeyVector keys, std::vector<Variable> linearization_point,
+                                  Eigen::MatrixXd A, Eigen::VectorXd b);
+  static Result<FactorPtr> Decode(const FactorRecord& r, NoiseModel noise);
+
+  const char* Name() const override { return TypeName(); }
+  const std::vector<Variable>& linearization_point() const { return x0_; }
+  const Eigen::MatrixXd& A() const { return A_; }
+  const Eigen::VectorXd& b() const { return b_; }
+
+  void EncodeMeasured(std::vector<double>* out) const override;
+  std::vector<Variable> CarriedValues() const override { return x0_; }
+  Eigen::VectorXd Evaluate(std::span<const Variable* const> x,
+                           std::vector<Eigen::MatrixXd>* H) const override;
+
+  // Use Create; public for std::make_shared.
+  LinearContainerFactor(KeyVector keys, std::vector<VariableType> types,
+                        std::vector<Variable> linearization_point, Eigen::MatrixXd A,
+                        Eigen::VectorXd b);
+
+ private:
+  std::vector<Variable> x0_;
+  Eigen::MatrixXd A_;
+  Eigen::VectorXd b_;
+  std::vector<int> offsets_;  // column of each key's block in A
+};
+
+}  // namespace slamd::core

@@ -1,0 +1,123 @@
+// One example of every registered factor type (core/factors/factor_registry.cc) at random values,
+// for the tests that run over all of them: Jacobians, record and snapshot round trips, export.
+// Adding a factor type: add its example here (FactorExamplesTest checks that every registered
+// type has one).
+#pragma once
+
+#include <random>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/factors/bearing_range_factor.h"
+#include "core/factors/between_factor.h"
+#include "core/factors/factor_registry.h"
+#include "core/factors/linear_container_factor.h"
+#include "core/factors/position_prior_factor.h"
+#include "core/factors/prior_factor.h"
+#include "core/factors/relative_point_factor.h"
+#include "tests/testing/factor_testing.h"
+#include "tests/testing/random_values.h"
+
+namespace slamd::testing {
+
+// A full-covariance noise model of dimension n.
+inline core::NoiseModel RandomNoise(std::mt19937& rng, int n) {
+  return core::NoiseModel::FromCovariance(0.01 * RandomSpd(rng, n)).value();
+}
+
+struct FactorExample {
+  core::FactorPtr factor;
+  core::Values values;  // every key of the factor
+};
+
+namespace internal {
+
+template <typename T>
+FactorExample PriorExample(std::mt19937& rng) {
+  FactorExample e;
+  const core::Key key = core::MakeKey('c', 0);
+  e.factor = std::make_shared<const core::PriorFactor<T>>(
+      key, RandomValue<T>(rng), RandomNoise(rng, core::VariableTraits<T>::kDim));
+  EXPECT_TRUE(e.values.Insert(key, RandomValue<T>(rng)).ok());
+  return e;
+}
+
+template <std::size_t... I>
+std::vector<FactorExample> PriorsOfEveryKind(std::mt19937& rng, std::index_sequence<I...>) {
+  return {PriorExample<std::variant_alternative_t<I, core::Variable>>(rng)...};
+}
+
+template <typename A, typename B>
+core::Values TwoValues(std::mt19937& rng, core::Key ka, core::Key kb) {
+  core::Values v;
+  EXPECT_TRUE(v.Insert(ka, RandomValue<A>(rng)).ok());
+  EXPECT_TRUE(v.Insert(kb, RandomValue<B>(rng)).ok());
+  return v;
+}
+
+}  // namespace internal
+
+inline std::vector<FactorExample> EveryFactorTypeExample(unsigned seed) {
+  using namespace core;  // NOLINT: the factor names read better unqualified here
+  std::mt19937 rng(seed);
+  std::vector<FactorExample> out =
+      internal::PriorsOfEveryKind(rng, core::internal::VariableIndices{});
+  const Key x0 = MakeKey('x', 0), x1 = MakeKey('x', 1), l0 = MakeKey('l', 0);
+  out.push_back({std::make_shared<const BetweenFactor<Pose2>>(x0, x1, RandomPose2(rng),
+                                                              RandomNoise(rng, 3)),
+                 internal::TwoValues<Pose2, Pose2>(rng, x0, x1)});
+  out.push_back({std::make_shared<const BetweenFactor<Pose3>>(x0, x1, RandomPose3(rng),
+                                                              RandomNoise(rng, 6)),
+                 internal::TwoValues<Pose3, Pose3>(rng, x0, x1)});
+  {
+    FactorExample e{std::make_shared<const PositionPriorFactor<Pose2>>(
+                        x0, RandomValue<Point2>(rng), RandomNoise(rng, 2)),
+                    {}};
+    EXPECT_TRUE(e.values.Insert(x0, RandomPose2(rng)).ok());
+    out.push_back(e);
+  }
+  {
+    FactorExample e{std::make_shared<const PositionPriorFactor<Pose3>>(
+                        x0, RandomValue<Point3>(rng), RandomNoise(rng, 3)),
+                    {}};
+    EXPECT_TRUE(e.values.Insert(x0, RandomPose3(rng)).ok());
+    out.push_back(e);
+  }
+  {
+    // A landmark 2-4 m away, so that the bearing is well defined.
+    FactorExample e{std::make_shared<const BearingRangeFactor>(x0, l0, 0.3, 2.5, RandomNoise(rng, 2)),
+                    {}};
+    const Pose2 pose = RandomPose2(rng);
+    EXPECT_TRUE(e.values.Insert(x0, pose).ok());
+    EXPECT_TRUE(e.values.Insert(l0, pose.TransformFrom(Point2(2.0, 1.5))).ok());
+    out.push_back(e);
+  }
+  out.push_back({std::make_shared<const RelativePointFactor<Pose2, Point2>>(
+                     x0, l0, RandomValue<Point2>(rng), RandomNoise(rng, 2)),
+                 internal::TwoValues<Pose2, Point2>(rng, x0, l0)});
+  out.push_back({std::make_shared<const RelativePointFactor<Pose3, Point3>>(
+                     x0, l0, RandomValue<Point3>(rng), RandomNoise(rng, 3)),
+                 internal::TwoValues<Pose3, Point3>(rng, x0, l0)});
+  {
+    // Over three variables of different kinds, at its linearisation point (where the first-order
+    // rule's Jacobians A are the exact ones).
+    const Key c0 = MakeKey('c', 0);
+    FactorExample e;
+    std::vector<Variable> x = {RandomPose3(rng), RandomValue<Point3>(rng),
+                               RandomValue<Cal3DS2>(rng)};
+    EXPECT_TRUE(e.values.Insert(x0, x[0]).ok());
+    EXPECT_TRUE(e.values.Insert(l0, x[1]).ok());
+    EXPECT_TRUE(e.values.Insert(c0, x[2]).ok());
+    std::normal_distribution<double> n01(0.0, 1.0);
+    Eigen::MatrixXd A(7, 6 + 3 + 9);
+    for (int i = 0; i < A.size(); ++i) A.data()[i] = n01(rng);
+    Eigen::VectorXd b(7);
+    for (int i = 0; i < b.size(); ++i) b[i] = n01(rng);
+    e.factor = LinearContainerFactor::Create({x0, l0, c0}, x, A, b).value();
+    out.push_back(e);
+  }
+  return out;
+}
+
+}  // namespace slamd::testing
