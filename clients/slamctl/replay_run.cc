@@ -90,6 +90,7 @@ void PrintSummary(const ReplayOptions& opt, const ReplayTracker& tracker, double
     j.Add("sent", static_cast<long long>(tracker.sent()))
         .Add("rejected", static_cast<long long>(tracker.rejected()))
         .Add("rejected_by_reason", reasons)
+        .Add("already_held", static_cast<long long>(tracker.already_held()))
         .Add("final_chi2", chi2)
         .Add("wall_s", wall_s)
         .Add("latency_ms", latency)
@@ -114,6 +115,8 @@ void PrintSummary(const ReplayOptions& opt, const ReplayTracker& tracker, double
     std::printf("  %-28s %lld\n", name.c_str(), static_cast<long long>(count));
   }
   for (const std::string& d : tracker.reject_details()) std::printf("  e.g. %s\n", d.c_str());
+  std::printf("held        %lld already (re-sent measurements the server had)\n",
+              static_cast<long long>(tracker.already_held()));
   if (tracker.last_status()) {
     const slamd::status_t& s = *tracker.last_status();
     std::printf("final chi2  %.6f  (residual dimension %lld, %lld variables, %lld factors)\n",
@@ -156,7 +159,7 @@ int Run(const ReplayOptions& opt, const std::vector<ReplayItem>& items,
   // 1. Baseline.
   if (opt.wait_server_s > 0 &&
       handle_until([&] { return tracker.status_count() > 0; }, opt.wait_server_s)) {
-    tracker.SetBaseline(tracker.last_status()->messages_received);
+    tracker.SetBaseline(*tracker.last_status());
   } else if (!opt.quiet) {
     std::fprintf(stderr,
                  "slamctl replay: no status_t on %s within %.1f s (is slamd running on %s?); "

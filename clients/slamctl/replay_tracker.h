@@ -37,9 +37,12 @@ class ReplayTracker {
   // `robots`: the robots whose reject_t count as ours (a reject of another sender is ignored).
   explicit ReplayTracker(std::set<std::string> robots) : robots_(std::move(robots)) {}
 
-  // The server's messages_received before we sent anything (from a status_t seen first), so
-  // that "received everything" can be judged on a server that already had traffic.
-  void SetBaseline(std::int64_t messages_received) { baseline_ = messages_received; }
+  // The server's counters before we sent anything (from a status_t seen first), so that
+  // "received everything" and "already held" can be judged on a server that had traffic.
+  void SetBaseline(const slamd::status_t& status) {
+    baseline_ = status.messages_received;
+    already_held_baseline_ = status.messages_already_held;
+  }
 
   void OnSent(const ReplayItem& item, double now_s);
   void OnEstimate(const std::string& robot, std::int64_t pose_index, double now_s);
@@ -63,6 +66,11 @@ class ReplayTracker {
   std::int64_t status_count() const { return status_count_; }
 
   std::int64_t rejected() const { return rejected_; }
+  // Messages the server held already (re-sent data it had), from the latest status_t: they are
+  // acknowledged by the robots' estimates, neither applied again nor rejected.
+  std::int64_t already_held() const {
+    return last_status_ ? last_status_->messages_already_held - already_held_baseline_ : 0;
+  }
   // reason name (server::RejectReasonName) -> count, for our robots.
   const std::map<std::string, std::int64_t>& rejected_by_reason() const { return by_reason_; }
   // The first few reject details, for the summary.
@@ -77,6 +85,7 @@ class ReplayTracker {
   };
   std::set<std::string> robots_;
   std::int64_t baseline_ = 0;
+  std::int64_t already_held_baseline_ = 0;
   std::int64_t sent_ = 0;
   std::map<std::string, std::deque<Pending>> pending_;  // per robot, in send order
   std::map<std::string, std::int64_t> acked_;

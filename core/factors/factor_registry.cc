@@ -1,5 +1,6 @@
 #include "core/factors/factor_registry.h"
 
+#include <algorithm>
 #include <array>
 #include <string>
 
@@ -92,6 +93,35 @@ Result<FactorPtr> WithRobustKernel(const Factor& factor, const RobustKernel& ker
   FactorRecord r = EncodeFactor(factor);
   r.robust = kernel;
   return DecodeFactor(r);
+}
+
+bool SameMeasurement(const Factor& a, const Factor& b, double tolerance) {
+  const FactorRecord ra = EncodeFactor(a), rb = EncodeFactor(b);
+  if (ra.type != rb.type || ra.keys != rb.keys || ra.robust.kind() != rb.robust.kind() ||
+      ra.robust.parameter() != rb.robust.parameter() || ra.measured.size() != rb.measured.size() ||
+      ra.sqrt_information.rows() != rb.sqrt_information.rows() ||
+      ra.values.size() != rb.values.size()) {
+    return false;
+  }
+  const auto close = [tolerance](const Eigen::Ref<const Eigen::VectorXd>& x,
+                                 const Eigen::Ref<const Eigen::VectorXd>& y) {
+    return (x - y).lpNorm<Eigen::Infinity>() <=
+           tolerance * std::max(1.0, x.lpNorm<Eigen::Infinity>());
+  };
+  const Eigen::Map<const Eigen::VectorXd> ma(ra.measured.data(), ra.measured.size());
+  const Eigen::Map<const Eigen::VectorXd> mb(rb.measured.data(), rb.measured.size());
+  const Eigen::Map<const Eigen::VectorXd> Ra(ra.sqrt_information.data(),
+                                             ra.sqrt_information.size());
+  const Eigen::Map<const Eigen::VectorXd> Rb(rb.sqrt_information.data(),
+                                             rb.sqrt_information.size());
+  if (!close(ma, mb) || !close(Ra, Rb)) return false;
+  for (std::size_t k = 0; k < ra.values.size(); ++k) {
+    if (ra.values[k].index() != rb.values[k].index() ||
+        !(LocalCoordinates(ra.values[k], rb.values[k]).lpNorm<Eigen::Infinity>() <= tolerance)) {
+      return false;
+    }
+  }
+  return true;
 }
 
 std::vector<std::string_view> FactorTypeNames() {

@@ -24,6 +24,11 @@ Result<FactorPtr> DecodeFactor(const FactorRecord& record);
 // The same factor with another robust kernel (an encode/decode round trip).
 Result<FactorPtr> WithRobustKernel(const Factor& factor, const RobustKernel& kernel);
 
+// Whether two factors are the same measurement: the same type, keys and robust kernel, and
+// measured values and square-root information equal to `tolerance` relative to their size (a
+// re-sent message; a snapshot may have re-factored R to the same information).
+bool SameMeasurement(const Factor& a, const Factor& b, double tolerance = 1e-9);
+
 // The registered type names, in list order.
 std::vector<std::string_view> FactorTypeNames();
 

@@ -328,6 +328,9 @@ int Daemon::StepEstimator(double timeout_s) {
     ProcessResult r = estimator_->Process(batch, /*finish_later=*/true);
     JournalUpdate(batch);
     PublishEstimatesAndLatencies(r.applied_received_us);
+    if (!r.already_held_robots.empty()) {
+      AcknowledgeAlreadyHeld(*ShareSnapshot(), r.already_held_robots, SteadyMicros());
+    }
     core::Stopwatch finish;
     estimator_->FinishUpdate();
     const double finish_us = finish.Seconds() * 1e6;
@@ -538,32 +541,47 @@ void Daemon::PublishEstimates(const EstimateSnapshot& snap, std::int64_t now_ste
   if (snap.update_sequence <= published_sequence_) return;
   const std::int64_t now = WallMicros();
   for (const RobotEstimate& r : snap.robots) {
-    if (r.moved_sequence <= published_sequence_) continue;
-    slamd::estimate_t out;
-    out.utime = now;
-    out.robot = r.name;
-    out.update_sequence = snap.update_sequence;
-    out.pose_index = static_cast<std::int64_t>(r.pose_index);
-    if (const core::Pose2* p2 = std::get_if<core::Pose2>(&r.pose)) {
-      out.dimension = slamd::estimate_t::DIMENSION_2D;
-      out.values = ToValues(*p2);
-    } else {
-      out.dimension = slamd::estimate_t::DIMENSION_3D;
-      out.values = ToValues(std::get<core::Pose3>(r.pose));
+    if (r.moved_sequence > published_sequence_) {
+      PublishEstimate(r, snap.update_sequence, now, now_steady);
     }
-    out.num_values = static_cast<std::int32_t>(out.values.size());
-    if (params_.publish.estimate_covariance) {
-      Eigen::MatrixXd cov;
-      const core::Key key = core::MakeKey('x', r.pose_index, r.id);
-      if (estimator_->Marginal(key, &cov).ok()) out.covariance = ToRowMajor(cov);
-    }
-    out.num_covariance = static_cast<std::int32_t>(out.covariance.size());
-    out.measurement_utime = r.measurement_utime;
-    out.latency_us = r.received_us > 0 ? now_steady - r.received_us : 0;
-    const core::Status s = server::Publish(*bus_, channels_.Estimate(), out);
-    if (!s.ok()) log_->warn("cannot publish estimate_t: {}", s.ToString());
   }
   published_sequence_ = snap.update_sequence;
+}
+
+void Daemon::AcknowledgeAlreadyHeld(const EstimateSnapshot& snap,
+                                    const std::set<std::string>& robots,
+                                    std::int64_t now_steady) {
+  const std::int64_t now = WallMicros();
+  for (const RobotEstimate& r : snap.robots) {
+    if (robots.count(r.name) != 0) PublishEstimate(r, snap.update_sequence, now, now_steady);
+  }
+}
+
+void Daemon::PublishEstimate(const RobotEstimate& r, std::int64_t update_sequence,
+                             std::int64_t now, std::int64_t now_steady) {
+  slamd::estimate_t out;
+  out.utime = now;
+  out.robot = r.name;
+  out.update_sequence = update_sequence;
+  out.pose_index = static_cast<std::int64_t>(r.pose_index);
+  if (const core::Pose2* p2 = std::get_if<core::Pose2>(&r.pose)) {
+    out.dimension = slamd::estimate_t::DIMENSION_2D;
+    out.values = ToValues(*p2);
+  } else {
+    out.dimension = slamd::estimate_t::DIMENSION_3D;
+    out.values = ToValues(std::get<core::Pose3>(r.pose));
+  }
+  out.num_values = static_cast<std::int32_t>(out.values.size());
+  if (params_.publish.estimate_covariance) {
+    Eigen::MatrixXd cov;
+    const core::Key key = core::MakeKey('x', r.pose_index, r.id);
+    if (estimator_->Marginal(key, &cov).ok()) out.covariance = ToRowMajor(cov);
+  }
+  out.num_covariance = static_cast<std::int32_t>(out.covariance.size());
+  out.measurement_utime = r.measurement_utime;
+  out.latency_us = r.received_us > 0 ? now_steady - r.received_us : 0;
+  const core::Status s = server::Publish(*bus_, channels_.Estimate(), out);
+  if (!s.ok()) log_->warn("cannot publish estimate_t: {}", s.ToString());
 }
 
 void Daemon::MaybePublishStatus(const EstimateSnapshot& snap) {
@@ -589,6 +607,7 @@ void Daemon::PublishStatus(const EstimateSnapshot& snap) {
   out.messages_received = received_;
   out.messages_accepted = queued_;
   out.messages_rejected = intake_rejected_ + snap.counters.rejected;
+  out.messages_already_held = snap.counters.already_held;
   out.decode_errors = decode_errors_;
   out.num_rejects_by_reason = kNumRejectReasonCodes;
   out.rejects_by_reason.resize(kNumRejectReasonCodes);

@@ -39,6 +39,7 @@
 #include <memory>
 #include <mutex>
 #include <span>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -116,6 +117,13 @@ class Daemon {
   std::string InboundChannel(const Inbound& in) const;
   // now_steady: the publication time that latency_us counts to.
   void PublishEstimates(const EstimateSnapshot& snap, std::int64_t now_steady);
+  // The estimates of `robots` whatever moved: the answer to messages the graph held already
+  // (a robot re-sending after a restart waits for its poses to be acknowledged).
+  void AcknowledgeAlreadyHeld(const EstimateSnapshot& snap, const std::set<std::string>& robots,
+                              std::int64_t now_steady);
+  // One robot's estimate_t (now: wall clock, now_steady: what latency_us counts to) [µs].
+  void PublishEstimate(const RobotEstimate& r, std::int64_t update_sequence, std::int64_t now,
+                       std::int64_t now_steady);
   // The current snapshot's estimates, now, and the ingest-to-publish latency of the messages
   // received at `applied_received_us` [µs, steady clock] that took effect in it.
   void PublishEstimatesAndLatencies(std::span<const std::int64_t> applied_received_us);

@@ -18,6 +18,8 @@ struct EstimatorCounters {
   std::int64_t applied = 0;    // messages turned into factors (and variables)
   std::int64_t held = 0;       // messages put on hold at least once
   std::int64_t rejected = 0;   // stateful rejections (also counted per reason)
+  // messages the graph held already (re-sent): acknowledged, neither applied nor rejected
+  std::int64_t already_held = 0;
   std::int64_t updates = 0;    // Isam2::Update calls (one per Process with anything new)
   std::int64_t refinements = 0;
   std::int64_t rebuilds = 0;  // background rebuilds swapped in

@@ -10,6 +10,7 @@
 #include "core/factors/between_factor.h"
 #include "core/factors/position_prior_factor.h"
 #include "core/factors/prior_factor.h"
+#include "core/factors/factor_registry.h"
 #include "core/factors/relative_point_factor.h"
 #include "server/estimator/estimator_state.h"
 
@@ -368,25 +369,36 @@ Variable Estimator::Estimate(Key key, const Staged& s) const {
   return isam_->CalculateEstimate(key);
 }
 
-bool Estimator::FirstTime(char type, Key a, Key b, int kind, const char* what, Staged* s,
-                          Verdict* v) {
+void Estimator::FirstTime(char type, Key a, Key b, int kind, Staged* s) {
   const MeasurementId id = std::make_tuple(type, a, b, kind);
-  if (applied_.count(id) != 0 || s->seen.count(id) != 0) {
-    *v = {RejectReason::kDuplicate, std::string(what) + ": the same measurement between " +
-                                        core::KeyToString(a) + " and " + core::KeyToString(b) +
-                                        " was already applied"};
-    return false;
+  s->pending_id = id;
+  s->pending_existing = nullptr;
+  if (const auto it = applied_.find(id); it != applied_.end()) {
+    s->pending_existing = isam_->factor_slots()[solver_index_[it->second]];
+  } else if (s->seen.count(id) != 0) {
+    for (const auto& [position, staged_id, first] : s->ids) {
+      if (staged_id == id) s->pending_existing = s->factors[position];
+    }
   }
   s->seen.insert(id);
-  s->pending_id = id;
-  return true;
 }
 
-void Estimator::AddMeasured(core::FactorPtr factor, Key first, Staged* s) {
+Estimator::Outcome Estimator::AddMeasured(core::FactorPtr factor, Key first, const char* what,
+                                          Staged* s, Verdict* v) {
   SLAMD_CHECK(s->pending_id.has_value()) << "AddMeasured without FirstTime";
-  s->ids.emplace_back(s->factors.size(), *s->pending_id, first);
+  const MeasurementId id = *s->pending_id;
   s->pending_id.reset();
+  if (const core::FactorPtr existing = std::move(s->pending_existing)) {
+    if (core::SameMeasurement(*existing, *factor)) return Outcome::kAlreadyHeld;
+    *v = {RejectReason::kDuplicate,
+          std::string(what) + ": a different measurement between " +
+              core::KeyToString(std::get<1>(id)) + " and " + core::KeyToString(std::get<2>(id)) +
+              " was already applied"};
+    return Outcome::kRejected;
+  }
+  s->ids.emplace_back(s->factors.size(), id, first);
   s->factors.Add(std::move(factor));
+  return Outcome::kApplied;
 }
 
 Estimator::RobotState& Estimator::Robot(std::uint8_t id, Staged* s) {
@@ -453,7 +465,7 @@ Estimator::Outcome Estimator::ApplyOdometry(const OdometryMeasurement& m, const 
           "odometry_t.dimension: does not match " + PoseName(m.robot, m.to_index)};
     return Outcome::kRejected;
   }
-  if (!FirstTime('o', from, to, 0, "odometry_t", s, v)) return Outcome::kRejected;
+  FirstTime('o', from, to, 0, s);
   if (origin) {
     const bool is2d = std::holds_alternative<Pose2>(m.measured);
     const core::NoiseModel anchor =
@@ -470,9 +482,10 @@ Estimator::Outcome Estimator::ApplyOdometry(const OdometryMeasurement& m, const 
   } else if (!Known(to, *s)) {
     AddPose(*id, m.to_index, Compose(Estimate(from, *s), m.measured, false), in, s);
   }
-  AddMeasured(MakeBetween(from, to, m.measured, m.noise), from, s);
-  Touch(*id, in, s);
-  return Outcome::kApplied;
+  const Outcome outcome = AddMeasured(MakeBetween(from, to, m.measured, m.noise), from,
+                                      "odometry_t", s, v);
+  if (outcome == Outcome::kApplied) Touch(*id, in, s);
+  return outcome;
 }
 
 Estimator::Outcome Estimator::ApplyLandmark(const LandmarkMeasurement& m, const Inbound& in,
@@ -499,9 +512,7 @@ Estimator::Outcome Estimator::ApplyLandmark(const LandmarkMeasurement& m, const 
                                              " has the other dimension"};
     return Outcome::kRejected;
   }
-  if (!FirstTime('l', pose, landmark, static_cast<int>(m.kind), "landmark_observation_t", s, v)) {
-    return Outcome::kRejected;
-  }
+  FirstTime('l', pose, landmark, static_cast<int>(m.kind), s);
   core::FactorPtr factor;
   Variable guess;
   if (const BearingRange* br = std::get_if<BearingRange>(&m.measured)) {
@@ -520,10 +531,12 @@ Estimator::Outcome Estimator::ApplyLandmark(const LandmarkMeasurement& m, const 
     factor = std::make_shared<core::RelativePointFactor<Pose3, core::Point3>>(pose, landmark, p3,
                                                                               m.noise);
   }
+  const Outcome outcome =
+      AddMeasured(std::move(factor), pose, "landmark_observation_t", s, v);
+  if (outcome != Outcome::kApplied) return outcome;
   if (!known) (void)s->values.Insert(landmark, guess);
-  AddMeasured(std::move(factor), pose, s);
   Touch(*id, in, s);
-  return Outcome::kApplied;
+  return outcome;
 }
 
 Estimator::Outcome Estimator::ApplyLoopClosure(const LoopClosureMeasurement& m, const Inbound& in,
@@ -572,16 +585,14 @@ Estimator::Outcome Estimator::ApplyLoopClosure(const LoopClosureMeasurement& m, 
   }
   const Key ka = MakeKey('x', m.pose_a, *a);
   const Key kb = MakeKey('x', m.pose_b, *b);
-  if (!FirstTime('c', std::min(ka, kb), std::max(ka, kb), 0, "loop_closure_t", s, v)) {
-    return Outcome::kRejected;
-  }
+  FirstTime('c', std::min(ka, kb), std::max(ka, kb), 0, s);
   if (!known_b) AddPose(*b, m.pose_b, Compose(Estimate(ka, *s), m.measured, false), in, s);
   if (!known_a) AddPose(*a, m.pose_a, Compose(Estimate(kb, *s), m.measured, true), in, s);
-  AddMeasured(MakeBetween(ka, kb, m.measured, m.noise,
-                          m.robust.is_none() ? default_loop_kernel_ : m.robust),
-              ka, s);
-  Touch(*a, in, s);
-  return Outcome::kApplied;
+  const Outcome outcome = AddMeasured(
+      MakeBetween(ka, kb, m.measured, m.noise, m.robust.is_none() ? default_loop_kernel_ : m.robust),
+      ka, "loop_closure_t", s, v);
+  if (outcome == Outcome::kApplied) Touch(*a, in, s);
+  return outcome;
 }
 
 Estimator::Outcome Estimator::ApplyPrior(const PriorMeasurement& m, const Inbound& in, Staged* s,
@@ -601,9 +612,7 @@ Estimator::Outcome Estimator::ApplyPrior(const PriorMeasurement& m, const Inboun
           "prior_t.kind: does not match " + PoseName(m.robot, m.pose_index)};
     return Outcome::kRejected;
   }
-  if (!FirstTime('p', key, 0, static_cast<int>(m.kind), "prior_t", s, v)) {
-    return Outcome::kRejected;
-  }
+  FirstTime('p', key, 0, static_cast<int>(m.kind), s);
   core::FactorPtr factor;
   if (const Pose2* p2 = std::get_if<Pose2>(&m.measured)) {
     if (!known) AddPose(*id, m.pose_index, *p2, in, s);
@@ -617,9 +626,9 @@ Estimator::Outcome Estimator::ApplyPrior(const PriorMeasurement& m, const Inboun
     factor = std::make_shared<core::PositionPriorFactor<Pose3>>(
         key, std::get<core::Point3>(m.measured), m.noise);
   }
-  AddMeasured(std::move(factor), key, s);
-  Touch(*id, in, s);
-  return Outcome::kApplied;
+  const Outcome outcome = AddMeasured(std::move(factor), key, "prior_t", s, v);
+  if (outcome == Outcome::kApplied) Touch(*id, in, s);
+  return outcome;
 }
 
 void Estimator::Reject(const Inbound& in, RejectReason reason, std::string message,
@@ -678,6 +687,14 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
         case Outcome::kRejected:
           done[i] = 1;
           Reject(pending[i].message, v.reason, std::move(v.message), &result);
+          break;
+        case Outcome::kAlreadyHeld:
+          done[i] = 1;
+          ++counters_.already_held;
+          result.already_held_robots.insert(MessageRobot(pending[i].message));
+          if (const auto* c = std::get_if<LoopClosureMeasurement>(&pending[i].message.measurement)) {
+            result.already_held_robots.insert(c->robot_b);
+          }
           break;
         case Outcome::kHeld:
           break;

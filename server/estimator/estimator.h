@@ -17,8 +17,11 @@
 //             messages are retried whenever a pose is added (in the same batch too); a message
 //             held for more than max_hold_updates Process calls, or the oldest beyond
 //             max_held_messages, is rejected with kOutOfOrderTimeout;
-//   rejected  with a Verdict: kDuplicate (same measurement type between the same variables as
-//             an earlier applied one), kUnknownRobot / kUnknownPose (loop closure to a robot or
+//   already held: the same measurement (type, variables, values, noise) as one applied before
+//             (a robot re-sending after a restart): nothing changes; counted apart from
+//             rejections, and its robots listed so the daemon acknowledges it with their estimates;
+//   rejected  with a Verdict: kDuplicate (a different measurement of the same type between the
+//             same variables as one applied before), kUnknownRobot / kUnknownPose (loop closure to a robot or
 //             pose not in the graph, unless it connects an unanchored robot),
 //             kBadMeasurement (2D measurement on a 3D pose or vice versa; the solver refused the
 //             update: then every message applied in this batch is rejected and the estimator's
@@ -114,6 +117,9 @@ struct ProcessResult {
   // every message, not only the newest of a robot.
   std::vector<std::int64_t> applied_received_us;
   std::vector<Rejection> rejections;
+  // Robots of the messages that were already held (the same measurement applied before): the
+  // daemon acknowledges them with these robots' estimates.
+  std::set<std::string> already_held_robots;
   std::vector<core::Isam2Result> updates;  // every Isam2::Update that ran, in order
 };
 
@@ -194,7 +200,7 @@ class Estimator {
  private:
   Estimator(const EstimatorParams& params, std::unique_ptr<core::Isam2> isam);
 
-  enum class Outcome { kApplied, kHeld, kRejected };
+  enum class Outcome { kApplied, kHeld, kRejected, kAlreadyHeld };
   struct Held {
     Inbound message;
     int waited = 0;  // Process calls it has waited through
@@ -224,6 +230,8 @@ class Estimator {
     // (position in `factors`, id, first key) of each measured (removable) factor.
     std::vector<std::tuple<size_t, MeasurementId, core::Key>> ids;
     std::optional<MeasurementId> pending_id;  // set by FirstTime, taken by AddMeasured
+    // Set by FirstTime when that identity is applied or staged already: the factor it has.
+    core::FactorPtr pending_existing;
     std::vector<std::pair<std::uint8_t, RobotState>> robots_before;  // for rollback
   };
 
@@ -236,11 +244,14 @@ class Estimator {
 
   bool Known(core::Key key, const Staged& s) const;
   core::Variable Estimate(core::Key key, const Staged& s) const;
-  // Marks `key` seen for this batch; false (and *v = kDuplicate) when already applied.
-  bool FirstTime(char type, core::Key a, core::Key b, int kind, const char* what, Staged* s,
-                 Verdict* v);
-  // Adds the factor of the message FirstTime() just admitted, remembering its identity.
-  void AddMeasured(core::FactorPtr factor, core::Key first, Staged* s);
+  // Marks the measurement's identity seen for this batch, noting the factor it already has when
+  // it was applied or staged before (AddMeasured then compares).
+  void FirstTime(char type, core::Key a, core::Key b, int kind, Staged* s);
+  // Adds the factor of the message FirstTime() just admitted, remembering its identity:
+  // kApplied; or, when that identity has a factor already, kAlreadyHeld for the same
+  // measurement and kRejected (kDuplicate, `what` names the message type) for another.
+  Outcome AddMeasured(core::FactorPtr factor, core::Key first, const char* what, Staged* s,
+                      Verdict* v);
   RobotState& Robot(std::uint8_t id, Staged* s);  // remembers its old state for rollback
   void ApplyBatch(std::vector<Inbound> batch, ProcessResult* result);
   void Remove(const Inbound& in, ProcessResult* result);

@@ -190,6 +190,7 @@ std::string EncodeState(const EstimatorState& state, const JournalPosition& posi
   c->set_applied(state.counters.applied);
   c->set_held(state.counters.held);
   c->set_rejected(state.counters.rejected);
+  c->set_already_held(state.counters.already_held);
   c->set_updates(state.counters.updates);
   c->set_refinements(state.counters.refinements);
   c->set_rebuilds(state.counters.rebuilds);
@@ -243,6 +244,7 @@ core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition
   state.counters.applied = c.applied();
   state.counters.held = c.held();
   state.counters.rejected = c.rejected();
+  state.counters.already_held = c.already_held();
   state.counters.updates = c.updates();
   state.counters.refinements = c.refinements();
   state.counters.rebuilds = c.rebuilds();

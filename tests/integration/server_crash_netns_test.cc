@@ -8,10 +8,11 @@
 // to B, the others after a random delay. After a kill it reads B's journal to learn which of
 // the messages not yet acknowledged (the current step and the one before: lock-step waits only
 // for a pose's estimate, which can come before that step's loop closures are journaled) were
-// journaled, restarts B and re-sends both steps whole: exactly the journaled ones must come back
-// as reject_t REASON_DUPLICATE (nothing doubled), the others are applied (nothing lost). At the
-// end both settle (refine on, refine_threshold 1e-10), are stopped with SIGTERM, and both data
-// directories are recovered in-process (server/estimator/recovery.h): after refinement to
+// journaled, restarts B and re-sends both steps whole: exactly the journaled ones must be held
+// already (status_t.messages_already_held; nothing doubled, nothing rejected), the others are
+// applied (nothing lost). Then everything is re-sent to B once more: all of it held already. At
+// the end both settle (refine on, refine_threshold 1e-10), are stopped with SIGTERM, and both
+// data directories are recovered in-process (server/estimator/recovery.h): after refinement to
 // convergence the estimates agree to 1e-9 and the factor sets are identical.
 // A second test kills slamd during a burst, cuts the journal inside its last record (what a
 // crash inside write() leaves) and checks that the restart truncates the torn tail and that
@@ -381,7 +382,7 @@ TEST(ServerCrashNetnsTest, KilledServerRecoversToTheUninterruptedResult) {
   }
   std::uniform_int_distribution<int> delay_us(0, 800);
 
-  int kills = 0, resent_duplicates = 0, resent_applied = 0;
+  int kills = 0, resent_held = 0, resent_applied = 0;
   const auto t0 = Clock::now();
   for (int k = 0; k < n; ++k) {
     const std::uint64_t pose = core::KeyIndex(steps[k].pose);
@@ -404,19 +405,20 @@ TEST(ServerCrashNetnsTest, KilledServerRecoversToTheUninterruptedResult) {
       const int journaled_prev = Journaled(b.data_dir, b.prefix, messages[k - 1]);
       const int journaled = Journaled(b.data_dir, b.prefix, messages[k]);
       ASSERT_NO_FATAL_FAILURE(Start(config, client, &b));
-      // Resume: steps k-1 and k again, whole. Exactly the journaled ones must come back as
-      // duplicates (nothing doubled), the others are applied (nothing lost).
-      const int dups_prev_before = b.dups[k - 1], dups_before = b.dups[k];
+      // Resume: steps k-1 and k again, whole. Exactly the journaled ones must be held already
+      // (nothing doubled, nothing rejected), the others are applied (nothing lost).
+      const std::int64_t held_before = b.status.messages_already_held;
       ASSERT_NO_FATAL_FAILURE(client.Send(b, messages[k - 1]));
       ASSERT_NO_FATAL_FAILURE(client.Send(b, messages[k]));
       ASSERT_TRUE(client.Barrier(&b)) << "no query reply from the restarted slamd at step " << k;
-      EXPECT_EQ(b.dups[k - 1] - dups_prev_before, journaled_prev)
-          << "step " << k - 1 << " re-sent after the kill at step " << k;
-      EXPECT_EQ(b.dups[k] - dups_before, journaled)
-          << "step " << k << ": re-sent messages that were journaled must be duplicates, the "
-          << "others must be applied";
+      const std::int64_t t1 = WallUs();
+      ASSERT_TRUE(client.PumpUntil([&] { return b.status_utime > t1; }, 20.0));
+      EXPECT_EQ(b.status.messages_already_held - held_before, journaled_prev + journaled)
+          << "steps " << k - 1 << " and " << k << " re-sent after the kill at step " << k
+          << ": the journaled messages must be held already, the others applied";
+      EXPECT_TRUE(b.dups.empty()) << "a re-sent message was rejected as a duplicate";
       const int resent = static_cast<int>(messages[k - 1].size() + messages[k].size());
-      resent_duplicates += journaled_prev + journaled;
+      resent_held += journaled_prev + journaled;
       resent_applied += resent - journaled_prev - journaled;
     } else {
       ASSERT_NO_FATAL_FAILURE(client.Send(b, messages[k]));
@@ -429,12 +431,33 @@ TEST(ServerCrashNetnsTest, KilledServerRecoversToTheUninterruptedResult) {
   const double stream_s = std::chrono::duration<double>(Clock::now() - t0).count();
   std::printf(
       "[ crash    ] %d steps (%d factors) streamed in %.1f s with %d kills; re-sent "
-      "after kills: %d duplicates, %d applied\n",
-      n, expected_factors, stream_s, kills, resent_duplicates, resent_applied);
+      "after kills: %d held already, %d applied\n",
+      n, expected_factors, stream_s, kills, resent_held, resent_applied);
   EXPECT_EQ(kills, kKills);
   EXPECT_EQ(a.other_rejects, 0);
   EXPECT_EQ(b.other_rejects, 0);
   EXPECT_TRUE(a.dups.empty()) << "the uninterrupted run rejected a duplicate";
+
+  // A robot that lost track re-sends everything: every message is held already by B, nothing
+  // is rejected or added.
+  {
+    const std::int64_t held_before = b.status.messages_already_held;
+    int total = 0;
+    for (int k = 0; k < n; ++k) {
+      ASSERT_NO_FATAL_FAILURE(client.Send(b, messages[k]));
+      total += static_cast<int>(messages[k].size());
+      if (k % 50 == 49) {
+        ASSERT_TRUE(client.Barrier(&b));  // paced: no receive-buffer overrun
+      }
+    }
+    ASSERT_TRUE(client.Barrier(&b));
+    const std::int64_t t1 = WallUs();
+    ASSERT_TRUE(client.PumpUntil([&] { return b.status_utime > t1; }, 20.0));
+    EXPECT_EQ(b.status.messages_already_held - held_before, total);
+    EXPECT_EQ(b.status.num_factors, expected_factors);
+    EXPECT_TRUE(b.dups.empty());
+    EXPECT_EQ(b.other_rejects, 0);
+  }
 
   // Let both settle (refinement converged), then stop them cleanly.
   auto settled = [&](const Server& s) {

@@ -106,10 +106,11 @@ TEST(ServerInProcessTest, LockStepEstimatesEqualOfflineIsam2AndBadMessagesChange
     // Every 50 steps, bad messages after the step's own: each must give its reject_t only.
     int bad = 0;
     if (k > 0 && k % 50 == 0) {
-      slamd::odometry_t dup;  // the odometry just sent, again
+      slamd::odometry_t dup;  // another odometry between the poses just joined
       const auto& b = Between(step.odometry);
       ToLcm(OdometryMeasurement{k, robot, core::KeyIndex(step.odometry_from),
-                                core::KeyIndex(step.pose), b.measured(), b.noise_model()},
+                                core::KeyIndex(step.pose), b.measured() * core::Pose2(0.5, 0, 0),
+                                b.noise_model()},
             &dup);
       ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", dup).ok());
       slamd::odometry_t asym = dup;  // non-symmetric covariance

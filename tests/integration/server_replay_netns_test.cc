@@ -181,6 +181,18 @@ TEST(ServerReplayNetnsTest, DatasetLogAndFastReplays) {
     const CommandRun watch = Slamctl(&observer, {"watch", "--duration", "0.3", "--lcm-url", kUrl});
     EXPECT_EQ(watch.exit_code, 0) << watch.out;
     EXPECT_NE(watch.out.find("settled"), std::string::npos) << watch.out;
+
+    // The same data again (a robot re-sending after a restart): held already, acknowledged at
+    // once, nothing rejected, nothing added, exit 0.
+    const CommandRun again = Slamctl(&observer, {"replay", intel, "--fast", "--json", "-q",
+                                                 "--lcm-url", kUrl, "--settle-timeout", "20"});
+    EXPECT_EQ(again.exit_code, 0) << again.out;
+    EXPECT_EQ(JsonNumber(again.out, "rejected"), 0) << again.out;
+    EXPECT_EQ(JsonNumber(again.out, "already_held"), static_cast<double>(intel_messages))
+        << again.out;
+    EXPECT_LT(JsonNumber(again.out, "wall_s"), 10.0) << again.out;
+    EXPECT_NEAR(JsonNumber(again.out, "final_chi2"), kIntelOptimum, 1e-3 * kIntelOptimum)
+        << again.out;
   }
 
   // 2. The recorded log into a fresh server: the same messages, the same result.

@@ -78,8 +78,8 @@ TEST(ServerUdpmNetnsTest, StreamsEstimatesRejectsAndStopsOnSigterm) {
     ASSERT_TRUE(Publish(*bus, "UT_ODOMETRY", odo).ok());
   }
   slamd::odometry_t bad;
-  ToLcm(OdometryMeasurement{99, "bot", 5, 6, core::Pose2(1.0, 0.0, 0.1), noise}, &bad);
-  ASSERT_TRUE(Publish(*bus, "UT_ODOMETRY", bad).ok());  // duplicate of 5 -> 6
+  ToLcm(OdometryMeasurement{99, "bot", 5, 6, core::Pose2(1.5, 0.0, 0.1), noise}, &bad);
+  ASSERT_TRUE(Publish(*bus, "UT_ODOMETRY", bad).ok());  // another odometry 5 -> 6
 
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   while (std::chrono::steady_clock::now() < deadline &&

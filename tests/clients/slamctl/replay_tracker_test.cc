@@ -67,13 +67,19 @@ TEST(ReplayTrackerTest, CountsOnlyOurRejects) {
 
 TEST(ReplayTrackerTest, SettlesOnAStatusThatCoversEverything) {
   ReplayTracker t({"a"});
-  t.SetBaseline(100);
+  slamd::status_t before{};
+  before.messages_received = 100;
+  before.messages_already_held = 7;
+  t.SetBaseline(before);
   t.OnSent(Pose("a", 0), 0.0);
   t.OnSent(Pose("a", -1), 0.0);
   slamd::status_t s{};
   s.messages_received = 101;  // baseline 100: one of our two arrived
+  s.messages_already_held = 8;  // one of ours the server had already
+  EXPECT_EQ(t.already_held(), 0);  // no status yet since the baseline
   s.settled = true;
   t.OnStatus(s);
+  EXPECT_EQ(t.already_held(), 1);
   EXPECT_FALSE(t.ReceivedAll());
   EXPECT_FALSE(t.Settled());
   s.messages_received = 102;

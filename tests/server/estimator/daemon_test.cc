@@ -118,6 +118,36 @@ TEST(DaemonTest, ManualDriveCoalescesQueuedMessagesIntoOneUpdate) {
   EXPECT_TRUE(client.rejects.empty());
 }
 
+// A robot re-sending what the server holds (after a restart) gets its poses acknowledged by an
+// estimate_t, no reject_t; status_t counts them apart.
+TEST(DaemonTest, ResentMeasurementsAreAcknowledgedNotRejected) {
+  InProcessBus bus;
+  auto daemon = Daemon::Create(Params(), &bus).value();
+  Client client(bus);
+  ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", Prior()).ok());
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(i, i + 1)).ok());
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+  daemon->StepEstimator(0.0);
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+  ASSERT_EQ(client.estimates.size(), 1u);
+  const auto before = daemon->snapshot();
+  // Everything again, then nothing new: one acknowledgement, the newest pose, no update.
+  ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", Prior()).ok());
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(i, i + 1)).ok());
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+  daemon->StepEstimator(0.0);
+  ASSERT_TRUE(daemon->PumpIntake(0).ok());
+  EXPECT_TRUE(client.rejects.empty());
+  ASSERT_EQ(client.estimates.size(), 2u);
+  EXPECT_EQ(client.estimates[1].robot, "r");
+  EXPECT_EQ(client.estimates[1].pose_index, 3);
+  const auto after = daemon->snapshot();
+  EXPECT_EQ(after->update_sequence, before->update_sequence);
+  EXPECT_EQ(after->num_factors, before->num_factors);
+  EXPECT_EQ(after->counters.already_held, 4);
+  EXPECT_EQ(after->counters.rejected, 0);
+}
+
 // LCM hands over one message per HandleOnce (memq://: a real LCM bus without a network). Under
 // journal.sync ALWAYS a pose's messages sent together still reach the estimator together, as
 // one update (one fdatasync); under NEVER each goes on at once.
@@ -158,7 +188,9 @@ TEST(DaemonTest, BadMessagesGetTheirRejectAndChangeNothing) {
   nan.values[0] = std::nan("");
   ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", nan).ok());      // stateless
   ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Prior()).ok());  // wrong type
-  ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", Prior()).ok());     // duplicate
+  slamd::prior_t other = Prior();
+  other.values[0] += 1.0;
+  ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", other).ok());  // another prior on the same pose
   slamd::remove_factor_t remove;
   ToLcm(RemoveFactorRequest{1, RemoveTarget::kOdometry, "r", 0, "", 1, 0}, &remove);
   ASSERT_TRUE(Publish(bus, "SLAMD_REMOVE_FACTOR", remove).ok());  // no such odometry

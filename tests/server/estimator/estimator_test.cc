@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -101,7 +103,9 @@ TEST(EstimatorTest, CoalescedUpdateEqualsLockStep) {
   EXPECT_GT(lock->snapshot()->chi2, 1e-3);  // the loop closure really pulled
 }
 
-TEST(EstimatorTest, DuplicateMeasurementRejected) {
+// A different measurement between the same variables is refused; the same one again (a robot
+// re-sending after a restart) is acknowledged as held already: nothing changes, nothing rejected.
+TEST(EstimatorTest, DuplicateMeasurementRejectedUnlessTheSame) {
   auto e = Make();
   ASSERT_TRUE(e->Process({Prior("r", 0, Pose2()), Odo("r", 0, 1, kStep)}).status.ok());
   const Pose2 before = PoseOf(*e, "r", 1);
@@ -109,13 +113,24 @@ TEST(EstimatorTest, DuplicateMeasurementRejected) {
   EXPECT_EQ(OnlyRejection(r), RejectReason::kDuplicate);
   EXPECT_TRUE(r.updates.empty());
   ExpectNear(PoseOf(*e, "r", 1), before, 0.0);
+  const ProcessResult same = e->Process({Odo("r", 0, 1, kStep), Prior("r", 0, Pose2())});
+  EXPECT_TRUE(same.rejections.empty());
+  EXPECT_TRUE(same.updates.empty());
+  EXPECT_EQ(same.applied, 0);
+  EXPECT_EQ(same.already_held_robots, std::set<std::string>{"r"});
+  EXPECT_EQ(e->snapshot()->counters.already_held, 2);
+  ExpectNear(PoseOf(*e, "r", 1), before, 0.0);
   // Also within one batch, and for loop closures written either way round.
   const ProcessResult r2 = e->Process({Odo("r", 1, 2, kStep), Odo("r", 1, 2, kStep)});
-  EXPECT_EQ(OnlyRejection(r2), RejectReason::kDuplicate);
+  EXPECT_TRUE(r2.rejections.empty());
   EXPECT_EQ(r2.applied, 1);
+  const ProcessResult r3 = e->Process({Odo("r", 1, 2, kStep), Odo("r", 1, 2, Pose2(0, 1, 0))});
+  EXPECT_EQ(OnlyRejection(r3), RejectReason::kDuplicate);
   ASSERT_TRUE(e->Process({Loop("r", 2, "r", 0, kStep)}).status.ok());
   EXPECT_EQ(OnlyRejection(e->Process({Loop("r", 0, "r", 2, kStep)})), RejectReason::kDuplicate);
+  EXPECT_TRUE(e->Process({Loop("r", 2, "r", 0, kStep)}).rejections.empty());
   EXPECT_EQ(e->snapshot()->counters.rejects_by_reason[int(RejectReason::kDuplicate)], 3);
+  EXPECT_EQ(e->snapshot()->counters.already_held, 5);
 }
 
 TEST(EstimatorTest, LoopClosureToUnknownRobotOrPoseRejected) {
@@ -215,7 +230,8 @@ TEST(EstimatorTest, LandmarkPlacedByFirstObservationAndHeldForUnknownPose) {
   const core::Point2& l3 = est.At<core::Point2>(core::MakeKey('l', 3, 'a'));
   EXPECT_NEAR(l3.x(), 1.0, 1e-9);  // 2 m along the pose's x axis, which points along world y
   EXPECT_NEAR(l3.y(), 2.0, 1e-9);
-  EXPECT_EQ(OnlyRejection(e->Process({Landmark("r", 0, 3, 0.0, 2.0)})), RejectReason::kDuplicate);
+  EXPECT_TRUE(e->Process({Landmark("r", 0, 3, 0.0, 2.0)}).rejections.empty());  // held already
+  EXPECT_EQ(OnlyRejection(e->Process({Landmark("r", 0, 3, 0.0, 2.5)})), RejectReason::kDuplicate);
 }
 
 TEST(EstimatorTest, PositionPriorOnUnknownPoseIsHeldThenApplied) {

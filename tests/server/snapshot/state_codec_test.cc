@@ -112,14 +112,18 @@ TEST(StateCodecTest, RoundTripRestoresAnEquivalentEstimator) {
   const std::vector<Inbound> more = {
       {OdometryMeasurement{12, "r", 6, 7, Pose2(1, 0, 0.1), Noise(3, 0.1)}, 0},
       {OdometryMeasurement{12, "r", 5, 6, Pose2(1, 0, 0.1), Noise(3, 0.1)}, 0},
-      {OdometryMeasurement{13, "r", 0, 1, Pose2(1, 0.1, 0.2), Noise(3, 0.1)}, 0},  // duplicate
+      {OdometryMeasurement{13, "r", 0, 1, Pose2(1, 0.1, 0.2), Noise(3, 0.1)}, 0},  // held
+      {OdometryMeasurement{13, "r", 0, 1, Pose2(1, 0.1, 0.3), Noise(3, 0.1)}, 0},  // differs
       {RemoveFactorRequest{14, RemoveTarget::kLoopClosure, "r", 5, "r", 1, 0}, 0}};
   for (Estimator* e : {original.get(), restored.get()}) {
+    const std::int64_t held_before = e->snapshot()->counters.already_held;
     const ProcessResult r = e->Process(more);
     ASSERT_TRUE(r.status.ok()) << r.status.ToString();
     EXPECT_EQ(r.applied, 4);
     ASSERT_EQ(r.rejections.size(), 1u);
     EXPECT_EQ(r.rejections[0].verdict.reason, RejectReason::kDuplicate);
+    // The restored solver's factor (R re-factored from the snapshot) is the same measurement.
+    EXPECT_EQ(e->snapshot()->counters.already_held, held_before + 1);
     EXPECT_EQ(e->held_messages(), 0);
     ASSERT_TRUE(e->Refine(5.0).converged);
   }
