@@ -315,7 +315,8 @@ class Exporter {
     for (const core::FactorPtr& f : data->graph.factors()) {
       const core::Key l = f->keys()[1];
       if (core::KeySymbol(l) != 'l' || data->initial.Contains(l)) continue;
-      const std::optional<core::Variable> point = f->Predict(0, value[core::KeyIndex(f->keys()[0])]);
+      const std::optional<core::Variable> point =
+          f->Predict(0, value[core::KeyIndex(f->keys()[0])]);
       SLAMD_CHECK(point) << f->Name() << " on a landmark predicts no point";
       SLAMD_RETURN_IF_ERROR(data->initial.Insert(l, *point));
     }

@@ -243,7 +243,8 @@ core::Result<LiveScene> BuildLiveScene(const std::vector<slamd::map_t>& pages,
         return core::Status::Ok();
       }
       (pose ? out.pose_ellipses : out.landmark_ellipses)
-          .push_back(CovarianceEllipse(position, core::PlanarCovariance(*value, *cov), options.sigma));
+          .push_back(
+              CovarianceEllipse(position, core::PlanarCovariance(*value, *cov), options.sigma));
       return core::Status::Ok();
     };
     for (std::size_t i = 0; i < n; ++i) {

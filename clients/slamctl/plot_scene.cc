@@ -140,8 +140,8 @@ core::Result<PlotRobot> BuildRobot(const std::string& name, const core::Dataset&
     const auto it = marginals->find(key);
     if (it == marginals->end()) return;
     const core::Variable& v = values.Get(key);
-    out->push_back(CovarianceEllipse(*core::PlanarPosition(v), core::PlanarCovariance(v, it->second),
-                                     options.sigma));
+    out->push_back(CovarianceEllipse(*core::PlanarPosition(v),
+                                     core::PlanarCovariance(v, it->second), options.sigma));
   };
   const std::size_t n = data.poses.size();
   for (std::size_t i = 0; i < n; i += options.ellipse_every) add_ellipse(data.poses[i], &robot.pose_ellipses);

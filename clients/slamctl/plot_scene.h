@@ -24,8 +24,8 @@
 #include "core/base/status.h"
 #include "core/factors/factor_graph.h"
 #include "core/factors/values.h"
-#include "core/variables/variable.h"
 #include "core/io/dataset.h"
+#include "core/variables/variable.h"
 
 namespace slamd::clients::plot {
 

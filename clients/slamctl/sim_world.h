@@ -57,8 +57,8 @@
 #include "core/base/status.h"
 #include "core/factors/noise_model.h"
 #include "core/factors/values.h"
-#include "core/variables/variable.h"
 #include "core/io/dataset.h"
+#include "core/variables/variable.h"
 
 namespace slamd::clients::sim {
 

@@ -6,8 +6,8 @@
 #include <vector>
 
 #include "core/batch/batch_solver.h"
-#include "core/factors/prior_factor.h"
 #include "core/factors/factor.h"
+#include "core/factors/prior_factor.h"
 
 namespace slamd::core {
 namespace {
@@ -195,7 +195,8 @@ Result<Values> InitializeLago(const FactorGraph& graph, const Values& initial, K
   // marginal information of the angle (1 / Σ_θθ).
   std::vector<double> theta(n, 0.0);
   for (int s = 0; s < n; ++s) {
-    if (values.TypeAt(s) == kVariableType<Pose2>) theta[s] = values.At<Pose2>(values.KeyAt(s)).theta();
+    if (values.TypeAt(s) == kVariableType<Pose2>)
+      theta[s] = values.At<Pose2>(values.KeyAt(s)).theta();
   }
   {
     std::vector<Eigen::Triplet<double>> t;
@@ -229,7 +230,8 @@ Result<Values> InitializeLago(const FactorGraph& graph, const Values& initial, K
   // l − t_i = R_i z (weight R_i Ω R_iᵀ).
   std::vector<Point2> position(n, Point2::Zero());
   for (int s = 0; s < n; ++s) {
-    if (values.TypeAt(s) == kVariableType<Pose2>) position[s] = values.At<Pose2>(values.KeyAt(s)).translation();
+    if (values.TypeAt(s) == kVariableType<Pose2>)
+      position[s] = values.At<Pose2>(values.KeyAt(s)).translation();
   }
   {
     std::vector<Eigen::Triplet<double>> t;

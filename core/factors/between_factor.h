@@ -26,9 +26,7 @@ class BetweenFactor : public TypedFactor<BetweenFactor<T>, T::kDim, T, T> {
   }
 
   const T& measured() const { return measured_; }
-  void EncodeMeasured(std::vector<double>* out) const override {
-    EncodeVariable(measured_, out);
-  }
+  void EncodeMeasured(std::vector<double>* out) const override { EncodeVariable(measured_, out); }
   std::optional<Variable> Measured() const override { return measured_; }
   // keys()[1] = x₀ ∘ z (known = 0), keys()[0] = x₁ ∘ z⁻¹ (known = 1).
   std::optional<Variable> Predict(int known, const Variable& known_value) const override {

@@ -132,9 +132,8 @@ class TypedFactor : public Factor {
       : Factor(std::move(keys), std::move(noise), robust) {
     SLAMD_CHECK(static_cast<int>(this->keys().size()) == kNumKeys)
         << Derived::TypeName() << ": " << this->keys().size() << " keys, expected " << kNumKeys;
-    SLAMD_CHECK(noise_model().dim() == M)
-        << Derived::TypeName() << ": noise dimension " << noise_model().dim()
-        << " != error dimension " << M;
+    SLAMD_CHECK(noise_model().dim() == M) << Derived::TypeName() << ": noise dimension "
+                                          << noise_model().dim() << " != error dimension " << M;
   }
 
   const char* Name() const final { return Derived::TypeName(); }

@@ -13,12 +13,12 @@
 namespace slamd::core {
 
 struct FactorRecord {
-  std::string type;                  // the registered type name, e.g. "BetweenPose2"
+  std::string type;  // the registered type name, e.g. "BetweenPose2"
   KeyVector keys;
   std::vector<double> measured;      // Factor::EncodeMeasured's layout for the type
   Eigen::MatrixXd sqrt_information;  // the noise model's R
   RobustKernel robust;
-  std::vector<Variable> values;      // values the factor carries (Factor::CarriedValues)
+  std::vector<Variable> values;  // values the factor carries (Factor::CarriedValues)
 };
 
 }  // namespace slamd::core

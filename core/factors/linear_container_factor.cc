@@ -30,16 +30,15 @@ Result<FactorPtr> LinearContainerFactor::Create(KeyVector keys,
   }
   if (b.size() < 1 || A.rows() != b.size() || A.cols() != columns) {
     return InvalidArgument("LinearContainerFactor: A is " + std::to_string(A.rows()) + "x" +
-                           std::to_string(A.cols()) + " and b has " +
-                           std::to_string(b.size()) + " entries; expected m x " +
-                           std::to_string(columns) + " and m >= 1");
+                           std::to_string(A.cols()) + " and b has " + std::to_string(b.size()) +
+                           " entries; expected m x " + std::to_string(columns) + " and m >= 1");
   }
   if (!A.allFinite() || !b.allFinite()) {
     return InvalidArgument("LinearContainerFactor: A or b has a NaN or infinite entry");
   }
-  return FactorPtr(std::make_shared<const LinearContainerFactor>(
-      std::move(keys), std::move(types), std::move(linearization_point), std::move(A),
-      std::move(b)));
+  return FactorPtr(std::make_shared<const LinearContainerFactor>(std::move(keys), std::move(types),
+                                                                 std::move(linearization_point),
+                                                                 std::move(A), std::move(b)));
 }
 
 LinearContainerFactor::LinearContainerFactor(KeyVector keys, std::vector<VariableType> types,
@@ -47,7 +46,9 @@ LinearContainerFactor::LinearContainerFactor(KeyVector keys, std::vector<Variabl
                                              Eigen::MatrixXd A, Eigen::VectorXd b)
     : DynamicFactor(std::move(keys), std::move(types), NoiseModel::Unit(static_cast<int>(b.size())),
                     RobustKernel()),
-      x0_(std::move(linearization_point)), A_(std::move(A)), b_(std::move(b)) {
+      x0_(std::move(linearization_point)),
+      A_(std::move(A)),
+      b_(std::move(b)) {
   offsets_.push_back(0);
   for (const Variable& v : x0_) offsets_.push_back(offsets_.back() + TangentDim(TypeOf(v)));
 }

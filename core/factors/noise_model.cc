@@ -115,13 +115,11 @@ NoiseModel NoiseModel::Unit(int dim) {
   return NoiseModel(Kind::kIsotropic, Matrix::Identity(dim, dim));
 }
 
-Eigen::MatrixXd NoiseModel::Information() const {
-  return R_.transpose() * R_;
-}
+Eigen::MatrixXd NoiseModel::Information() const { return R_.transpose() * R_; }
 
 Eigen::MatrixXd NoiseModel::Covariance() const {
-  const Eigen::MatrixXd Rinv = R_.triangularView<Eigen::Upper>().solve(
-      Eigen::MatrixXd::Identity(dim(), dim()));
+  const Eigen::MatrixXd Rinv =
+      R_.triangularView<Eigen::Upper>().solve(Eigen::MatrixXd::Identity(dim(), dim()));
   return Rinv * Rinv.transpose();
 }
 

@@ -8,8 +8,7 @@
 namespace slamd::core {
 
 template <typename P>
-class PositionPriorFactor
-    : public TypedFactor<PositionPriorFactor<P>, P::kDim == 3 ? 2 : 3, P> {
+class PositionPriorFactor : public TypedFactor<PositionPriorFactor<P>, P::kDim == 3 ? 2 : 3, P> {
   static constexpr int kM = P::kDim == 3 ? 2 : 3;
   using Base = TypedFactor<PositionPriorFactor<P>, kM, P>;
   using Position = Eigen::Matrix<double, kM, 1>;  // Point2 or Point3

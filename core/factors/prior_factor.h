@@ -64,13 +64,10 @@ class PriorFactor : public TypedFactor<PriorFactor<T>, VariableTraits<T>::kDim, 
   }
 
   const T& measured() const { return measured_; }
-  void EncodeMeasured(std::vector<double>* out) const override {
-    EncodeVariable(measured_, out);
-  }
+  void EncodeMeasured(std::vector<double>* out) const override { EncodeVariable(measured_, out); }
   std::optional<Variable> Measured() const override { return measured_; }
 
-  typename Base::ErrorVector Evaluate(const T& x,
-                                      typename Base::template JacobianAt<0>* H) const {
+  typename Base::ErrorVector Evaluate(const T& x, typename Base::template JacobianAt<0>* H) const {
     return internal::LocalWithJacobian(measured_, x, H);
   }
 

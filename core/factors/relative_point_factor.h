@@ -25,9 +25,7 @@ class RelativePointFactor
   }
 
   const L& measured() const { return measured_; }
-  void EncodeMeasured(std::vector<double>* out) const override {
-    EncodeVariable(measured_, out);
-  }
+  void EncodeMeasured(std::vector<double>* out) const override { EncodeVariable(measured_, out); }
   std::optional<Variable> Measured() const override { return measured_; }
   // The landmark keys()[1] from the pose (known = 0) only.
   std::optional<Variable> Predict(int known, const Variable& known_value) const override {

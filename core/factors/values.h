@@ -42,8 +42,7 @@ class Values {
   template <typename T>
   const T& At(Key key) const {
     const T* v = Find<T>(key);
-    SLAMD_CHECK(v != nullptr) << "no " << VariableTraits<T>::kName << " named "
-                              << KeyToString(key);
+    SLAMD_CHECK(v != nullptr) << "no " << VariableTraits<T>::kName << " named " << KeyToString(key);
     return *v;
   }
   template <typename T>

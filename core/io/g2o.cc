@@ -178,10 +178,10 @@ Status WriteVertex(const Dataset& dataset, Key key, bool landmark, std::string* 
         ", expected a " +
         (landmark ? "point (it is in dataset.landmarks)" : "pose (it is in dataset.poses)"));
   }
-  const char* tag = std::holds_alternative<Pose2>(v)   ? "VERTEX_SE2"
-                    : std::holds_alternative<Pose3>(v) ? "VERTEX_SE3:QUAT"
+  const char* tag = std::holds_alternative<Pose2>(v)    ? "VERTEX_SE2"
+                    : std::holds_alternative<Pose3>(v)  ? "VERTEX_SE3:QUAT"
                     : std::holds_alternative<Point2>(v) ? "VERTEX_XY"
-                                                         : nullptr;
+                                                        : nullptr;
   if (tag == nullptr) {
     return InvalidArgument("WriteG2o: " + KeyToString(key) + " is a " +
                            VariableTypeName(TypeOf(v)) + ", which has no g2o vertex here");

@@ -35,10 +35,14 @@ double Isam2Params::Relinearization::ThresholdOf(VariableType type, EntryKind ki
     if (t.kind == kind && t.type == VariableTypeName(type)) return t.threshold;
   }
   switch (kind) {
-    case EntryKind::kTranslation: return translation_threshold;
-    case EntryKind::kRotation: return rotation_threshold;
-    case EntryKind::kCalibration: return calibration_threshold;
-    case EntryKind::kOther: return other_threshold;
+    case EntryKind::kTranslation:
+      return translation_threshold;
+    case EntryKind::kRotation:
+      return rotation_threshold;
+    case EntryKind::kCalibration:
+      return calibration_threshold;
+    case EntryKind::kOther:
+      return other_threshold;
   }
   return other_threshold;
 }

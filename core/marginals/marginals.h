@@ -116,14 +116,13 @@
 #include "core/base/key.h"
 #include "core/base/status.h"
 #include "core/base/worker_pool.h"
-#include "core/variables/variable.h"
 #include "core/inference/bayes_tree.h"
 #include "core/inference/subtree_split.h"
+#include "core/variables/variable.h"
 
 namespace slamd::core {
 
 class Isam2;
-
 
 struct MarginalsParams {
   // A clique whose conditional is unchanged keeps its cached joint after its parent's joint

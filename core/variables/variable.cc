@@ -22,8 +22,7 @@ constexpr std::array<KindInfo, sizeof...(I)> MakeKinds(std::index_sequence<I...>
                    VariableTraits<std::variant_alternative_t<I, Variable>>::kEncodedSize,
                    VariableTraits<std::variant_alternative_t<I, Variable>>::kEntryKinds}...};
 }
-constexpr std::array<KindInfo, kNumVariableTypes> kKinds =
-    MakeKinds(internal::VariableIndices{});
+constexpr std::array<KindInfo, kNumVariableTypes> kKinds = MakeKinds(internal::VariableIndices{});
 
 template <typename T>
 using TraitsOf = VariableTraits<std::decay_t<T>>;
@@ -36,7 +35,8 @@ void VisitType(VariableType type, F&& f) {
                 ? (f(std::type_identity<std::variant_alternative_t<I, Variable>>{}), true)
                 : false) ||
            ...);
-  }(internal::VariableIndices{});
+  }
+  (internal::VariableIndices{});
 }
 
 // Appends v's exact encoding, or its message layout.
@@ -82,8 +82,9 @@ void RetractInPlace(Variable* v, const double* delta) {
 }
 
 Eigen::VectorXd LocalCoordinates(const Variable& a, const Variable& b) {
-  SLAMD_CHECK(a.index() == b.index()) << "LocalCoordinates between a " << VariableTypeName(TypeOf(a))
-                                      << " and a " << VariableTypeName(TypeOf(b));
+  SLAMD_CHECK(a.index() == b.index())
+      << "LocalCoordinates between a " << VariableTypeName(TypeOf(a)) << " and a "
+      << VariableTypeName(TypeOf(b));
   return std::visit(
       [&b](const auto& x) -> Eigen::VectorXd {
         using T = std::decay_t<decltype(x)>;

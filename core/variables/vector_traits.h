@@ -36,7 +36,9 @@ struct VectorTraits {
   static bool AllFinite(const T& x) { return Params(x).allFinite(); }
   static constexpr int kEncodedSize = N;
   static void Encode(const T& x, double* out) { Eigen::Map<Vector>{out} = Params(x); }
-  static std::optional<T> Decode(const double* in) { return T(Vector(Eigen::Map<const Vector>(in))); }
+  static std::optional<T> Decode(const double* in) {
+    return T(Vector(Eigen::Map<const Vector>(in)));
+  }
   static constexpr int kMessageSize = N;
   static void EncodeMessage(const T& x, double* out) { Encode(x, out); }
   static Eigen::Matrix<double, N, N> EstimateJacobian(const double*) {

@@ -549,16 +549,15 @@ void Daemon::PublishEstimates(const EstimateSnapshot& snap, std::int64_t now_ste
 }
 
 void Daemon::AcknowledgeAlreadyHeld(const EstimateSnapshot& snap,
-                                    const std::set<std::string>& robots,
-                                    std::int64_t now_steady) {
+                                    const std::set<std::string>& robots, std::int64_t now_steady) {
   const std::int64_t now = WallMicros();
   for (const RobotEstimate& r : snap.robots) {
     if (robots.count(r.name) != 0) PublishEstimate(r, snap.update_sequence, now, now_steady);
   }
 }
 
-void Daemon::PublishEstimate(const RobotEstimate& r, std::int64_t update_sequence,
-                             std::int64_t now, std::int64_t now_steady) {
+void Daemon::PublishEstimate(const RobotEstimate& r, std::int64_t update_sequence, std::int64_t now,
+                             std::int64_t now_steady) {
   slamd::estimate_t out;
   out.utime = now;
   out.robot = r.name;

@@ -38,8 +38,8 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
-#include <span>
 #include <set>
+#include <span>
 #include <string>
 #include <thread>
 #include <vector>

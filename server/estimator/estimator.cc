@@ -8,9 +8,9 @@
 #include "core/base/thread_name.h"
 #include "core/factors/bearing_range_factor.h"
 #include "core/factors/between_factor.h"
+#include "core/factors/factor_registry.h"
 #include "core/factors/position_prior_factor.h"
 #include "core/factors/prior_factor.h"
-#include "core/factors/factor_registry.h"
 #include "core/factors/relative_point_factor.h"
 #include "server/estimator/estimator_state.h"
 
@@ -390,10 +390,10 @@ Estimator::Outcome Estimator::AddMeasured(core::FactorPtr factor, Key first, con
   s->pending_id.reset();
   if (const core::FactorPtr existing = std::move(s->pending_existing)) {
     if (core::SameMeasurement(*existing, *factor)) return Outcome::kAlreadyHeld;
-    *v = {RejectReason::kDuplicate,
-          std::string(what) + ": a different measurement between " +
-              core::KeyToString(std::get<1>(id)) + " and " + core::KeyToString(std::get<2>(id)) +
-              " was already applied"};
+    *v = {RejectReason::kDuplicate, std::string(what) + ": a different measurement between " +
+                                        core::KeyToString(std::get<1>(id)) + " and " +
+                                        core::KeyToString(std::get<2>(id)) +
+                                        " was already applied"};
     return Outcome::kRejected;
   }
   s->ids.emplace_back(s->factors.size(), id, first);
@@ -482,8 +482,8 @@ Estimator::Outcome Estimator::ApplyOdometry(const OdometryMeasurement& m, const 
   } else if (!Known(to, *s)) {
     AddPose(*id, m.to_index, Compose(Estimate(from, *s), m.measured, false), in, s);
   }
-  const Outcome outcome = AddMeasured(MakeBetween(from, to, m.measured, m.noise), from,
-                                      "odometry_t", s, v);
+  const Outcome outcome =
+      AddMeasured(MakeBetween(from, to, m.measured, m.noise), from, "odometry_t", s, v);
   if (outcome == Outcome::kApplied) Touch(*id, in, s);
   return outcome;
 }
@@ -531,8 +531,7 @@ Estimator::Outcome Estimator::ApplyLandmark(const LandmarkMeasurement& m, const 
     factor = std::make_shared<core::RelativePointFactor<Pose3, core::Point3>>(pose, landmark, p3,
                                                                               m.noise);
   }
-  const Outcome outcome =
-      AddMeasured(std::move(factor), pose, "landmark_observation_t", s, v);
+  const Outcome outcome = AddMeasured(std::move(factor), pose, "landmark_observation_t", s, v);
   if (outcome != Outcome::kApplied) return outcome;
   if (!known) (void)s->values.Insert(landmark, guess);
   Touch(*id, in, s);
@@ -588,9 +587,10 @@ Estimator::Outcome Estimator::ApplyLoopClosure(const LoopClosureMeasurement& m, 
   FirstTime('c', std::min(ka, kb), std::max(ka, kb), 0, s);
   if (!known_b) AddPose(*b, m.pose_b, Compose(Estimate(ka, *s), m.measured, false), in, s);
   if (!known_a) AddPose(*a, m.pose_a, Compose(Estimate(kb, *s), m.measured, true), in, s);
-  const Outcome outcome = AddMeasured(
-      MakeBetween(ka, kb, m.measured, m.noise, m.robust.is_none() ? default_loop_kernel_ : m.robust),
-      ka, "loop_closure_t", s, v);
+  const Outcome outcome =
+      AddMeasured(MakeBetween(ka, kb, m.measured, m.noise,
+                              m.robust.is_none() ? default_loop_kernel_ : m.robust),
+                  ka, "loop_closure_t", s, v);
   if (outcome == Outcome::kApplied) Touch(*a, in, s);
   return outcome;
 }
@@ -692,7 +692,8 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
           done[i] = 1;
           ++counters_.already_held;
           result.already_held_robots.insert(MessageRobot(pending[i].message));
-          if (const auto* c = std::get_if<LoopClosureMeasurement>(&pending[i].message.measurement)) {
+          if (const auto* c =
+                  std::get_if<LoopClosureMeasurement>(&pending[i].message.measurement)) {
             result.already_held_robots.insert(c->robot_b);
           }
           break;

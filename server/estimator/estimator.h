@@ -21,8 +21,8 @@
 //             (a robot re-sending after a restart): nothing changes; counted apart from
 //             rejections, and its robots listed so the daemon acknowledges it with their estimates;
 //   rejected  with a Verdict: kDuplicate (a different measurement of the same type between the
-//             same variables as one applied before), kUnknownRobot / kUnknownPose (loop closure to a robot or
-//             pose not in the graph, unless it connects an unanchored robot),
+//             same variables as one applied before), kUnknownRobot / kUnknownPose (loop closure to
+//             a robot or pose not in the graph, unless it connects an unanchored robot),
 //             kBadMeasurement (2D measurement on a 3D pose or vice versa; the solver refused the
 //             update: then every message applied in this batch is rejected and the estimator's
 //             state is unchanged), kTooManyElements (more than 255 robots).

@@ -12,9 +12,9 @@
 #include <string_view>
 #include <vector>
 
-#include "core/variables/variable.h"
 #include "core/geometry/pose2.h"
 #include "core/geometry/pose3.h"
+#include "core/variables/variable.h"
 #include "server/ingest/validation.h"
 
 namespace slamd {

@@ -21,9 +21,16 @@ constexpr double kMaxAbsValue = 1e7;
 
 // The type names of snapshots written before they stored names (the proto enums' order).
 constexpr const char* kLegacyVariableTypes[] = {"Pose2", "Pose3", "Point2", "Point3"};
-constexpr const char* kLegacyFactorTypes[] = {
-    "",           "BetweenPose2",   "BetweenPose3",   "PriorPose2",     "PriorPose3",
-    "PositionPrior2", "PositionPrior3", "BearingRange2", "RelativePoint2", "RelativePoint3"};
+constexpr const char* kLegacyFactorTypes[] = {"",
+                                              "BetweenPose2",
+                                              "BetweenPose3",
+                                              "PriorPose2",
+                                              "PriorPose3",
+                                              "PositionPrior2",
+                                              "PositionPrior3",
+                                              "BearingRange2",
+                                              "RelativePoint2",
+                                              "RelativePoint3"};
 
 void WriteVariable(const core::Variable& value, pb::Variable* out) {
   out->set_type_name(core::VariableTypeName(core::TypeOf(value)));
@@ -55,7 +62,8 @@ core::Result<core::Variable> ReadVariable(const pb::Variable& in, const std::str
   if (!Plausible(in.values().data(), in.values_size())) {
     return core::DataLoss("snapshot: " + what + ": a value is not finite or beyond 1e7");
   }
-  core::Result<core::Variable> v = core::DecodeVariable(*type, {in.values().data(), static_cast<std::size_t>(in.values_size())});
+  core::Result<core::Variable> v =
+      core::DecodeVariable(*type, {in.values().data(), static_cast<std::size_t>(in.values_size())});
   if (!v.ok()) return core::DataLoss("snapshot: " + what + ": " + v.status().message());
   return v;
 }

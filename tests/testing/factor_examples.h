@@ -64,30 +64,30 @@ inline std::vector<FactorExample> EveryFactorTypeExample(unsigned seed) {
   std::vector<FactorExample> out =
       internal::PriorsOfEveryKind(rng, core::internal::VariableIndices{});
   const Key x0 = MakeKey('x', 0), x1 = MakeKey('x', 1), l0 = MakeKey('l', 0);
-  out.push_back({std::make_shared<const BetweenFactor<Pose2>>(x0, x1, RandomPose2(rng),
-                                                              RandomNoise(rng, 3)),
-                 internal::TwoValues<Pose2, Pose2>(rng, x0, x1)});
-  out.push_back({std::make_shared<const BetweenFactor<Pose3>>(x0, x1, RandomPose3(rng),
-                                                              RandomNoise(rng, 6)),
-                 internal::TwoValues<Pose3, Pose3>(rng, x0, x1)});
+  out.push_back(
+      {std::make_shared<const BetweenFactor<Pose2>>(x0, x1, RandomPose2(rng), RandomNoise(rng, 3)),
+       internal::TwoValues<Pose2, Pose2>(rng, x0, x1)});
+  out.push_back(
+      {std::make_shared<const BetweenFactor<Pose3>>(x0, x1, RandomPose3(rng), RandomNoise(rng, 6)),
+       internal::TwoValues<Pose3, Pose3>(rng, x0, x1)});
   {
-    FactorExample e{std::make_shared<const PositionPriorFactor<Pose2>>(
-                        x0, RandomValue<Point2>(rng), RandomNoise(rng, 2)),
+    FactorExample e{std::make_shared<const PositionPriorFactor<Pose2>>(x0, RandomValue<Point2>(rng),
+                                                                       RandomNoise(rng, 2)),
                     {}};
     EXPECT_TRUE(e.values.Insert(x0, RandomPose2(rng)).ok());
     out.push_back(e);
   }
   {
-    FactorExample e{std::make_shared<const PositionPriorFactor<Pose3>>(
-                        x0, RandomValue<Point3>(rng), RandomNoise(rng, 3)),
+    FactorExample e{std::make_shared<const PositionPriorFactor<Pose3>>(x0, RandomValue<Point3>(rng),
+                                                                       RandomNoise(rng, 3)),
                     {}};
     EXPECT_TRUE(e.values.Insert(x0, RandomPose3(rng)).ok());
     out.push_back(e);
   }
   {
     // A landmark 2-4 m away, so that the bearing is well defined.
-    FactorExample e{std::make_shared<const BearingRangeFactor>(x0, l0, 0.3, 2.5, RandomNoise(rng, 2)),
-                    {}};
+    FactorExample e{
+        std::make_shared<const BearingRangeFactor>(x0, l0, 0.3, 2.5, RandomNoise(rng, 2)), {}};
     const Pose2 pose = RandomPose2(rng);
     EXPECT_TRUE(e.values.Insert(x0, pose).ok());
     EXPECT_TRUE(e.values.Insert(l0, pose.TransformFrom(Point2(2.0, 1.5))).ok());

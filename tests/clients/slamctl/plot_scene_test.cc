@@ -104,7 +104,8 @@ TEST(WorldXyCovarianceTest, Pose2RotatesBodyTranslationIntoWorld) {
   for (double theta : {-2.5, 0.3, 1.9}) {
     const core::Pose2 Y(1.0, -2.0, theta);
     const Eigen::Matrix3d cov = RandomCovariance<3>(&rng);
-    EXPECT_NEAR((core::PlanarCovariance(Y, cov) - NumericalWorldXy<core::Pose2, 3>(Y, cov)).norm(), 0.0, 1e-8);
+    EXPECT_NEAR((core::PlanarCovariance(Y, cov) - NumericalWorldXy<core::Pose2, 3>(Y, cov)).norm(),
+                0.0, 1e-8);
   }
 }
 
@@ -219,7 +220,8 @@ Eigen::MatrixXd DenseCovariance(const core::FactorGraph& graph, const core::Valu
     for (int i = 0; i < lin.num_keys(); ++i) {
       for (int j = 0; j < lin.num_keys(); ++j) {
         const int oi = (*offsets)[values.SlotOf(f->keys()[i])], oj = (*offsets)[values.SlotOf(f->keys()[j])];
-        H.block(oi, oj, lin.Block(i).cols(), lin.Block(j).cols()) += lin.Block(i).transpose() * lin.Block(j);
+        H.block(oi, oj, lin.Block(i).cols(), lin.Block(j).cols()) +=
+            lin.Block(i).transpose() * lin.Block(j);
       }
     }
   }

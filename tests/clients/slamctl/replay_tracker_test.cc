@@ -75,7 +75,7 @@ TEST(ReplayTrackerTest, SettlesOnAStatusThatCoversEverything) {
   t.OnSent(Pose("a", -1), 0.0);
   slamd::status_t s{};
   s.messages_received = 101;  // baseline 100: one of our two arrived
-  s.messages_already_held = 8;  // one of ours the server had already
+  s.messages_already_held = 8;     // one of ours the server had already
   EXPECT_EQ(t.already_held(), 0);  // no status yet since the baseline
   s.settled = true;
   t.OnStatus(s);

@@ -20,7 +20,8 @@ double GradientNorm(const FactorGraph& graph, const Values& values) {
     f->Linearize(values, &lf);
     for (int k = 0; k < lf.num_keys(); ++k) {
       const int s = values.SlotOf(f->keys()[k]);
-      g.segment(offset[s], values.DimAt(s)) += Eigen::MatrixXd(lf.Block(k)).transpose() * Eigen::VectorXd(lf.Rhs());
+      g.segment(offset[s], values.DimAt(s)) +=
+          Eigen::MatrixXd(lf.Block(k)).transpose() * Eigen::VectorXd(lf.Rhs());
     }
   }
   return g.norm();

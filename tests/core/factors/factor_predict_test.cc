@@ -1,11 +1,10 @@
-#include "core/factors/factor.h"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "core/factors/bearing_range_factor.h"
 #include "core/factors/between_factor.h"
+#include "core/factors/factor.h"
 #include "core/factors/prior_factor.h"
 #include "core/factors/relative_point_factor.h"
 #include "tests/testing/factor_testing.h"

@@ -103,8 +103,8 @@ TEST(FactorRegistryTest, BadRecordsAreRefusedWithAReason) {
   }
   {
     FactorRecord bad = r;
-    bad.sqrt_information = Eigen::MatrixXd::Identity(r.sqrt_information.rows() + 1,
-                                                     r.sqrt_information.rows() + 1);
+    bad.sqrt_information =
+        Eigen::MatrixXd::Identity(r.sqrt_information.rows() + 1, r.sqrt_information.rows() + 1);
     EXPECT_EQ(DecodeFactor(bad).status().code(), StatusCode::kInvalidArgument);
   }
   {

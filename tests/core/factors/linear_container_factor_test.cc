@@ -56,8 +56,8 @@ TEST(LinearContainerFactorTest, FirstOrderRuleAwayFromTheLinearisationPoint) {
 TEST(LinearContainerFactorTest, CreateRefusesWhatDoesNotFit) {
   std::mt19937 rng(4);
   const Made m = Make(rng);
-  auto refused = [&](KeyVector keys, std::vector<Variable> x0, Eigen::MatrixXd A,
-                     Eigen::VectorXd b, const std::string& says) {
+  auto refused = [&](KeyVector keys, std::vector<Variable> x0, Eigen::MatrixXd A, Eigen::VectorXd b,
+                     const std::string& says) {
     const Status s = LinearContainerFactor::Create(keys, x0, A, b).status();
     EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
     EXPECT_NE(s.message().find(says), std::string::npos) << s.message();

@@ -49,8 +49,8 @@ TEST(JacobianFactorTest, RejectsMalformedInput) {
                    .ok());
   EXPECT_FALSE(JacobianFactor::Create(std::vector<int>{}, std::vector<Eigen::MatrixXd>{}, b).ok());
   // Any number of variables (a container factor over a Markov blanket).
-  auto five =
-      JacobianFactor::Create(std::vector<int>{0, 1, 2, 3, 4}, std::vector<Eigen::MatrixXd>(5, A), b);
+  auto five = JacobianFactor::Create(std::vector<int>{0, 1, 2, 3, 4},
+                                     std::vector<Eigen::MatrixXd>(5, A), b);
   ASSERT_TRUE(five.ok());
   EXPECT_EQ(five->num_vars(), 5);
   EXPECT_EQ(five->Dim(), 10);

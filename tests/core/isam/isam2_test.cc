@@ -475,7 +475,8 @@ TEST(Isam2Test, PerTypeThresholdsDecideWhichVariablesRelinearize) {
   const ExampleProblem p = testing::MakePlanarProblem(30, 6, 13);
   const Isam2Params::Relinearization base{.error_threshold = 0.0, .skip = 1};
   Isam2Params::Relinearization landmarks_fixed = base;
-  landmarks_fixed.per_type = {{.type = "Point2", .kind = EntryKind::kTranslation, .threshold = 1e9}};
+  landmarks_fixed.per_type = {
+      {.type = "Point2", .kind = EntryKind::kTranslation, .threshold = 1e9}};
   auto plain = MakeIsam2({.relinearization = base});
   auto fixed = MakeIsam2({.relinearization = landmarks_fixed});
   ASSERT_TRUE(plain->Update(p.graph, p.initial).status.ok());

@@ -50,8 +50,8 @@ FactorGraph WithContainer(const FactorGraph& graph, const Values& theta,
     LinearizedFactor lf;
     f->Linearize(theta, &lf);
     for (int k = 0; k < lf.num_keys(); ++k) {
-      const int at = static_cast<int>(std::find(keys.begin(), keys.end(), f->keys()[k]) -
-                                      keys.begin());
+      const int at =
+          static_cast<int>(std::find(keys.begin(), keys.end(), f->keys()[k]) - keys.begin());
       A.block(row, column[at], lf.rows(), lf.dim(k)) = lf.Block(k);
     }
     b.segment(row, lf.rows()) = lf.Rhs();
@@ -66,8 +66,8 @@ TEST(LinearContainerSolversTest, StandsInForItsFactorsAtTheLinearisationPoint) {
   const testing::ExampleProblem p = testing::MakePlanarProblem(12, 3, 5);
   const Values& theta = p.initial;
   int replaced = 0;
-  const FactorGraph with = WithContainer(
-      p.graph, theta, {MakeKey('x', 3), MakeKey('x', 4), MakeKey('l', 1)}, &replaced);
+  const FactorGraph with =
+      WithContainer(p.graph, theta, {MakeKey('x', 3), MakeKey('x', 4), MakeKey('l', 1)}, &replaced);
   ASSERT_GE(replaced, 5);
   // More variables than elimination's fixed-size scatter takes: its general path runs too.
   ASSERT_GT(with.factors().back()->keys().size(), 4u);

@@ -8,8 +8,8 @@
 
 #include <random>
 
-#include "tests/testing/random_values.h"
 #include "tests/testing/numerical_derivative.h"
+#include "tests/testing/random_values.h"
 
 namespace slamd::core {
 namespace {

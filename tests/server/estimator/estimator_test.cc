@@ -2,12 +2,11 @@
 
 #include <gtest/gtest.h>
 
-#include <set>
-
 #include <chrono>
 #include <cmath>
 #include <map>
 #include <numeric>
+#include <set>
 #include <thread>
 
 namespace slamd::server {
