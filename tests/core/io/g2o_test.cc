@@ -10,6 +10,7 @@
 #include "core/factors/relative_point_factor.h"
 #include "core/io/dataset.h"
 #include "tests/testing/datasets.h"
+#include "tests/testing/factor_examples.h"
 
 namespace slamd::core {
 namespace {
@@ -109,6 +110,46 @@ TEST(G2oRead, FixLinesAreRecorded) {
   const Dataset d = MustRead(WriteTempFile("fix.g2o", "FIX 0 1\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n"));
   EXPECT_EQ(d.fixed, (KeyVector{MakeKey('x', 0), MakeKey('x', 1)}));
   EXPECT_EQ(d.graph.size(), 1u);  // no factor for FIX
+}
+
+// Every registered factor type that declares a g2o form (Factor::Formats) is written and read
+// back as the same measurement; the others are refused by name.
+TEST(G2oWrite, EveryFactorTypeWithAG2oFormRoundTrips) {
+  int written = 0;
+  for (const testing::FactorExample& e : testing::EveryFactorTypeExample(21)) {
+    SCOPED_TRACE(e.factor->Name());
+    Dataset d;
+    d.graph.Add(e.factor);
+    d.initial = e.values;
+    for (Key key : e.values.keys()) {
+      // Kinds with rotation entries are g2o's poses, the others its landmarks.
+      const bool pose =
+          std::ranges::count(EntryKinds(TypeOf(e.values.Get(key))), EntryKind::kRotation) > 0;
+      (pose ? d.poses : d.landmarks).push_back(key);
+    }
+    d.is_3d = std::holds_alternative<Pose3>(
+        e.values.Get(d.poses.empty() ? e.values.KeyAt(0) : d.poses[0]));
+    const std::string path = testing::WriteTempFile("every_factor.g2o", "");
+    const Status written_status = WriteG2o(d, path);
+    if (e.factor->Formats().g2o == nullptr) {
+      EXPECT_FALSE(written_status.ok());
+      continue;
+    }
+    ASSERT_TRUE(written_status.ok()) << written_status.ToString();
+    Result<Dataset> back = ReadDataset(path);
+    ASSERT_TRUE(back.ok()) << back.status().ToString();
+    ASSERT_EQ(back->graph.size(), 1u);
+    const Factor& f = *back->graph[0];
+    EXPECT_STREQ(f.Name(), e.factor->Name());
+    EXPECT_EQ(f.keys(), e.factor->keys());
+    // Text keeps 17 significant digits; a rotation goes through an angle or a quaternion.
+    EXPECT_LT((f.Error(e.values) - e.factor->Error(e.values)).cwiseAbs().maxCoeff(), 1e-9);
+    const Eigen::MatrixXd info = e.factor->noise_model().Information();
+    EXPECT_LT((f.noise_model().Information() - info).cwiseAbs().maxCoeff(),
+              1e-9 * info.cwiseAbs().maxCoeff());
+    ++written;
+  }
+  EXPECT_EQ(written, 3);  // BetweenPose2, BetweenPose3, RelativePoint2
 }
 
 TEST(G2oWrite, RoundTrip2dWithLandmarks) {
