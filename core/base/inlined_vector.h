@@ -22,6 +22,7 @@ class InlinedVector {
 
  public:
   InlinedVector() = default;
+  explicit InlinedVector(std::size_t n) { resize(n); }  // entries unset, as resize()
   InlinedVector(const InlinedVector& other) { *this = other; }
   InlinedVector& operator=(const InlinedVector& other) {
     if (this != &other) {

@@ -5,6 +5,7 @@
 #include <sstream>
 #include <string>
 
+#include "core/base/inlined_vector.h"
 #include "core/base/param_check.h"
 #include "core/inference/partial_cholesky.h"
 #include "core/inference/subtree_split.h"
@@ -49,8 +50,7 @@ void ScatterJacobian(const double* data, int rows, const internal::ScatterBlock*
   }
 }
 
-// The most variables of a factor ScatterUniformJacobian takes.
-constexpr int kUniformMaxVars = 4;
+constexpr int kUniformMaxVars = 4;  // the most variables ScatterUniformJacobian takes
 
 // ScatterJacobian for the usual shape, kRows rows on variables of kDim each (a between factor
 // of poses): each pair of variables is one fixed-size product AₐᵀA_b that Eigen unrolls and
@@ -98,10 +98,7 @@ void ScatterUniformJacobian(const double* data, const internal::ScatterBlock* bl
 
 void ScatterFactor(const JacobianFactor& f, const int* offset, int n, double* M, double* ref) {
   const int p = f.num_vars();
-  // On the stack for the usual few variables; a factor on more (a dense container) allocates.
-  internal::ScatterBlock stack_blocks[kUniformMaxVars + 1];
-  std::vector<internal::ScatterBlock> heap_blocks(p > kUniformMaxVars ? p + 1 : 0);
-  internal::ScatterBlock* blocks = p > kUniformMaxVars ? heap_blocks.data() : stack_blocks;
+  InlinedVector<internal::ScatterBlock, kUniformMaxVars + 1> blocks(p + 1);  // heap past 4 vars
   bool uniform = p <= kUniformMaxVars;  // every variable of dim f.dim(0)
   for (int k = 0; k < p; ++k) {
     blocks[k] = {offset[f.var(k)], f.dim(k), f.offset(k)};
@@ -110,22 +107,22 @@ void ScatterFactor(const JacobianFactor& f, const int* offset, int n, double* M,
   blocks[p] = {n, 1, f.Dim()};
   const int ld = n + 1;
   if (uniform && f.rows() == 6 && f.dim(0) == 6) {
-    return ScatterUniformJacobian<6, 6>(f.data(), blocks, p, ld, M, ref);
+    return ScatterUniformJacobian<6, 6>(f.data(), blocks.data(), p, ld, M, ref);
   }
   if (uniform && f.rows() == 3 && f.dim(0) == 3) {
-    return ScatterUniformJacobian<3, 3>(f.data(), blocks, p, ld, M, ref);
+    return ScatterUniformJacobian<3, 3>(f.data(), blocks.data(), p, ld, M, ref);
   }
   switch (f.rows()) {
     case 1:
-      return ScatterJacobian<1>(f.data(), 1, blocks, p, ld, M, ref);
+      return ScatterJacobian<1>(f.data(), 1, blocks.data(), p, ld, M, ref);
     case 2:
-      return ScatterJacobian<2>(f.data(), 2, blocks, p, ld, M, ref);
+      return ScatterJacobian<2>(f.data(), 2, blocks.data(), p, ld, M, ref);
     case 3:
-      return ScatterJacobian<3>(f.data(), 3, blocks, p, ld, M, ref);
+      return ScatterJacobian<3>(f.data(), 3, blocks.data(), p, ld, M, ref);
     case 6:
-      return ScatterJacobian<6>(f.data(), 6, blocks, p, ld, M, ref);
+      return ScatterJacobian<6>(f.data(), 6, blocks.data(), p, ld, M, ref);
     default:
-      return ScatterJacobian<0>(f.data(), f.rows(), blocks, p, ld, M, ref);
+      return ScatterJacobian<0>(f.data(), f.rows(), blocks.data(), p, ld, M, ref);
   }
 }
 
@@ -286,8 +283,7 @@ Status Eliminator::EliminateSerial(const EliminationProblem& problem, BayesTree*
 
 double Eliminator::EstimateWork(const EliminationProblem& problem) {
   // Per clique: partial Cholesky nf·(nf²/3 + nf·ns + ns²) plus assembling its share of the
-  // parent, ns² (nf, ns: frontal and separator dims). Subtree sums in creation order (children
-  // first).
+  // parent, ns² (nf, ns: frontal and separator dims). Subtree sums in creation order.
   const int num = forest_.NumCliques();
   work_.assign(num, 0.0);
   subtree_work_.assign(num, 0.0);

@@ -26,15 +26,21 @@ struct AsTypes<std::variant<T...>> {
 using EveryVariableType = AsTypes<Variable>::type;
 TYPED_TEST_SUITE(VariableTypeTest, EveryVariableType);
 
+// A tangent vector of d entries, each normal with standard deviation `scale`.
+Eigen::VectorXd RandomDelta(std::mt19937& rng, int d, double scale) {
+  std::normal_distribution<double> n01(0.0, 1.0);
+  Eigen::VectorXd delta(d);
+  for (int k = 0; k < d; ++k) delta[k] = scale * n01(rng);
+  return delta;
+}
+
 TYPED_TEST(VariableTypeTest, RetractAndLocalCoordinatesAreInverse) {
   using T = TypeParam;
   constexpr int d = VariableTraits<T>::kDim;
   std::mt19937 rng(7);
-  std::normal_distribution<double> n01(0.0, 1.0);
   for (int trial = 0; trial < 20; ++trial) {
     const Variable a = testing::RandomValue<T>(rng);
-    Eigen::VectorXd delta(d);
-    for (int k = 0; k < d; ++k) delta[k] = 0.3 * n01(rng);
+    const Eigen::VectorXd delta = RandomDelta(rng, d, 0.3);
     Variable b = a;
     RetractInPlace(&b, delta.data());
     // local(a, a ⊕ δ) = δ, and a ⊕ local(a, b) = b.
@@ -75,7 +81,8 @@ TYPED_TEST(VariableTypeTest, EncodingReadsBackBitForBit) {
 TYPED_TEST(VariableTypeTest, NameDimensionAndEntryKindsComeFromTheTraits) {
   using T = TypeParam;
   const VariableType type = kVariableType<T>;
-  EXPECT_EQ(TypeOf(Variable(testing::RandomValue<T>(*std::make_unique<std::mt19937>(1)))), type);
+  std::mt19937 rng(1);
+  EXPECT_EQ(TypeOf(Variable(testing::RandomValue<T>(rng))), type);
   EXPECT_STREQ(VariableTypeName(type), VariableTraits<T>::kName);
   EXPECT_EQ(VariableTypeFromName(VariableTraits<T>::kName), type);
   EXPECT_EQ(TangentDim(type), VariableTraits<T>::kDim);
@@ -88,11 +95,9 @@ TYPED_TEST(VariableTypeTest, EstimateJacobianMatchesTheChart) {
   using T = TypeParam;
   constexpr int d = VariableTraits<T>::kDim;
   std::mt19937 rng(9);
-  std::normal_distribution<double> n01(0.0, 1.0);
   for (int trial = 0; trial < 5; ++trial) {
     const Variable theta = testing::RandomValue<T>(rng);
-    Eigen::VectorXd delta(d);
-    for (int k = 0; k < d; ++k) delta[k] = 0.4 * n01(rng);
+    const Eigen::VectorXd delta = RandomDelta(rng, d, 0.4);
     Variable estimate = theta;
     RetractInPlace(&estimate, delta.data());
     const Eigen::MatrixXd numerical = testing::NumericalJacobian(
