@@ -1,11 +1,10 @@
 // Daemon: what it publishes besides rejects: query replies, map pages, estimates (and the
 // acknowledgement of messages held already) and status (see daemon.h).
-#include "server/estimator/daemon.h"
-
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 
+#include "server/estimator/daemon.h"
 #include "server/publish/replies.h"
 #include "server/publish/wire_values.h"
 #include "server/query/query_service.h"
