@@ -58,9 +58,7 @@ T Take(core::Result<T> r) {
 }
 
 const char* TypeName(const RobotMessage& m) {
-  static const char* kNames[] = {"prior_t", "odometry_t", "loop_closure_t",
-                                 "landmark_observation_t"};
-  return kNames[m.index()];
+  return std::visit([](const auto& msg) { return server::SpecOfLcm<decltype(msg)>::kType; }, m);
 }
 
 // 1. One boundary + Commit per step, as the daemon journals a lock-step client.

@@ -7,7 +7,7 @@
 #include "core/factors/between_factor.h"
 #include "core/factors/relative_point_factor.h"
 #include "core/io/dataset_stream.h"
-#include "server/ingest/conversion.h"
+#include "server/messages/inbound.h"
 #include "server/transport/typed_subscribe.h"
 
 namespace slamd::clients {
@@ -200,14 +200,7 @@ std::size_t CountMessages(const std::vector<StepMessages>& steps) {
 
 std::string ChannelOf(const RobotMessage& message, const server::ChannelNames& channels) {
   return std::visit(
-      [&](const auto& m) {
-        using M = std::decay_t<decltype(m)>;
-        if constexpr (std::is_same_v<M, slamd::prior_t>) return channels.Prior();
-        if constexpr (std::is_same_v<M, slamd::odometry_t>) return channels.Odometry();
-        if constexpr (std::is_same_v<M, slamd::loop_closure_t>) return channels.LoopClosure();
-        if constexpr (std::is_same_v<M, slamd::landmark_observation_t>) return channels.Landmark();
-      },
-      message);
+      [&](const auto& m) { return channels.Inbound<server::SpecOfLcm<decltype(m)>>(); }, message);
 }
 
 core::Status EncodeMessage(const RobotMessage& message, std::vector<std::uint8_t>* bytes) {

@@ -69,7 +69,7 @@ core::Result<std::vector<StepMessages>> MakeDatasetMessages(const core::Dataset&
 // The total number of messages in `steps`.
 std::size_t CountMessages(const std::vector<StepMessages>& steps);
 
-// The channel of `message` (channels.Prior(), .Odometry(), .LoopClosure(), .Landmark()).
+// The channel of `message` (its spec's, server/messages/inbound.h).
 std::string ChannelOf(const RobotMessage& message, const server::ChannelNames& channels);
 // The LCM encoding of `message`.
 core::Status EncodeMessage(const RobotMessage& message, std::vector<std::uint8_t>* bytes);

@@ -14,11 +14,9 @@
 #include <variant>
 
 #include "clients/slamctl/json_writer.h"
-#include "core/factors/between_factor.h"
-#include "core/factors/relative_point_factor.h"
 #include "core/io/dataset.h"
-#include "server/estimator/inbound_codec.h"
 #include "server/journal/journal_reader.h"
+#include "server/messages/inbound_codec.h"
 #include "slamd_proto/journal.pb.h"
 
 namespace slamd::clients {
@@ -80,8 +78,9 @@ core::Status ReadRecords(const std::string& path, bool salvage, JournalInspectio
 
 // ---- export: measurements into per-robot datasets ----
 
-// A measurement's identity, as the estimator's duplicate rule and remove_factor_t name it:
-// (type letter, robot_a, index_a, robot_b, index_b, kind); loop closures ordered.
+// A measurement's identity, as the estimator's duplicate rule and remove_factor_t name it
+// (server/messages/message_spec.h), with robots by name: (the spec's kIdentity letter, robot_a,
+// index_a, robot_b, index_b, kind); loop closures ordered. The factors are the specs' own.
 using MeasurementId = std::tuple<char, std::string, std::uint64_t, std::string, std::uint64_t, int>;
 
 MeasurementId LoopId(std::string ra, std::uint64_t a, std::string rb, std::uint64_t b) {
@@ -89,7 +88,7 @@ MeasurementId LoopId(std::string ra, std::uint64_t a, std::string rb, std::uint6
     std::swap(ra, rb);
     std::swap(a, b);
   }
-  return {'c', std::move(ra), a, std::move(rb), b, 0};
+  return {server::LoopClosureSpec::kIdentity, std::move(ra), a, std::move(rb), b, 0};
 }
 
 struct RobotGraph {
@@ -156,21 +155,11 @@ class Exporter {
     return false;
   }
 
-  core::FactorPtr Between(std::uint64_t a, std::uint64_t b, const server::RelativePose& z,
-                          const core::NoiseModel& noise, core::RobustKernel robust) {
-    if (const auto* p2 = std::get_if<core::Pose2>(&z)) {
-      return std::make_shared<core::BetweenFactor<core::Pose2>>(Pose(a), Pose(b), *p2, noise,
-                                                                robust);
-    }
-    return std::make_shared<core::BetweenFactor<core::Pose3>>(
-        Pose(a), Pose(b), std::get<core::Pose3>(z), noise, robust);
-  }
-
   void AddMeasurement(const server::OdometryMeasurement& m) {
     const bool is_3d = std::holds_alternative<core::Pose3>(m.measured);
     if (!Dims(m.robot, is_3d)) return;
-    if (Admit({'o', m.robot, m.from_index, "", m.to_index, 0}, m.robot,
-              Between(m.from_index, m.to_index, m.measured, m.noise, {}))) {
+    if (Admit({server::OdometrySpec::kIdentity, m.robot, m.from_index, "", m.to_index, 0}, m.robot,
+              server::OdometrySpec::Factor(m, Pose(m.from_index), Pose(m.to_index)))) {
       robots_[m.robot].poses.insert({m.from_index, m.to_index});
     }
   }
@@ -183,7 +172,7 @@ class Exporter {
     const bool is_3d = std::holds_alternative<core::Pose3>(m.measured);
     if (!Dims(m.robot_a, is_3d)) return;
     if (Admit(LoopId(m.robot_a, m.pose_a, m.robot_b, m.pose_b), m.robot_a,
-              Between(m.pose_a, m.pose_b, m.measured, m.noise, m.robust))) {
+              server::LoopClosureSpec::Factor(m, Pose(m.pose_a), Pose(m.pose_b), {}))) {
       robots_[m.robot_a].poses.insert({m.pose_a, m.pose_b});
     }
   }
@@ -194,12 +183,12 @@ class Exporter {
       return;
     }
     if (!Dims(m.robot, false)) return;
-    core::Point2 p;
-    core::NoiseModel noise = m.noise;
+    server::LandmarkMeasurement point = m;  // as a relative point: g2o has no bearing-range
     if (const auto* br = std::get_if<server::BearingRange>(&m.measured)) {
       // p = r (cos b, sin b); first-order covariance J Σ Jᵀ, J = ∂p/∂(b, r).
       const double c = std::cos(br->bearing), s = std::sin(br->bearing), r = br->range;
-      p = core::Point2(r * c, r * s);
+      point.measured = core::Point2(r * c, r * s);
+      point.kind = server::LandmarkKind::kRelativePoint2;
       Eigen::Matrix2d J;
       J << -r * s, c, r * c, s;
       core::Result<core::NoiseModel> converted =
@@ -208,14 +197,14 @@ class Exporter {
         Skip("bearing-range observations at zero range");
         return;
       }
-      noise = converted.value();
+      point.noise = converted.value();
       ++bearing_range_;
-    } else {
-      p = std::get<core::Point2>(m.measured);
     }
-    if (Admit({'l', m.robot, m.pose_index, "", m.landmark_id, static_cast<int>(m.kind)}, m.robot,
-              std::make_shared<core::RelativePointFactor<core::Pose2, core::Point2>>(
-                  Pose(m.pose_index), Landmark(m.landmark_id), p, noise))) {
+    if (Admit({server::LandmarkObservationSpec::kIdentity, m.robot, m.pose_index, "", m.landmark_id,
+               static_cast<int>(m.kind)},
+              m.robot,
+              server::LandmarkObservationSpec::Factor(point, Pose(m.pose_index),
+                                                      Landmark(m.landmark_id)))) {
       robots_[m.robot].poses.insert(m.pose_index);
       robots_[m.robot].landmarks.insert(m.landmark_id);
     }
@@ -228,7 +217,8 @@ class Exporter {
     }
     const bool is_3d = m.kind == server::PriorKind::kPose3;
     if (!Dims(m.robot, is_3d)) return;
-    const MeasurementId id{'p', m.robot, m.pose_index, "", 0, static_cast<int>(m.kind)};
+    const MeasurementId id{server::PriorSpec::kIdentity, m.robot, m.pose_index, "", 0,
+                           static_cast<int>(m.kind)};
     if (live_.count(id)) {
       ++result_->duplicates;
       return;
@@ -247,16 +237,21 @@ class Exporter {
     MeasurementId id;
     switch (r.target) {
       case server::RemoveTarget::kOdometry:
-        id = {'o', r.robot_a, r.index_a, "", r.index_b, 0};
+        id = {server::OdometrySpec::kIdentity, r.robot_a, r.index_a, "", r.index_b, 0};
         break;
       case server::RemoveTarget::kLandmarkObservation:
-        id = {'l', r.robot_a, r.index_a, "", r.index_b, r.kind};
+        id = {server::LandmarkObservationSpec::kIdentity,
+              r.robot_a,
+              r.index_a,
+              "",
+              r.index_b,
+              r.kind};
         break;
       case server::RemoveTarget::kLoopClosure:
         id = LoopId(r.robot_a, r.index_a, r.robot_b, r.index_b);
         break;
       case server::RemoveTarget::kPrior:
-        id = {'p', r.robot_a, r.index_a, "", 0, r.kind};
+        id = {server::PriorSpec::kIdentity, r.robot_a, r.index_a, "", 0, r.kind};
         break;
     }
     const auto it = live_.find(id);

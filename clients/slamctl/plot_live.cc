@@ -10,7 +10,7 @@
 
 #include "clients/slamctl/query_client.h"
 #include "core/geometry/rot3.h"
-#include "server/ingest/conversion.h"
+#include "server/messages/inbound.h"
 #include "slamd/query_t.hpp"
 
 namespace slamd::clients::plot {
@@ -279,7 +279,7 @@ core::Result<MapPageCollector> FetchLiveMap(LcmClient& client, const server::Cha
   request.map_robot = "*";
   slamd::query_t query;
   server::ToLcm(request, &query);
-  SLAMD_RETURN_IF_ERROR(client.Publish(channels.Query(), query));
+  SLAMD_RETURN_IF_ERROR(client.Publish(channels.Inbound<server::QuerySpec>(), query));
 
   core::Result<bool> done = client.HandleUntil([&] { return collector->Complete(); }, timeout_s);
   if (!done.ok()) return done.status();
@@ -287,9 +287,9 @@ core::Result<MapPageCollector> FetchLiveMap(LcmClient& client, const server::Cha
     char seconds[32];
     std::snprintf(seconds, sizeof seconds, "%g", timeout_s);
     return core::OutOfRange(std::string("timed out after ") + seconds + " s waiting for " +
-                            collector->Missing() + " (query on " + channels.Query() +
-                            ", replies on " + channels.QueryReply() + " and " + channels.Map() +
-                            ")");
+                            collector->Missing() + " (query on " +
+                            channels.Inbound<server::QuerySpec>() + ", replies on " +
+                            channels.QueryReply() + " and " + channels.Map() + ")");
   }
   if (collector->reply().status == slamd::query_reply_t::STATUS_REJECTED) {
     return core::FailedPrecondition("slamd rejected the map query: " + collector->reply().error);

@@ -70,7 +70,7 @@ class MapPageCollector {
   slamd::query_reply_t reply_;
   std::vector<slamd::map_t> pages_;
   struct RobotSeen {
-    std::int32_t page_count = 0;   // as the robot's first kept page says
+    std::int32_t page_count = 0;        // as the robot's first kept page says
     std::set<std::int32_t> pages = {};  // page indices kept
   };
   std::map<std::string, RobotSeen> seen_;
@@ -99,7 +99,7 @@ struct LiveScene {
 core::Result<LiveScene> BuildLiveScene(const std::vector<slamd::map_t>& pages,
                                        const LiveSceneOptions& options);
 
-// The LCM round trip: publishes one query_t on channels.Query() asking for every robot's map
+// The LCM round trip: publishes one query_t on the query channel asking for every robot's map
 // (with marginals when `covariances`) and handles messages on `client` until the collector is
 // complete or timeout_s passes. Errors: kOutOfRange "timed out after S s waiting for <what is
 // missing>"; kFailedPrecondition when the server rejects the query (its error); the bus's.

@@ -10,7 +10,7 @@
 #include "clients/slamctl/client_common.h"
 #include "clients/slamctl/dataset_messages.h"
 #include "clients/slamctl/query_client.h"
-#include "server/ingest/conversion.h"
+#include "server/messages/inbound.h"
 
 namespace slamd::clients {
 namespace {

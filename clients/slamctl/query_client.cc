@@ -114,7 +114,7 @@ core::Result<QueryAnswer> RunQuery(LcmClient& client, const server::ChannelNames
   SLAMD_RETURN_IF_ERROR(client.Subscribe<slamd::map_t>(channels.Map(), [&](const slamd::map_t& m) {
     if (m.request_id == query.request_id) answer.map_pages.push_back(m);
   }));
-  SLAMD_RETURN_IF_ERROR(client.Publish(channels.Query(), query));
+  SLAMD_RETURN_IF_ERROR(client.Publish(channels.Inbound<server::QuerySpec>(), query));
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   core::Result<bool> got = client.HandleUntil([&] { return replied; }, timeout_s);

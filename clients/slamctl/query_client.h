@@ -12,7 +12,7 @@
 
 #include "clients/slamctl/lcm_client.h"
 #include "core/base/status.h"
-#include "server/ingest/measurements.h"
+#include "server/messages/inbound.h"
 #include "server/transport/channels.h"
 #include "slamd/map_t.hpp"
 #include "slamd/query_reply_t.hpp"
@@ -32,7 +32,7 @@ struct QueryAnswer {
   std::vector<slamd::map_t> map_pages;
 };
 
-// Publishes `query` on channels.Query() and handles messages until the query_reply_t with the
+// Publishes `query` on the query channel and handles messages until the query_reply_t with the
 // same request_id and client arrives, then until its map_pages map_t pages arrived (all within
 // timeout_s). OutOfRange("timed out ...") when the reply (or a page) does not come in time.
 // Subscribes `client` to QUERY_REPLY and MAP for good (the client is meant for one query).

@@ -14,7 +14,7 @@
 #include <sstream>
 #include <utility>
 
-#include "server/ingest/conversion.h"
+#include "server/messages/inbound.h"
 #include "server/transport/typed_subscribe.h"
 
 namespace slamd::clients {
@@ -239,9 +239,11 @@ core::Result<std::vector<ReplayItem>> ReadLcmLog(const std::string& path,
   if (!IsLcmLog(path)) return core::InvalidArgument(path + ": not an LCM event log");
   lcm::LogFile log(path, "r");
   if (!log.good()) return core::IoError(path + ": cannot open the LCM log");
-  const std::set<std::string> inbound = {channels.Odometry(), channels.Landmark(),
-                                         channels.LoopClosure(), channels.Prior(),
-                                         channels.RemoveFactor()};
+  std::set<std::string> inbound;  // what slamd takes from robots (not queries)
+  server::InboundSpecs::ForEach([&](auto spec) {
+    using Spec = typename decltype(spec)::type;
+    if (Spec::kRole != server::MessageRole::kQuery) inbound.insert(channels.Inbound<Spec>());
+  });
   std::map<std::string, std::set<std::uint64_t>> known;  // poses given to the server per robot
   std::vector<ReplayItem> items;
   while (const lcm::LogEvent* event = log.readNextEvent()) {
@@ -255,23 +257,23 @@ core::Result<std::vector<ReplayItem>> ReadLcmLog(const std::string& path,
     auto introduce = [&](const std::string& robot, std::uint64_t pose) {
       if (known[robot].insert(pose).second) item.new_pose = static_cast<std::int64_t>(pose);
     };
-    if (event->channel == channels.Odometry()) {
+    if (event->channel == channels.Inbound<server::OdometrySpec>()) {
       slamd::odometry_t m;
       if (Decode(item.bytes, &m) && m.from_index >= 0 && m.to_index >= 0) {
         item.robot = m.robot;
         known[m.robot].insert(static_cast<std::uint64_t>(m.from_index));
         introduce(m.robot, static_cast<std::uint64_t>(m.to_index));
       }
-    } else if (event->channel == channels.Prior()) {
+    } else if (event->channel == channels.Inbound<server::PriorSpec>()) {
       slamd::prior_t m;
       if (Decode(item.bytes, &m) && m.pose_index >= 0) {
         item.robot = m.robot;
         introduce(m.robot, static_cast<std::uint64_t>(m.pose_index));
       }
-    } else if (event->channel == channels.LoopClosure()) {
+    } else if (event->channel == channels.Inbound<server::LoopClosureSpec>()) {
       slamd::loop_closure_t m;
       if (Decode(item.bytes, &m)) item.robot = m.robot_a;
-    } else if (event->channel == channels.Landmark()) {
+    } else if (event->channel == channels.Inbound<server::LandmarkObservationSpec>()) {
       slamd::landmark_observation_t m;
       if (Decode(item.bytes, &m)) item.robot = m.robot;
     }

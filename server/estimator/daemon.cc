@@ -11,30 +11,17 @@
 #include "core/base/timing.h"
 #include "server/estimator/estimator_state.h"
 #include "server/estimator/recovery.h"
-#include "server/ingest/conversion.h"
 #include "server/journal/snapshot_file.h"
+#include "server/messages/inbound.h"
 #include "server/publish/replies.h"
 #include "server/publish/wire_values.h"
 #include "server/snapshot/state_codec.h"
 #include "server/transport/typed_subscribe.h"
-#include "slamd/landmark_observation_t.hpp"
-#include "slamd/loop_closure_t.hpp"
-#include "slamd/odometry_t.hpp"
-#include "slamd/prior_t.hpp"
 #include "slamd/query_reply_t.hpp"
-#include "slamd/query_t.hpp"
 #include "slamd/reject_t.hpp"
-#include "slamd/remove_factor_t.hpp"
 
 namespace slamd::server {
 namespace {
-
-const std::string& RobotOf(const slamd::odometry_t& m) { return m.robot; }
-const std::string& RobotOf(const slamd::landmark_observation_t& m) { return m.robot; }
-const std::string& RobotOf(const slamd::loop_closure_t& m) { return m.robot_a; }
-const std::string& RobotOf(const slamd::prior_t& m) { return m.robot; }
-const std::string& RobotOf(const slamd::remove_factor_t& m) { return m.robot_a; }
-const std::string& RobotOf(const slamd::query_t& m) { return m.client; }
 
 // Keeps the last `window` values in *ring (publish.latency_window).
 void Record(std::vector<double>* ring, size_t* next, size_t window, double value) {
@@ -48,20 +35,9 @@ void Record(std::vector<double>* ring, size_t* next, size_t window, double value
 }  // namespace
 
 std::string Daemon::InboundChannel(const Inbound& in) const {
-  switch (in.measurement.index()) {
-    case 0:
-      return channels_.Odometry();
-    case 1:
-      return channels_.Landmark();
-    case 2:
-      return channels_.LoopClosure();
-    case 3:
-      return channels_.Prior();
-    case 4:
-      return channels_.RemoveFactor();
-    default:
-      return channels_.Query();
-  }
+  return VisitSpec(in, [&](auto spec, const auto&) {
+    return channels_.Inbound<typename decltype(spec)::type>();
+  });
 }
 
 std::int64_t SteadyMicros() {
@@ -165,19 +141,19 @@ core::Status Daemon::SubscribeInbound(const std::string& channel) {
 }
 
 core::Status Daemon::Subscribe() {
-  SLAMD_RETURN_IF_ERROR(SubscribeInbound<slamd::odometry_t>(channels_.Odometry()));
-  SLAMD_RETURN_IF_ERROR(SubscribeInbound<slamd::landmark_observation_t>(channels_.Landmark()));
-  SLAMD_RETURN_IF_ERROR(SubscribeInbound<slamd::loop_closure_t>(channels_.LoopClosure()));
-  SLAMD_RETURN_IF_ERROR(SubscribeInbound<slamd::prior_t>(channels_.Prior()));
-  SLAMD_RETURN_IF_ERROR(SubscribeInbound<slamd::remove_factor_t>(channels_.RemoveFactor()));
-  SLAMD_RETURN_IF_ERROR(SubscribeInbound<slamd::query_t>(channels_.Query()));
-  return core::Status::Ok();
+  core::Status status;
+  InboundSpecs::ForEach([&](auto spec) {
+    using Spec = typename decltype(spec)::type;
+    if (status.ok()) status = SubscribeInbound<typename Spec::Lcm>(channels_.Inbound<Spec>());
+  });
+  return status;
 }
 
 template <typename Msg>
 void Daemon::OnInbound(std::string_view channel, const Msg& msg) {
+  using Spec = SpecOfLcm<Msg>;
   ++received_;
-  const char* type = Msg::getTypeName();
+  const char* type = Spec::kType;
   auto checked = Convert(msg, Limits{});
   Verdict verdict;
   if (!checked.ok()) {
@@ -187,7 +163,7 @@ void Daemon::OnInbound(std::string_view channel, const Msg& msg) {
                                                      ": ingest queue full (queue.depth = " +
                                                      std::to_string(params_.queue.depth) + ")"};
     Inbound in{std::move(checked).value(), SteadyMicros()};
-    constexpr bool kJournaled = !std::is_same_v<Msg, slamd::query_t>;
+    constexpr bool kJournaled = Spec::kRole != MessageRole::kQuery;
     // Held until the end of this PumpIntake, so that a burst it takes in (see PumpIntake) is
     // queued together and makes one update.
     std::lock_guard lock(intake_mutex_);
@@ -214,8 +190,8 @@ void Daemon::OnInbound(std::string_view channel, const Msg& msg) {
                  std::string(type) + ": the journal could not take it: " + seq.status().message()};
     }
   }
-  PublishReject(verdict, channel, type, RobotOf(msg), msg.utime);
-  if constexpr (std::is_same_v<Msg, slamd::query_t>) {
+  PublishReject(verdict, channel, type, Spec::Robot(msg), msg.utime);
+  if constexpr (Spec::kRole == MessageRole::kQuery) {
     // The asker waits for a reply, not for a reject_t.
     slamd::query_reply_t reply;
     FillRejectedQueryReply(QueryRequest{.client = msg.client, .request_id = msg.request_id},

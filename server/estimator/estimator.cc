@@ -6,12 +6,7 @@
 #include <utility>
 
 #include "core/base/thread_name.h"
-#include "core/factors/bearing_range_factor.h"
-#include "core/factors/between_factor.h"
 #include "core/factors/factor_registry.h"
-#include "core/factors/position_prior_factor.h"
-#include "core/factors/prior_factor.h"
-#include "core/factors/relative_point_factor.h"
 #include "server/estimator/estimator_state.h"
 
 namespace slamd::server {
@@ -23,68 +18,21 @@ using core::Pose2;
 using core::Pose3;
 using core::Variable;
 
-bool SameType(const Variable& v, const RelativePose& z) {
-  return std::holds_alternative<Pose2>(z) ? std::holds_alternative<Pose2>(v)
-                                          : std::holds_alternative<Pose3>(v);
-}
-
-// from ∘ z (inverse = false) or from ∘ z⁻¹; types checked by the caller.
-Variable Compose(const Variable& from, const RelativePose& z, bool inverse) {
-  if (const Pose2* z2 = std::get_if<Pose2>(&z)) {
-    const Pose2& a = std::get<Pose2>(from);
-    return inverse ? a * z2->Inverse() : a * *z2;
-  }
-  const Pose3& z3 = std::get<Pose3>(z);
-  const Pose3& a = std::get<Pose3>(from);
-  return inverse ? a * z3.Inverse() : a * z3;
-}
-
-core::FactorPtr MakeBetween(Key a, Key b, const RelativePose& z, const core::NoiseModel& noise,
-                            const core::RobustKernel& robust = {}) {
-  if (const Pose2* z2 = std::get_if<Pose2>(&z)) {
-    return std::make_shared<core::BetweenFactor<Pose2>>(a, b, *z2, noise, robust);
-  }
-  return std::make_shared<core::BetweenFactor<Pose3>>(a, b, std::get<Pose3>(z), noise, robust);
-}
-
-// params_.loop_closure_kernel as a kernel (validated by EstimatorParams::Validate).
-core::RobustKernel DefaultLoopKernel(const EstimatorParams& params) {
+// The policies measurements follow (params validated by EstimatorParams::Validate).
+MeasurementPolicy Policy(const EstimatorParams& params) {
+  MeasurementPolicy policy{
+      .anchor_at_origin = params.new_robot_anchor == AnchorPolicy::kAnchorAtOrigin,
+      .anchor_sigma = params.anchor_sigma,
+      .loop_closure_kernel = {}};
   const auto kind = core::RobustKernel::ParseKind(params.loop_closure_kernel).value();
-  if (kind == core::RobustKernel::Kind::kNone) return {};
-  return core::RobustKernel::Create(kind, params.loop_closure_kernel_parameter).value();
-}
-
-std::string PoseName(const std::string& robot, std::uint64_t index) {
-  return "robot '" + robot + "' pose " + std::to_string(index);
+  if (kind != core::RobustKernel::Kind::kNone) {
+    policy.loop_closure_kernel =
+        core::RobustKernel::Create(kind, params.loop_closure_kernel_parameter).value();
+  }
+  return policy;
 }
 
 }  // namespace
-
-const char* MessageTypeName(const Inbound& in) {
-  static constexpr const char* kNames[] = {"odometry_t", "landmark_observation_t", "loop_closure_t",
-                                           "prior_t",    "remove_factor_t",        "query_t"};
-  return kNames[in.measurement.index()];
-}
-
-const std::string& MessageRobot(const Inbound& in) {
-  return std::visit(
-      [](const auto& m) -> const std::string& {
-        using M = std::decay_t<decltype(m)>;
-        if constexpr (std::is_same_v<M, LoopClosureMeasurement> ||
-                      std::is_same_v<M, RemoveFactorRequest>) {
-          return m.robot_a;
-        } else if constexpr (std::is_same_v<M, QueryRequest>) {
-          return m.client;
-        } else {
-          return m.robot;
-        }
-      },
-      in.measurement);
-}
-
-std::int64_t MessageUtime(const Inbound& in) {
-  return std::visit([](const auto& m) { return m.utime; }, in.measurement);
-}
 
 core::Result<std::unique_ptr<Estimator>> Estimator::Create(const EstimatorParams& params,
                                                            const core::Isam2Params& isam2) {
@@ -96,7 +44,7 @@ core::Result<std::unique_ptr<Estimator>> Estimator::Create(const EstimatorParams
 
 Estimator::Estimator(const EstimatorParams& params, std::unique_ptr<core::Isam2> isam)
     : params_(params),
-      default_loop_kernel_(DefaultLoopKernel(params)),
+      policy_(Policy(params)),
       isam_(std::move(isam)),
       marginals_threads_(isam_->params().threads),
       marginals_(std::make_unique<core::Isam2Marginals>(
@@ -110,9 +58,9 @@ Estimator::~Estimator() {
 }
 
 core::Isam2UpdateOptions Estimator::UpdateOptions() const {
-  return {.defer_relinearization_above =
-              rebuild_failed_ ? 0 : params_.background_relinearization_above,
-          .skip_relinearization = rebuild_ != nullptr};
+  return {
+      .defer_relinearization_above = rebuild_failed_ ? 0 : params_.background_relinearization_above,
+      .skip_relinearization = rebuild_ != nullptr};
 }
 
 core::Isam2UpdateOptions Estimator::ProcessUpdateOptions() const {
@@ -159,66 +107,66 @@ void Estimator::StartRebuild() {
   // 1.6-2.3 ms.)
   core::Isam2Params params = isam_->params();
   params.threads = 1;
-  rebuild->thread = std::thread(
-      [r, params, factors = std::move(factors), estimate = isam_->CalculateEstimate(),
-       newest = NewestPoses(), max_rounds = replaying_ ? 0 : params_.rebuild_catch_up_rounds,
-       with_chi2 = !replaying_ && params_.chi2_interval_s > 0.0,
-       start_sequence = sequence_]() mutable {
-        core::NameThisThread("slamd-rebuild");
-        core::Result<std::unique_ptr<core::Isam2>> made = core::Isam2::Create(params);
-        if (made.ok()) {
-          r->solver = std::move(made).value();
-          r->status = r->solver->Update(factors, estimate, {.order_last = newest}).status;
-          // A relinearisation check now: its first pass in a new solver evaluates every factor
-          // (Relinearization::error_threshold; nothing is known of their curvature yet), 4-5 ms on
-          // victoriaPark, which would otherwise fall on the first checking update after the swap.
-          if (r->status.ok()) {
-            r->status =
-                r->solver->Update({}, {}, {.order_last = newest, .force_relinearize = true}).status;
-          }
-        } else {
-          r->status = made.status();
-        }
-        // Freed now, not after `done` with the lambda: freeing a large map's copies (up to 30 ms in
-        // the soak) would fall on the estimator thread, in FinishRebuild's join.
-        factors = core::FactorGraph();
-        estimate = core::Values();
-        // Catch-up rounds: each takes what was logged while the last one ran, so the backlog
-        // shrinks round by round; at most max_rounds, for input faster than them. The new variables
-        // come at their initial guesses (the live estimate is the estimator thread's): each round
-        // relinearises what moved past the thresholds. With `finish`, the check that finds nothing
-        // waiting also marks the rebuild done, under the log's lock: every update the estimator
-        // logged before it saw the rebuild not done is taken here, and the swap takes only what
-        // came after (on manhattan.g2o at 1 kHz, leaving the last 2 and what came during the chi2
-        // pass made swaps of up to 4 ms on the estimator thread).
-        const auto catch_up = [&](bool finish) {
-          for (;;) {
-            size_t end = 0;
-            {
-              std::lock_guard lock(r->log_mutex);
-              end = r->log.size();
-              if (end == r->caught_up || !r->status.ok() ||
-                  static_cast<int>(r->rounds.size()) >= max_rounds) {
-                if (finish) r->done.store(true, std::memory_order_release);
-                return;
-              }
-            }
-            const int taken = static_cast<int>(end - r->caught_up);
-            r->status = CatchUp(r, end, {.force_relinearize = true}, nullptr).status;
-            r->rounds.push_back(taken);
-          }
-        };
-        catch_up(false);
-        // The status chi2 of the rebuilt map, here rather than on the estimator thread, where a
-        // pass over every factor (50-350 ms at 250k variables) held up every message behind it.
-        // It describes the updates taken so far; the swap hands it over.
-        if (r->status.ok() && with_chi2) {
-          r->chi2 = r->solver->Chi2();
+  rebuild->thread = std::thread([r, params, factors = std::move(factors),
+                                 estimate = isam_->CalculateEstimate(), newest = NewestPoses(),
+                                 max_rounds = replaying_ ? 0 : params_.rebuild_catch_up_rounds,
+                                 with_chi2 = !replaying_ && params_.chi2_interval_s > 0.0,
+                                 start_sequence = sequence_]() mutable {
+    core::NameThisThread("slamd-rebuild");
+    core::Result<std::unique_ptr<core::Isam2>> made = core::Isam2::Create(params);
+    if (made.ok()) {
+      r->solver = std::move(made).value();
+      r->status = r->solver->Update(factors, estimate, {.order_last = newest}).status;
+      // A relinearisation check now: its first pass in a new solver evaluates every factor
+      // (Relinearization::error_threshold; nothing is known of their curvature yet), 4-5 ms on
+      // victoriaPark, which would otherwise fall on the first checking update after the swap.
+      if (r->status.ok()) {
+        r->status =
+            r->solver->Update({}, {}, {.order_last = newest, .force_relinearize = true}).status;
+      }
+    } else {
+      r->status = made.status();
+    }
+    // Freed now, not after `done` with the lambda: freeing a large map's copies (up to 30 ms in
+    // the soak) would fall on the estimator thread, in FinishRebuild's join.
+    factors = core::FactorGraph();
+    estimate = core::Values();
+    // Catch-up rounds: each takes what was logged while the last one ran, so the backlog
+    // shrinks round by round; at most max_rounds, for input faster than them. The new variables
+    // come at their initial guesses (the live estimate is the estimator thread's): each round
+    // relinearises what moved past the thresholds. With `finish`, the check that finds nothing
+    // waiting also marks the rebuild done, under the log's lock: every update the estimator
+    // logged before it saw the rebuild not done is taken here, and the swap takes only what
+    // came after (on manhattan.g2o at 1 kHz, leaving the last 2 and what came during the chi2
+    // pass made swaps of up to 4 ms on the estimator thread).
+    const auto catch_up = [&](bool finish) {
+      for (;;) {
+        size_t end = 0;
+        {
           std::lock_guard lock(r->log_mutex);
-          r->chi2_sequence = r->caught_up == 0 ? start_sequence : r->log[r->caught_up - 1].sequence;
+          end = r->log.size();
+          if (end == r->caught_up || !r->status.ok() ||
+              static_cast<int>(r->rounds.size()) >= max_rounds) {
+            if (finish) r->done.store(true, std::memory_order_release);
+            return;
+          }
         }
-        catch_up(true);  // what came during the chi2 pass (2-4 ms on manhattan.g2o)
-      });
+        const int taken = static_cast<int>(end - r->caught_up);
+        r->status = CatchUp(r, end, {.force_relinearize = true}, nullptr).status;
+        r->rounds.push_back(taken);
+      }
+    };
+    catch_up(false);
+    // The status chi2 of the rebuilt map, here rather than on the estimator thread, where a
+    // pass over every factor (50-350 ms at 250k variables) held up every message behind it.
+    // It describes the updates taken so far; the swap hands it over.
+    if (r->status.ok() && with_chi2) {
+      r->chi2 = r->solver->Chi2();
+      std::lock_guard lock(r->log_mutex);
+      r->chi2_sequence = r->caught_up == 0 ? start_sequence : r->log[r->caught_up - 1].sequence;
+    }
+    catch_up(true);  // what came during the chi2 pass (2-4 ms on manhattan.g2o)
+  });
   rebuild_ = std::move(rebuild);
 }
 
@@ -369,8 +317,7 @@ Variable Estimator::Estimate(Key key, const Staged& s) const {
   return isam_->CalculateEstimate(key);
 }
 
-void Estimator::FirstTime(char type, Key a, Key b, int kind, Staged* s) {
-  const MeasurementId id = std::make_tuple(type, a, b, kind);
+void Estimator::FirstTime(const MeasurementId& id, Staged* s) {
   s->pending_id = id;
   s->pending_existing = nullptr;
   if (const auto it = applied_.find(id); it != applied_.end()) {
@@ -383,8 +330,8 @@ void Estimator::FirstTime(char type, Key a, Key b, int kind, Staged* s) {
   s->seen.insert(id);
 }
 
-Estimator::Outcome Estimator::AddMeasured(core::FactorPtr factor, Key first, const char* what,
-                                          Staged* s, Verdict* v) {
+Outcome Estimator::AddMeasured(core::FactorPtr factor, Key first, const char* what, Staged* s,
+                               Verdict* v) {
   SLAMD_CHECK(s->pending_id.has_value()) << "AddMeasured without FirstTime";
   const MeasurementId id = *s->pending_id;
   s->pending_id.reset();
@@ -424,211 +371,50 @@ void Estimator::Touch(std::uint8_t robot, const Inbound& in, Staged* s) {
   r.received_us = in.received_us;
 }
 
-Estimator::Outcome Estimator::Apply(const Inbound& in, Staged* s, Verdict* v) {
-  return std::visit(
-      [&](const auto& m) -> Outcome {
-        using M = std::decay_t<decltype(m)>;
-        if constexpr (std::is_same_v<M, OdometryMeasurement>) return ApplyOdometry(m, in, s, v);
-        if constexpr (std::is_same_v<M, LandmarkMeasurement>) return ApplyLandmark(m, in, s, v);
-        if constexpr (std::is_same_v<M, LoopClosureMeasurement>) {
-          return ApplyLoopClosure(m, in, s, v);
-        }
-        if constexpr (std::is_same_v<M, PriorMeasurement>) return ApplyPrior(m, in, s, v);
-        SLAMD_CHECK(false) << MessageTypeName(in) << " reached Estimator::Apply";
-        return Outcome::kRejected;
-      },
-      in.measurement);
-}
+class Estimator::Builder final : public GraphBuilder {
+ public:
+  Builder(Estimator& e, Staged& s, const Inbound& in) : e_(e), s_(s), in_(in) {}
 
-Estimator::Outcome Estimator::ApplyOdometry(const OdometryMeasurement& m, const Inbound& in,
-                                            Staged* s, Verdict* v) {
-  const auto id = registry_.FindOrAdd(m.robot);
-  if (!id) {
-    *v = {RejectReason::kTooManyElements, "odometry_t.robot: more than 255 robots"};
-    return Outcome::kRejected;
+  const MeasurementPolicy& policy() const override { return e_.policy_; }
+  std::optional<std::uint8_t> FindRobot(const std::string& name) const override {
+    return e_.registry_.Find(name);
   }
-  const Key from = MakeKey('x', m.from_index, *id);
-  const Key to = MakeKey('x', m.to_index, *id);
-  // A robot connected in the middle of its trajectory (a loop closure placed pose k) gets its
-  // earlier poses from the odometry into k, backwards.
-  const bool backwards = !Known(from, *s) && Known(to, *s);
-  const bool origin = !Known(from, *s) && !backwards && !robots_[*id].anchored &&
-                      params_.new_robot_anchor == AnchorPolicy::kAnchorAtOrigin;
-  if (!Known(from, *s) && !origin && !backwards) return Outcome::kHeld;  // ahead, or unanchored
-  if (!origin && !backwards && !SameType(Estimate(from, *s), m.measured)) {
-    *v = {RejectReason::kBadMeasurement,
-          "odometry_t.dimension: does not match " + PoseName(m.robot, m.from_index)};
-    return Outcome::kRejected;
+  std::optional<std::uint8_t> FindOrAddRobot(const std::string& name) override {
+    return e_.registry_.FindOrAdd(name);
   }
-  if (Known(to, *s) && !SameType(Estimate(to, *s), m.measured)) {
-    *v = {RejectReason::kBadMeasurement,
-          "odometry_t.dimension: does not match " + PoseName(m.robot, m.to_index)};
-    return Outcome::kRejected;
+  bool Anchored(std::uint8_t robot) const override { return e_.robots_[robot].anchored; }
+  bool Known(Key key) const override { return e_.Known(key, s_); }
+  Variable Estimate(Key key) const override { return e_.Estimate(key, s_); }
+  void AddPose(std::uint8_t robot, std::uint64_t index, const Variable& value) override {
+    e_.AddPose(robot, index, value, in_, &s_);
   }
-  FirstTime('o', from, to, 0, s);
-  if (origin) {
-    const bool is2d = std::holds_alternative<Pose2>(m.measured);
-    const core::NoiseModel anchor =
-        core::NoiseModel::Isotropic(is2d ? 3 : 6, params_.anchor_sigma).value();
-    AddPose(*id, m.from_index, is2d ? Variable(Pose2()) : Variable(Pose3()), in, s);
-    if (is2d) {
-      s->factors.Add(std::make_shared<core::PriorFactor<Pose2>>(from, Pose2(), anchor));
+  void AddVariable(Key key, const Variable& value) override {
+    (void)s_.values.Insert(key, value);  // a new key: checked by the spec
+  }
+  void AddFactor(core::FactorPtr factor) override { s_.factors.Add(std::move(factor)); }
+  void FirstTime(const MeasurementId& id) override { e_.FirstTime(id, &s_); }
+  Outcome AddMeasured(core::FactorPtr factor, Key first, const char* what, Verdict* v) override {
+    return e_.AddMeasured(std::move(factor), first, what, &s_, v);
+  }
+  void Touch(std::uint8_t robot) override { e_.Touch(robot, in_, &s_); }
+
+ private:
+  Estimator& e_;
+  Staged& s_;
+  const Inbound& in_;
+};
+
+Outcome Estimator::Apply(const Inbound& in, Staged* s, Verdict* v) {
+  Builder builder(*this, *s, in);
+  return VisitSpec(in, [&](auto spec, const auto& m) -> Outcome {
+    using Spec = typename decltype(spec)::type;
+    if constexpr (Spec::kRole == MessageRole::kMeasurement) {
+      return Spec::Apply(m, builder, v);
     } else {
-      s->factors.Add(std::make_shared<core::PriorFactor<Pose3>>(from, Pose3(), anchor));
-    }
-  }
-  if (backwards) {
-    AddPose(*id, m.from_index, Compose(Estimate(to, *s), m.measured, true), in, s);
-  } else if (!Known(to, *s)) {
-    AddPose(*id, m.to_index, Compose(Estimate(from, *s), m.measured, false), in, s);
-  }
-  const Outcome outcome =
-      AddMeasured(MakeBetween(from, to, m.measured, m.noise), from, "odometry_t", s, v);
-  if (outcome == Outcome::kApplied) Touch(*id, in, s);
-  return outcome;
-}
-
-Estimator::Outcome Estimator::ApplyLandmark(const LandmarkMeasurement& m, const Inbound& in,
-                                            Staged* s, Verdict* v) {
-  const auto id = registry_.FindOrAdd(m.robot);
-  if (!id) {
-    *v = {RejectReason::kTooManyElements, "landmark_observation_t.robot: more than 255 robots"};
-    return Outcome::kRejected;
-  }
-  const Key pose = MakeKey('x', m.pose_index, *id);
-  if (!Known(pose, *s)) return Outcome::kHeld;
-  const Key landmark = MakeKey('l', m.landmark_id, *id);
-  const Variable x = Estimate(pose, *s);
-  const bool needs3d = m.kind == LandmarkKind::kRelativePoint3;
-  if (std::holds_alternative<Pose3>(x) != needs3d) {
-    *v = {RejectReason::kBadMeasurement,
-          "landmark_observation_t.kind: does not match " + PoseName(m.robot, m.pose_index)};
-    return Outcome::kRejected;
-  }
-  const bool known = Known(landmark, *s);
-  if (known && (std::holds_alternative<core::Point3>(Estimate(landmark, *s)) != needs3d)) {
-    *v = {RejectReason::kBadMeasurement, "landmark_observation_t.kind: landmark " +
-                                             std::to_string(m.landmark_id) +
-                                             " has the other dimension"};
-    return Outcome::kRejected;
-  }
-  FirstTime('l', pose, landmark, static_cast<int>(m.kind), s);
-  core::FactorPtr factor;
-  Variable guess;
-  if (const BearingRange* br = std::get_if<BearingRange>(&m.measured)) {
-    const Pose2& p = std::get<Pose2>(x);
-    guess = p.TransformFrom(
-        core::Point2(br->range * std::cos(br->bearing), br->range * std::sin(br->bearing)));
-    factor =
-        std::make_shared<core::BearingRangeFactor>(pose, landmark, br->bearing, br->range, m.noise);
-  } else if (const core::Point2* p2 = std::get_if<core::Point2>(&m.measured)) {
-    guess = std::get<Pose2>(x).TransformFrom(*p2);
-    factor = std::make_shared<core::RelativePointFactor<Pose2, core::Point2>>(pose, landmark, *p2,
-                                                                              m.noise);
-  } else {
-    const core::Point3& p3 = std::get<core::Point3>(m.measured);
-    guess = std::get<Pose3>(x).TransformFrom(p3);
-    factor = std::make_shared<core::RelativePointFactor<Pose3, core::Point3>>(pose, landmark, p3,
-                                                                              m.noise);
-  }
-  const Outcome outcome = AddMeasured(std::move(factor), pose, "landmark_observation_t", s, v);
-  if (outcome != Outcome::kApplied) return outcome;
-  if (!known) (void)s->values.Insert(landmark, guess);
-  Touch(*id, in, s);
-  return outcome;
-}
-
-Estimator::Outcome Estimator::ApplyLoopClosure(const LoopClosureMeasurement& m, const Inbound& in,
-                                               Staged* s, Verdict* v) {
-  const auto ida = registry_.Find(m.robot_a);
-  const auto idb = registry_.Find(m.robot_b);
-  const bool known_a = ida && Known(MakeKey('x', m.pose_a, *ida), *s);
-  const bool known_b = idb && Known(MakeKey('x', m.pose_b, *idb), *s);
-  if (!known_a && !known_b) {
-    if (!ida || !robots_[*ida].anchored) {
-      *v = {RejectReason::kUnknownRobot,
-            "loop_closure_t.robot_a: robot '" + m.robot_a + "' has no pose in the graph"};
-    } else if (!idb || !robots_[*idb].anchored) {
-      *v = {RejectReason::kUnknownRobot,
-            "loop_closure_t.robot_b: robot '" + m.robot_b + "' has no pose in the graph"};
-    } else {
-      *v = {RejectReason::kUnknownPose,
-            "loop_closure_t.pose_a: " + PoseName(m.robot_a, m.pose_a) + " is not in the graph"};
-    }
-    return Outcome::kRejected;
-  }
-  // Exactly one side known: it may connect (and anchor) a robot with no pose yet.
-  if (known_a != known_b) {
-    const std::string& robot = known_a ? m.robot_b : m.robot_a;
-    const std::optional<std::uint8_t> id = known_a ? idb : ida;
-    const std::uint64_t index = known_a ? m.pose_b : m.pose_a;
-    if (id && robots_[*id].anchored) {
-      *v = {RejectReason::kUnknownPose, std::string("loop_closure_t.") +
-                                            (known_a ? "pose_b: " : "pose_a: ") +
-                                            PoseName(robot, index) + " is not in the graph"};
+      SLAMD_CHECK(false) << Spec::kType << " reached Estimator::Apply";
       return Outcome::kRejected;
     }
-  }
-  const Key known_key = known_a ? MakeKey('x', m.pose_a, *ida) : MakeKey('x', m.pose_b, *idb);
-  if (!SameType(Estimate(known_key, *s), m.measured) ||
-      (known_a && known_b && !SameType(Estimate(MakeKey('x', m.pose_b, *idb), *s), m.measured))) {
-    *v = {RejectReason::kBadMeasurement, "loop_closure_t.dimension: does not match the poses"};
-    return Outcome::kRejected;
-  }
-  std::optional<std::uint8_t> a = ida, b = idb;
-  if (!a) a = registry_.FindOrAdd(m.robot_a);
-  if (!b) b = registry_.FindOrAdd(m.robot_b);
-  if (!a || !b) {
-    *v = {RejectReason::kTooManyElements, "loop_closure_t.robot_b: more than 255 robots"};
-    return Outcome::kRejected;
-  }
-  const Key ka = MakeKey('x', m.pose_a, *a);
-  const Key kb = MakeKey('x', m.pose_b, *b);
-  FirstTime('c', std::min(ka, kb), std::max(ka, kb), 0, s);
-  if (!known_b) AddPose(*b, m.pose_b, Compose(Estimate(ka, *s), m.measured, false), in, s);
-  if (!known_a) AddPose(*a, m.pose_a, Compose(Estimate(kb, *s), m.measured, true), in, s);
-  const Outcome outcome =
-      AddMeasured(MakeBetween(ka, kb, m.measured, m.noise,
-                              m.robust.is_none() ? default_loop_kernel_ : m.robust),
-                  ka, "loop_closure_t", s, v);
-  if (outcome == Outcome::kApplied) Touch(*a, in, s);
-  return outcome;
-}
-
-Estimator::Outcome Estimator::ApplyPrior(const PriorMeasurement& m, const Inbound& in, Staged* s,
-                                         Verdict* v) {
-  const auto id = registry_.FindOrAdd(m.robot);
-  if (!id) {
-    *v = {RejectReason::kTooManyElements, "prior_t.robot: more than 255 robots"};
-    return Outcome::kRejected;
-  }
-  const Key key = MakeKey('x', m.pose_index, *id);
-  const bool is_pose = m.kind == PriorKind::kPose2 || m.kind == PriorKind::kPose3;
-  const bool needs3d = m.kind == PriorKind::kPose3 || m.kind == PriorKind::kPosition3;
-  const bool known = Known(key, *s);
-  if (!known && !(is_pose && !robots_[*id].anchored)) return Outcome::kHeld;
-  if (known && std::holds_alternative<Pose3>(Estimate(key, *s)) != needs3d) {
-    *v = {RejectReason::kBadMeasurement,
-          "prior_t.kind: does not match " + PoseName(m.robot, m.pose_index)};
-    return Outcome::kRejected;
-  }
-  FirstTime('p', key, 0, static_cast<int>(m.kind), s);
-  core::FactorPtr factor;
-  if (const Pose2* p2 = std::get_if<Pose2>(&m.measured)) {
-    if (!known) AddPose(*id, m.pose_index, *p2, in, s);
-    factor = std::make_shared<core::PriorFactor<Pose2>>(key, *p2, m.noise);
-  } else if (const Pose3* p3 = std::get_if<Pose3>(&m.measured)) {
-    if (!known) AddPose(*id, m.pose_index, *p3, in, s);
-    factor = std::make_shared<core::PriorFactor<Pose3>>(key, *p3, m.noise);
-  } else if (const core::Point2* t2 = std::get_if<core::Point2>(&m.measured)) {
-    factor = std::make_shared<core::PositionPriorFactor<Pose2>>(key, *t2, m.noise);
-  } else {
-    factor = std::make_shared<core::PositionPriorFactor<Pose3>>(
-        key, std::get<core::Point3>(m.measured), m.noise);
-  }
-  const Outcome outcome = AddMeasured(std::move(factor), key, "prior_t", s, v);
-  if (outcome == Outcome::kApplied) Touch(*id, in, s);
-  return outcome;
+  });
 }
 
 void Estimator::Reject(const Inbound& in, RejectReason reason, std::string message,
@@ -645,9 +431,10 @@ ProcessResult Estimator::Process(std::vector<Inbound> batch, bool finish_later) 
   counters_.processed += static_cast<std::int64_t>(batch.size());
   std::vector<Inbound> segment;
   for (Inbound& in : batch) {
-    SLAMD_CHECK(!std::holds_alternative<QueryRequest>(in.measurement))
+    const MessageRole role = MessageRoleOf(in);
+    SLAMD_CHECK(role != MessageRole::kQuery)
         << "queries are answered by the daemon, not Estimator::Process";
-    if (std::holds_alternative<RemoveFactorRequest>(in.measurement)) {
+    if (role == MessageRole::kRetraction) {
       if (!segment.empty()) ApplyBatch(std::move(segment), &result);
       segment.clear();
       Remove(in, &result);
@@ -691,11 +478,13 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
         case Outcome::kAlreadyHeld:
           done[i] = 1;
           ++counters_.already_held;
-          result.already_held_robots.insert(MessageRobot(pending[i].message));
-          if (const auto* c =
-                  std::get_if<LoopClosureMeasurement>(&pending[i].message.measurement)) {
-            result.already_held_robots.insert(c->robot_b);
-          }
+          VisitSpec(pending[i].message, [&](auto spec, const auto& m) {
+            using Spec = typename decltype(spec)::type;
+            result.already_held_robots.insert(Spec::Robot(m));
+            if constexpr (requires { Spec::SecondRobot(m); }) {
+              result.already_held_robots.insert(Spec::SecondRobot(m));
+            }
+          });
           break;
         case Outcome::kHeld:
           break;
@@ -764,41 +553,13 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
   AfterUpdateOnceSolved(update.relinearization_deferred);
 }
 
-std::optional<Estimator::MeasurementId> Estimator::RemovalId(const RemoveFactorRequest& r,
-                                                             Key* first, std::string* why) const {
-  const auto a = registry_.Find(r.robot_a);
-  if (!a) {
-    *why = "remove_factor_t.robot_a: robot '" + r.robot_a + "' is not known";
-    return std::nullopt;
-  }
-  const Key pose = MakeKey('x', r.index_a, *a);
-  *first = pose;
-  switch (r.target) {
-    case RemoveTarget::kOdometry:
-      return MeasurementId{'o', pose, MakeKey('x', r.index_b, *a), 0};
-    case RemoveTarget::kLandmarkObservation:
-      return MeasurementId{'l', pose, MakeKey('l', r.index_b, *a), r.kind};
-    case RemoveTarget::kPrior:
-      return MeasurementId{'p', pose, 0, r.kind};
-    case RemoveTarget::kLoopClosure: {
-      const auto b = registry_.Find(r.robot_b);
-      if (!b) {
-        *why = "remove_factor_t.robot_b: robot '" + r.robot_b + "' is not known";
-        return std::nullopt;
-      }
-      const Key other = MakeKey('x', r.index_b, *b);
-      return MeasurementId{'c', std::min(pose, other), std::max(pose, other), 0};
-    }
-  }
-  *why = "remove_factor_t.target: unknown";
-  return std::nullopt;
-}
-
 void Estimator::Remove(const Inbound& in, ProcessResult* result) {
   const auto& r = std::get<RemoveFactorRequest>(in.measurement);
   Key first = 0;
   std::string why;
-  const std::optional<MeasurementId> id = RemovalId(r, &first, &why);
+  Staged none;
+  const std::optional<MeasurementId> id =
+      RemoveFactorSpec::Identity(r, Builder(*this, none, in), &first, &why);
   const auto it = id ? applied_.find(*id) : applied_.end();
   if (!id || it == applied_.end() || applied_factors_[it->second].first != first) {
     if (id) {

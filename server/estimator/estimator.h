@@ -80,28 +80,9 @@
 #include "server/estimator/estimate_snapshot.h"
 #include "server/estimator/estimator_params.h"
 #include "server/estimator/robot_registry.h"
-#include "server/ingest/measurements.h"
-#include "server/ingest/validation.h"
+#include "server/messages/inbound.h"
 
 namespace slamd::server {
-
-// One inbound message with its transport receipt time [µs, steady clock]: a measurement, a
-// retraction, or a query (queries go through the same queue so they see every message queued
-// before them; the daemon answers them, Process never sees one).
-struct Inbound {
-  std::variant<OdometryMeasurement, LandmarkMeasurement, LoopClosureMeasurement, PriorMeasurement,
-               RemoveFactorRequest, QueryRequest>
-      measurement;
-  std::int64_t received_us = 0;
-  // Its journal sequence number (1, 2, ...); 0 when not journaled (no data_dir, or a query).
-  std::int64_t journal_sequence = 0;
-};
-
-// The wire type name ("odometry_t", ...), robot (robot_a for loop closures and removals, the
-// client for queries) and utime.
-const char* MessageTypeName(const Inbound& in);
-const std::string& MessageRobot(const Inbound& in);
-std::int64_t MessageUtime(const Inbound& in);
 
 struct EstimatorState;  // estimator_state.h
 
@@ -200,7 +181,6 @@ class Estimator {
  private:
   Estimator(const EstimatorParams& params, std::unique_ptr<core::Isam2> isam);
 
-  enum class Outcome { kApplied, kHeld, kRejected, kAlreadyHeld };
   struct Held {
     Inbound message;
     int waited = 0;  // Process calls it has waited through
@@ -214,9 +194,6 @@ class Estimator {
     std::uint64_t published_index = 0;
     std::int64_t moved_sequence = 0;
   };
-  // A measurement's identity for duplicates and removal: (message type letter, first key,
-  // second key or 0, kind); loop closures with the smaller key first.
-  using MeasurementId = std::tuple<char, core::Key, core::Key, int>;
   struct AppliedFactor {
     MeasurementId id;
     core::Key first = 0;  // the key the message named first (loop closures are directed)
@@ -235,18 +212,14 @@ class Estimator {
     std::vector<std::pair<std::uint8_t, RobotState>> robots_before;  // for rollback
   };
 
+  // The GraphBuilder a message's spec applies itself to: this estimator's state and batch `s`.
+  class Builder;
   Outcome Apply(const Inbound& in, Staged* staged, Verdict* verdict);
-  Outcome ApplyOdometry(const OdometryMeasurement& m, const Inbound& in, Staged* s, Verdict* v);
-  Outcome ApplyLandmark(const LandmarkMeasurement& m, const Inbound& in, Staged* s, Verdict* v);
-  Outcome ApplyLoopClosure(const LoopClosureMeasurement& m, const Inbound& in, Staged* s,
-                           Verdict* v);
-  Outcome ApplyPrior(const PriorMeasurement& m, const Inbound& in, Staged* s, Verdict* v);
-
   bool Known(core::Key key, const Staged& s) const;
   core::Variable Estimate(core::Key key, const Staged& s) const;
   // Marks the measurement's identity seen for this batch, noting the factor it already has when
   // it was applied or staged before (AddMeasured then compares).
-  void FirstTime(char type, core::Key a, core::Key b, int kind, Staged* s);
+  void FirstTime(const MeasurementId& id, Staged* s);
   // Adds the factor of the message FirstTime() just admitted, remembering its identity:
   // kApplied; or, when that identity has a factor already, kAlreadyHeld for the same
   // measurement and kRejected (kDuplicate, `what` names the message type) for another.
@@ -255,8 +228,6 @@ class Estimator {
   RobotState& Robot(std::uint8_t id, Staged* s);  // remembers its old state for rollback
   void ApplyBatch(std::vector<Inbound> batch, ProcessResult* result);
   void Remove(const Inbound& in, ProcessResult* result);
-  std::optional<MeasurementId> RemovalId(const RemoveFactorRequest& r, core::Key* first,
-                                         std::string* why) const;
   void AddPose(std::uint8_t robot, std::uint64_t index, const core::Variable& value,
                const Inbound& in, Staged* s);
   void Touch(std::uint8_t robot, const Inbound& in, Staged* s);
@@ -309,7 +280,7 @@ class Estimator {
                      const core::Isam2Result& update, std::span<const int> removed);
 
   EstimatorParams params_;
-  core::RobustKernel default_loop_kernel_;  // params_.loop_closure_kernel
+  MeasurementPolicy policy_;  // from params_
   std::unique_ptr<core::Isam2> isam_;
   RobotRegistry registry_;
   RobotState robots_[256];

@@ -1,5 +1,6 @@
-// Conversion of inbound LCM messages into core types (measurements.h): validate, then build the
-// measurement and its NoiseModel. The one call a handler makes per message:
+// Conversion of inbound LCM messages into core types (each type's Convert and ToLcm are in its
+// spec, server/messages/<type>.h): validate, then build the measurement and its NoiseModel. The
+// one call a handler makes per message:
 //
 //   Checked<OdometryMeasurement> odo = Convert(msg, limits);
 //   if (!odo.ok()) { publish a reject_t from odo.verdict(); return; }
@@ -11,12 +12,15 @@
 // Thread-safe; never throws; a rejected message yields no value, only the Verdict.
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <utility>
+#include <vector>
 
 #include "core/base/check.h"
 #include "server/ingest/measurements.h"
 #include "server/ingest/validation.h"
+#include "server/publish/wire_values.h"
 
 namespace slamd::server {
 
@@ -45,23 +49,22 @@ class [[nodiscard]] Checked {
   Verdict verdict_;
 };
 
-Checked<OdometryMeasurement> Convert(const slamd::odometry_t& msg, const Limits& limits = {});
-Checked<LandmarkMeasurement> Convert(const slamd::landmark_observation_t& msg,
-                                     const Limits& limits = {});
-Checked<LoopClosureMeasurement> Convert(const slamd::loop_closure_t& msg,
-                                        const Limits& limits = {});
-Checked<PriorMeasurement> Convert(const slamd::prior_t& msg, const Limits& limits = {});
-Checked<RemoveFactorRequest> Convert(const slamd::remove_factor_t& msg, const Limits& limits = {});
-Checked<QueryRequest> Convert(const slamd::query_t& msg, const Limits& limits = {});
+namespace internal {
 
-// The inverse (for clients that build messages from core types, replay and tests): fills every
-// field of *out, counts included. Covariances come from NoiseModel::Covariance(); 3D rotations
-// are written as unit quaternions with qw >= 0; the robust kernel as its KindName ("" for none).
-void ToLcm(const OdometryMeasurement& m, slamd::odometry_t* out);
-void ToLcm(const LandmarkMeasurement& m, slamd::landmark_observation_t* out);
-void ToLcm(const LoopClosureMeasurement& m, slamd::loop_closure_t* out);
-void ToLcm(const PriorMeasurement& m, slamd::prior_t* out);
-void ToLcm(const RemoveFactorRequest& m, slamd::remove_factor_t* out);
-void ToLcm(const QueryRequest& m, slamd::query_t* out);
+// A validated message's pose values: 3 (x, y, theta) -> Pose2, 7 (x, y, z, qw, qx, qy, qz) ->
+// Pose3 (quaternion normalised), and back (qw >= 0); its dimension field (2 or 3).
+RelativePose ToPose(const std::vector<double>& values);
+std::vector<double> PoseValues(const RelativePose& pose);
+std::int8_t PoseDimension(const RelativePose& pose);
+// Fills a message's values / covariance pairs (counts from the vectors, so they always agree).
+template <typename Msg>
+void SetMeasurement(std::vector<double> values, const core::NoiseModel& noise, Msg* out) {
+  out->values = std::move(values);
+  out->num_values = static_cast<std::int32_t>(out->values.size());
+  out->covariance = ToRowMajor(noise.Covariance());
+  out->num_covariance = static_cast<std::int32_t>(out->covariance.size());
+}
+
+}  // namespace internal
 
 }  // namespace slamd::server

@@ -196,4 +196,40 @@ Verdict CheckRobustKernel(std::string_view name_field, std::string_view paramete
   return {};
 }
 
+Verdict CheckDimension(const char* field, std::int8_t dimension, const Layout** layout) {
+  if (dimension == 2) {
+    *layout = &kPose2Layout;
+  } else if (dimension == 3) {
+    *layout = &kPose3Layout;
+  } else {
+    return Reject(RejectReason::kBadKind, field, std::to_string(dimension) + " is neither 2 nor 3");
+  }
+  return {};
+}
+
+Verdict MustBeEmpty(const char* field, const std::string& value, const char* target) {
+  if (!value.empty()) {
+    std::string detail =
+        "'";  // appended step by step: GCC 12's -Wrestrict misfires on a + chain here
+    detail.append(value, 0, 64).append("' must be empty for ").append(target);
+    return Reject(RejectReason::kUnusedFieldSet, field, detail);
+  }
+  return {};
+}
+
+Verdict MustBeZero(const char* field, std::int64_t value, const char* target) {
+  if (value != 0) {
+    return Reject(RejectReason::kUnusedFieldSet, field,
+                  std::to_string(value) + " must be 0 for " + target);
+  }
+  return {};
+}
+
+Verdict CheckKindRange(const char* field, std::int8_t kind, int lo, int hi, const char* names) {
+  if (kind < lo || kind > hi) {
+    return Reject(RejectReason::kBadKind, field, std::to_string(kind) + " is not one of " + names);
+  }
+  return {};
+}
+
 }  // namespace slamd::server::internal

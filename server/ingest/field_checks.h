@@ -1,4 +1,4 @@
-// Field-level checks shared by the per-message validators (validation.cc). Internal.
+// Field-level checks shared by the per-message validators (server/messages/<type>.cc). Internal.
 //
 // Each check takes the field's full name ("odometry_t.covariance") and returns a Verdict that is
 // ok or names that field. Messages are formatted only on failure.
@@ -64,5 +64,66 @@ Verdict CheckCovariance(std::string_view field, std::span<const double> row_majo
 Verdict CheckRobustKernel(std::string_view name_field, std::string_view parameter_field,
                           const std::string& name, double parameter, const Limits& limits,
                           core::RobustKernel* robust);
+
+// Full field names of a measurement's value/covariance arrays, as string literals (no
+// formatting unless something is rejected).
+struct MeasurementFields {
+  const char* num_values;
+  const char* values;
+  const char* quaternion;
+  const char* num_covariance;
+  const char* covariance;
+};
+#define SLAMD_MEASUREMENT_FIELDS(type)                                                \
+  ::slamd::server::internal::MeasurementFields {                                      \
+    type ".num_values", type ".values", type ".values[3..6]", type ".num_covariance", \
+        type ".covariance"                                                            \
+  }
+
+// How a kind lays out its values: count, covariance dimension, whether values[3..6] is a
+// quaternion, and the phrase used in size messages ("dimension 2", "kind 1 (bearing-range 2D)").
+struct Layout {
+  int num_values;
+  int cov_dim;
+  bool has_quaternion;
+  const char* what;
+};
+inline constexpr Layout kPose2Layout{3, 3, false, "dimension 2 (x, y, theta)"};
+inline constexpr Layout kPose3Layout{7, 6, true, "dimension 3 (x, y, z, qw, qx, qy, qz)"};
+
+// Counts, finiteness, quaternion and covariance of one measurement; `extra` (checked after the
+// values are known finite and before the covariance) holds kind-specific rules.
+template <typename Msg, typename Extra>
+Verdict CheckMeasurement(const Msg& msg, const MeasurementFields& f, const Layout& layout,
+                         const Limits& limits, std::optional<core::NoiseModel>* noise,
+                         Extra extra) {
+  SLAMD_RETURN_IF_REJECTED(
+      CheckCount(f.num_values, msg.num_values, msg.values.size(), layout.num_values, layout.what));
+  SLAMD_RETURN_IF_REJECTED(CheckCount(f.num_covariance, msg.num_covariance, msg.covariance.size(),
+                                      layout.cov_dim * layout.cov_dim, layout.what));
+  SLAMD_RETURN_IF_REJECTED(CheckFinite(f.values, msg.values));
+  SLAMD_RETURN_IF_REJECTED(CheckFinite(f.covariance, msg.covariance));
+  SLAMD_RETURN_IF_REJECTED(CheckMagnitude(f.values, msg.values, limits.max_abs_value));
+  SLAMD_RETURN_IF_REJECTED(extra());
+  if (layout.has_quaternion) {
+    const auto& v = msg.values;
+    SLAMD_RETURN_IF_REJECTED(CheckUnitQuaternion(f.quaternion, v[3], v[4], v[5], v[6],
+                                                 limits.quaternion_norm_tolerance));
+  }
+  return CheckCovariance(f.covariance, msg.covariance, layout.cov_dim, limits, noise);
+}
+
+// Names a message's dimension field: 2 -> kPose2Layout, 3 -> kPose3Layout, else kBadKind.
+Verdict CheckDimension(const char* field, std::int8_t dimension, const Layout** layout);
+// kUnusedFieldSet unless the field a target does not use is empty / zero.
+Verdict MustBeEmpty(const char* field, const std::string& value, const char* target);
+Verdict MustBeZero(const char* field, std::int64_t value, const char* target);
+// kBadKind unless lo <= kind <= hi; `names` lists the valid kinds.
+Verdict CheckKindRange(const char* field, std::int8_t kind, int lo, int hi, const char* names);
+
+inline constexpr const char* kLandmarkKinds =
+    "1 (bearing-range 2D), 2 (relative point 2D), 3 (relative point 3D)";
+inline constexpr const char* kPriorKinds =
+    "1 (pose 2D), 2 (pose 3D), 3 (position 2D), 4 (position 3D)";
 
 }  // namespace slamd::server::internal

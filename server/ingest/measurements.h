@@ -1,4 +1,5 @@
-// Inbound messages in core types, as conversion.h produces them from valid LCM messages.
+// The parts of inbound messages in core types that several message types share (each type's
+// value is in its spec, server/messages/<type>.h).
 //
 // Variables are still named by robot name and index (not core Keys): the estimator owns the
 // robot-name -> robot-id table and builds keys as core::MakeKey('x' | 'l', index, robot_id).
@@ -18,8 +19,8 @@
 
 namespace slamd::server {
 
-// The values of these enums are the wire constants of the LCM types (static_asserts in
-// conversion.cc).
+// The values of these enums are the wire constants of the LCM types (static_asserts in the
+// message specs, server/messages/).
 enum class LandmarkKind : std::int8_t {
   kBearingRange2 = 1,
   kRelativePoint2 = 2,
@@ -43,60 +44,6 @@ struct BearingRange {
   double range = 0.0;
 };
 
-struct OdometryMeasurement {
-  std::int64_t utime;
-  std::string robot;
-  std::uint64_t from_index;
-  std::uint64_t to_index;
-  RelativePose measured;   // pose to_index in the frame of pose from_index -> BetweenFactor
-  core::NoiseModel noise;  // dim 3 or 6
-};
-
-struct LandmarkMeasurement {
-  std::int64_t utime;
-  std::string robot;
-  std::uint64_t pose_index;
-  std::uint64_t landmark_id;  // in `robot`'s namespace
-  LandmarkKind kind;
-  // kBearingRange2 -> BearingRange (BearingRangeFactor); kRelativePoint2 -> Point2,
-  // kRelativePoint3 -> Point3 (RelativePointFactor), in the pose's frame.
-  std::variant<BearingRange, core::Point2, core::Point3> measured;
-  core::NoiseModel noise;  // dim 2, 2 or 3
-};
-
-struct LoopClosureMeasurement {
-  std::int64_t utime;
-  std::string robot_a;
-  std::uint64_t pose_a;
-  std::string robot_b;
-  std::uint64_t pose_b;
-  RelativePose measured;      // pose b in the frame of pose a -> BetweenFactor
-  core::NoiseModel noise;     // dim 3 or 6
-  core::RobustKernel robust;  // kNone unless the message named one
-};
-
-struct PriorMeasurement {
-  std::int64_t utime;
-  std::string robot;
-  std::uint64_t pose_index;
-  PriorKind kind;
-  // kPose2 -> Pose2, kPose3 -> Pose3 (PriorFactor); kPosition2 -> Point2, kPosition3 -> Point3
-  // (PositionPriorFactor<Pose2 / Pose3>), world frame.
-  std::variant<core::Pose2, core::Pose3, core::Point2, core::Point3> measured;
-  core::NoiseModel noise;  // dim 3, 6, 2 or 3
-};
-
-// Retracts the measurement with these identifying fields (table in msgs/lcm/remove_factor_t.lcm).
-struct RemoveFactorRequest {
-  std::int64_t utime = 0;
-  RemoveTarget target = RemoveTarget::kOdometry;
-  std::string robot_a;
-  std::uint64_t index_a = 0;
-  std::string robot_b;        // loop closures only
-  std::uint64_t index_b = 0;  // to_index, landmark_id or pose_b; 0 for priors
-  std::int8_t kind = 0;       // LandmarkKind / PriorKind value, 0 otherwise
-};
-
 // A variable named as on the wire (slamd.key_t).
 struct WireKey {
   std::string robot;
@@ -104,16 +51,6 @@ struct WireKey {
   std::uint64_t index = 0;
 
   bool operator==(const WireKey&) const = default;
-};
-
-struct QueryRequest {
-  std::int64_t utime = 0;
-  std::string client;
-  std::int64_t request_id = 0;
-  std::vector<WireKey> keys = {};
-  bool want_marginals = false;
-  bool want_joint_marginal = false;
-  std::string map_robot = "";  // "" none, "*" all, or a robot name
 };
 
 }  // namespace slamd::server

@@ -14,7 +14,7 @@
 
 #include "core/variables/variable.h"
 #include "server/estimator/estimator.h"
-#include "server/ingest/measurements.h"
+#include "server/messages/inbound.h"
 
 namespace slamd::server {
 

@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "core/factors/factor_registry.h"
-#include "server/estimator/inbound_codec.h"
+#include "server/messages/inbound_codec.h"
 #include "slamd_proto/snapshot.pb.h"
 
 namespace slamd::server {

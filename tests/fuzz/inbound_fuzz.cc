@@ -18,14 +18,11 @@
 
 #include "core/isam/isam2.h"
 #include "server/estimator/estimator.h"
-#include "server/estimator/inbound_codec.h"
+#include "server/messages/inbound_codec.h"
 #include "tests/fuzz/fuzz_util.h"
 
 namespace slamd::server {
 namespace {
-
-constexpr const char* kTypes[] = {"odometry_t", "landmark_observation_t", "loop_closure_t",
-                                  "prior_t",    "remove_factor_t",        "query_t"};
 
 core::NoiseModel Noise(int dim) { return core::NoiseModel::Isotropic(dim, 0.1).value(); }
 
@@ -48,7 +45,8 @@ std::vector<Inbound> Prelude() {
 
 void RunInbound(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return;
-  const std::string type = kTypes[(data[0] & 0x7F) % 6];
+  const std::vector<std::string>& types = InboundTypeNames();
+  const std::string type = types[(data[0] & 0x7F) % types.size()];
   const bool process = (data[0] & 0x80) != 0;
   const std::span<const std::uint8_t> bytes(data + 1, size - 1);
 

@@ -21,10 +21,10 @@
 #include <string>
 #include <string_view>
 
-#include "server/estimator/inbound_codec.h"
 #include "server/journal/journal_format.h"
 #include "server/journal/journal_reader.h"
 #include "server/journal/read_journal.h"
+#include "server/messages/inbound_codec.h"
 #include "slamd_proto/journal.pb.h"
 #include "tests/fuzz/fuzz_util.h"
 

@@ -3,6 +3,7 @@
 // unit tests use. Run by hand after a format change (scripts/fuzz --make-corpus); the dataset
 // and config seeds are plain text files kept in the tree.
 //   make_corpus <corpus dir>
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -12,9 +13,9 @@
 #include "core/isam/isam2.h"
 #include "server/estimator/estimator.h"
 #include "server/estimator/estimator_state.h"
-#include "server/estimator/inbound_codec.h"
-#include "server/ingest/conversion.h"
 #include "server/journal/journal_format.h"
+#include "server/messages/inbound.h"
+#include "server/messages/inbound_codec.h"
 #include "server/snapshot/state_codec.h"
 #include "slamd_proto/journal.pb.h"
 #include "tests/fuzz/fuzz_util.h"
@@ -36,27 +37,26 @@ std::string Encode(const Msg& msg) {
   return bytes;
 }
 
-// (type index of inbound_fuzz.cc, LCM bytes, type name) of every example message.
+// (type name, LCM bytes) of every example message.
 struct Example {
-  int type;
   std::string name;
   std::string bytes;
 };
 
 std::vector<Example> Examples() {
   std::vector<Example> e;
-  e.push_back({0, "odometry_t", Encode(t::Odometry2())});
-  e.push_back({0, "odometry_t", Encode(t::Odometry3())});
+  e.push_back({"odometry_t", Encode(t::Odometry2())});
+  e.push_back({"odometry_t", Encode(t::Odometry3())});
   for (int kind = 1; kind <= 3; ++kind) {
-    e.push_back({1, "landmark_observation_t", Encode(t::Landmark(kind))});
+    e.push_back({"landmark_observation_t", Encode(t::Landmark(kind))});
   }
-  e.push_back({2, "loop_closure_t", Encode(t::LoopClosure2())});
-  e.push_back({2, "loop_closure_t", Encode(t::LoopClosure3())});
-  for (int kind = 1; kind <= 4; ++kind) e.push_back({3, "prior_t", Encode(t::Prior(kind))});
+  e.push_back({"loop_closure_t", Encode(t::LoopClosure2())});
+  e.push_back({"loop_closure_t", Encode(t::LoopClosure3())});
+  for (int kind = 1; kind <= 4; ++kind) e.push_back({"prior_t", Encode(t::Prior(kind))});
   for (int target = 1; target <= 4; ++target) {
-    e.push_back({4, "remove_factor_t", Encode(t::RemoveFactor(target))});
+    e.push_back({"remove_factor_t", Encode(t::RemoveFactor(target))});
   }
-  e.push_back({5, "query_t", Encode(t::Query())});
+  e.push_back({"query_t", Encode(t::Query())});
   return e;
 }
 
@@ -95,7 +95,11 @@ void Run(const fs::path& corpus) {
   const std::vector<Example> examples = Examples();
   // inbound: selector byte + bytes; bit 7 (process in an estimator) on every other seed.
   for (size_t i = 0; i < examples.size(); ++i) {
-    const char selector = static_cast<char>(examples[i].type | (i % 2 == 0 ? 0x80 : 0));
+    // inbound_fuzz.cc picks the type by its position in the list.
+    const std::vector<std::string>& types = InboundTypeNames();
+    const int type =
+        static_cast<int>(std::find(types.begin(), types.end(), examples[i].name) - types.begin());
+    const char selector = static_cast<char>(type | (i % 2 == 0 ? 0x80 : 0));
     Write(corpus / "inbound", "seed_" + std::to_string(i), selector + examples[i].bytes);
   }
   // journal: layout 2 (header + chunks), with and without salvage.

@@ -42,9 +42,9 @@
 #include "server/config/config_loader.h"
 #include "server/estimator/estimator_state.h"
 #include "server/estimator/recovery.h"
-#include "server/ingest/conversion.h"
 #include "server/journal/journal.h"
 #include "server/journal/read_journal.h"
+#include "server/messages/inbound.h"
 #include "server/transport/lcm_bus.h"
 #include "server/transport/typed_subscribe.h"
 #include "slamd/estimate_t.hpp"
@@ -284,8 +284,8 @@ void ExpectSameFactors(const FactorSet& a, const FactorSet& b) {
     for (const std::string& id : ib) {
       if (!ia.count(id)) only_b += " [" + id + "]";
     }
-    FAIL() << "factor counts differ: " << a.size() << " vs " << b.size() << "; only in the first:"
-           << only_a << "; only in the second:" << only_b;
+    FAIL() << "factor counts differ: " << a.size() << " vs " << b.size()
+           << "; only in the first:" << only_a << "; only in the second:" << only_b;
   }
   std::set<std::string> ids;
   for (const auto& [id, v] : a) EXPECT_TRUE(ids.insert(id).second) << "doubled factor " << id;
@@ -358,7 +358,8 @@ TEST(ServerCrashNetnsTest, KilledServerRecoversToTheUninterruptedResult) {
       core::MakeIncrementalSteps(core::ReadDataset(path).value());
   const int n = std::min<int>(kCrashSteps, static_cast<int>(steps.size()));
   int expected_factors = 0;
-  const std::vector<StepMessages> messages = testing::MakeWireSteps(steps, n, kRobot, kAnchorSigma, &expected_factors);
+  const std::vector<StepMessages> messages =
+      testing::MakeWireSteps(steps, n, kRobot, kAnchorSigma, &expected_factors);
 
   TempDir tmp("main");
   const std::string config = tmp.str() + "/slamd.textproto";
@@ -491,7 +492,8 @@ TEST(ServerCrashNetnsTest, TornJournalTailAfterKillDuringBurst) {
       core::MakeIncrementalSteps(core::ReadDataset(path).value());
   constexpr int kBurst = 400;
   int expected_factors = 0;
-  const std::vector<StepMessages> messages = testing::MakeWireSteps(steps, kBurst, kRobot, kAnchorSigma, &expected_factors);
+  const std::vector<StepMessages> messages =
+      testing::MakeWireSteps(steps, kBurst, kRobot, kAnchorSigma, &expected_factors);
 
   TempDir tmp("torn");
   const std::string config = tmp.str() + "/slamd.textproto";

@@ -10,7 +10,7 @@
 #include "core/io/dataset_stream.h"
 #include "core/isam/isam2.h"
 #include "server/estimator/daemon.h"
-#include "server/ingest/conversion.h"
+#include "server/messages/inbound.h"
 #include "server/transport/in_process_bus.h"
 #include "server/transport/typed_subscribe.h"
 #include "slamd/estimate_t.hpp"

@@ -31,9 +31,9 @@
 #include "server/config/config_loader.h"
 #include "server/journal/journal.h"
 #include "server/journal/read_journal.h"
+#include "server/messages/inbound.h"
 #include "server/transport/lcm_bus.h"
 #include "server/transport/typed_subscribe.h"
-#include "server/ingest/conversion.h"
 #include "slamd/estimate_t.hpp"
 #include "slamd/loop_closure_t.hpp"
 #include "slamd/odometry_t.hpp"
@@ -132,8 +132,8 @@ TEST(ServerLockstepNetnsTest, PublishedEstimatesEqualOfflineIsam2UpdateByUpdate)
                              .value();
   Subscription status_sub =
       Subscribe<slamd::status_t>(
-          *bus, "SLAMD_STATUS", [&](std::string_view, const slamd::status_t&) { status_seen = true; },
-          nullptr)
+          *bus, "SLAMD_STATUS",
+          [&](std::string_view, const slamd::status_t&) { status_seen = true; }, nullptr)
           .value();
   auto pump_until = [&](const auto& done, double timeout_s) {
     const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
@@ -144,10 +144,9 @@ TEST(ServerLockstepNetnsTest, PublishedEstimatesEqualOfflineIsam2UpdateByUpdate)
   };
 
   const std::string log = (dir / "slamd.log").string();
-  const pid_t pid =
-      testing::Spawn({SLAMD_PATH, "--config", config, "--lcm-url", kUrl, "--data-dir",
-                      (dir / "data").string()},
-                     log, testing::Streams::kStdoutAndStderr);
+  const pid_t pid = testing::Spawn(
+      {SLAMD_PATH, "--config", config, "--lcm-url", kUrl, "--data-dir", (dir / "data").string()},
+      log, testing::Streams::kStdoutAndStderr);
   ASSERT_GT(pid, 0);
   ASSERT_TRUE(pump_until([&] { return status_seen; }, 30.0)) << "slamd did not start: " << log;
 
@@ -198,9 +197,8 @@ TEST(ServerLockstepNetnsTest, PublishedEstimatesEqualOfflineIsam2UpdateByUpdate)
     ASSERT_EQ(b.message_count(), static_cast<int>(pending.size()))
         << "update " << b.update_sequence();
     ASSERT_EQ(b.update_sequence(), ++updates);
-    const bool one_step =
-        pending.size() == messages[pending.front().step].size() &&
-        pending.front().step == pending.back().step;
+    const bool one_step = pending.size() == messages[pending.front().step].size() &&
+                          pending.front().step == pending.back().step;
     if (!one_step) ++not_one_step;
 
     // The update offline: the messages' factors in journal order; each odometry's new pose

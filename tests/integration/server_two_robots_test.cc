@@ -9,7 +9,7 @@
 
 #include "core/batch/batch_solver.h"
 #include "server/estimator/daemon.h"
-#include "server/ingest/conversion.h"
+#include "server/messages/inbound.h"
 #include "server/transport/in_process_bus.h"
 #include "server/transport/typed_subscribe.h"
 #include "slamd/loop_closure_t.hpp"

@@ -10,7 +10,7 @@
 #include <cmath>
 #include <string>
 
-#include "server/ingest/conversion.h"
+#include "server/messages/inbound.h"
 #include "server/transport/lcm_bus.h"
 #include "server/transport/typed_subscribe.h"
 #include "slamd/estimate_t.hpp"

@@ -11,7 +11,7 @@
 #include "core/base/check.h"
 #include "core/factors/between_factor.h"
 #include "core/io/dataset_stream.h"
-#include "server/ingest/conversion.h"
+#include "server/messages/inbound.h"
 #include "slamd/loop_closure_t.hpp"
 #include "slamd/odometry_t.hpp"
 #include "slamd/prior_t.hpp"

@@ -14,7 +14,7 @@
 #include "core/factors/prior_factor.h"
 #include "core/factors/relative_point_factor.h"
 #include "core/io/dataset_stream.h"
-#include "server/ingest/conversion.h"
+#include "server/messages/inbound.h"
 #include "tests/testing/datasets.h"
 
 namespace slamd::clients {

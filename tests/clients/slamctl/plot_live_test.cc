@@ -12,7 +12,7 @@
 #include <random>
 
 #include "core/geometry/rot3.h"
-#include "server/ingest/conversion.h"
+#include "server/messages/inbound.h"
 #include "server/publish/replies.h"
 #include "server/transport/in_process_bus.h"
 #include "slamd/query_t.hpp"

@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "server/ingest/conversion.h"
+#include "server/messages/inbound.h"
 #include "server/transport/in_process_bus.h"
 
 namespace slamd::clients {

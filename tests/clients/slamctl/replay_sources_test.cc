@@ -6,7 +6,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
-#include "server/ingest/conversion.h"
+#include "server/messages/inbound.h"
 #include "server/transport/typed_subscribe.h"
 #include "tests/testing/datasets.h"
 

@@ -11,8 +11,8 @@
 #include <set>
 #include <thread>
 
-#include "server/ingest/conversion.h"
 #include "server/journal/read_journal.h"
+#include "server/messages/inbound.h"
 #include "server/transport/in_process_bus.h"
 #include "server/transport/lcm_bus.h"
 #include "server/transport/typed_subscribe.h"
@@ -230,9 +230,10 @@ TEST(DaemonTest, BackgroundRebuildsAreSwappedInAndCounted) {
     ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(i, i + 1)).ok());
     if (i >= 6 && i % 3 == 0) {  // loop closures far from what the odometry says
       slamd::loop_closure_t lc;
-      ToLcm(LoopClosureMeasurement{20, "r", i + 1, "r", i - 5, core::Pose2(-4, 1.5, -0.3),
-                                   Noise(3, 0.1), {}},
-            &lc);
+      ToLcm(
+          LoopClosureMeasurement{
+              20, "r", i + 1, "r", i - 5, core::Pose2(-4, 1.5, -0.3), Noise(3, 0.1), {}},
+          &lc);
       ASSERT_TRUE(Publish(bus, "SLAMD_LOOP_CLOSURE", lc).ok());
     }
     ASSERT_TRUE(daemon->PumpIntake(0).ok());

@@ -11,10 +11,10 @@
 #include <random>
 
 #include "server/estimator/daemon.h"
-#include "server/ingest/conversion.h"
 #include "server/journal/journal.h"
 #include "server/journal/read_journal.h"
 #include "server/journal/snapshot_file.h"
+#include "server/messages/inbound.h"
 #include "server/transport/in_process_bus.h"
 #include "server/transport/typed_subscribe.h"
 #include "slamd/loop_closure_t.hpp"
@@ -397,8 +397,7 @@ TEST(RecoveryTest, SnapshotsTakeAtMostFivePercentOfTheTime) {
   auto chain = [&](int from, int to) {
     if (from == 0) {
       slamd::prior_t prior;
-      ToLcm(PriorMeasurement{1, "r", 0, PriorKind::kPose2, core::Pose2(), Noise(3, 0.01)},
-            &prior);
+      ToLcm(PriorMeasurement{1, "r", 0, PriorKind::kPose2, core::Pose2(), Noise(3, 0.01)}, &prior);
       ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", prior).ok());
     }
     for (int i = from; i < to; ++i) {

@@ -1,12 +1,11 @@
 // Convert (LCM -> core) against independently computed values, and ToLcm (core -> LCM) round trips.
-#include "server/ingest/conversion.h"
-
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
 #include <cmath>
 #include <numbers>
 
+#include "server/messages/inbound.h"
 #include "tests/server/ingest/test_messages.h"
 
 namespace slamd::server {

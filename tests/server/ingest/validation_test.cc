@@ -1,7 +1,5 @@
 // Every stateless rejection reason of every inbound type (one case per reason per type where it
 // applies), acceptance of good messages, and Limits::Validate.
-#include "server/ingest/validation.h"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "server/messages/inbound.h"
 #include "tests/server/ingest/test_messages.h"
 
 namespace slamd::server {

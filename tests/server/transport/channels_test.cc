@@ -4,21 +4,27 @@
 
 #include <set>
 
+#include "server/messages/inbound.h"
 #include "server/transport/bus.h"
 
 namespace slamd::server {
 namespace {
 
+// Every inbound type's channel (from the list of specs) and the outbound ones.
 std::vector<std::string> All(const ChannelNames& c) {
-  return {c.Odometry(), c.Landmark(), c.LoopClosure(), c.Prior(),  c.RemoveFactor(), c.Query(),
-          c.Estimate(), c.Map(),      c.Status(),      c.Reject(), c.QueryReply()};
+  std::vector<std::string> all = {c.Estimate(), c.Map(), c.Status(), c.Reject(), c.QueryReply()};
+  InboundSpecs::ForEach(
+      [&](auto spec) { all.push_back(c.Inbound<typename decltype(spec)::type>()); });
+  return all;
 }
 
 TEST(ChannelNames, DefaultPrefix) {
   const ChannelNames c;
-  EXPECT_EQ(c.Odometry(), "SLAMD_ODOMETRY");
+  EXPECT_EQ(c.Inbound<OdometrySpec>(), "SLAMD_ODOMETRY");
+  EXPECT_EQ(c.Inbound<QuerySpec>(), "SLAMD_QUERY");
   EXPECT_EQ(c.QueryReply(), "SLAMD_QUERY_REPLY");
   const auto all = All(c);
+  EXPECT_EQ(all.size(), 11u);
   EXPECT_EQ(std::set<std::string>(all.begin(), all.end()).size(), all.size());
 }
 

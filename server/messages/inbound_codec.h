@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "core/base/status.h"
-#include "server/estimator/estimator.h"
 #include "server/ingest/validation.h"
+#include "server/messages/inbound.h"
 
 namespace slamd::server {
 
