@@ -16,7 +16,7 @@
 #include <string>
 
 #include "server/config/config_loader.h"
-#include "server/estimator/daemon.h"
+#include "server/daemon/daemon.h"
 #include "server/transport/lcm_bus.h"
 
 namespace {

@@ -16,8 +16,8 @@
 #include "clients/slamctl/plot_scene.h"
 #include "core/batch/batch_solver.h"
 #include "core/io/dataset.h"
-#include "server/estimator/estimator_state.h"
 #include "server/journal/snapshot_file.h"
+#include "server/snapshot/estimator_state.h"
 #include "server/snapshot/state_codec.h"
 
 namespace slamd::clients {

@@ -2,20 +2,17 @@
 
 #include <chrono>
 #include <cmath>
-#include <numeric>
 #include <utility>
 
 #include "core/base/thread_name.h"
 #include "core/factors/factor_registry.h"
-#include "server/estimator/estimator_state.h"
+#include "server/snapshot/estimator_state.h"
 
 namespace slamd::server {
 namespace {
 
 using core::Key;
 using core::MakeKey;
-using core::Pose2;
-using core::Pose3;
 using core::Variable;
 
 // The policies measurements follow (params validated by EstimatorParams::Validate).
@@ -53,7 +50,7 @@ Estimator::Estimator(const EstimatorParams& params, std::unique_ptr<core::Isam2>
 }
 
 Estimator::~Estimator() {
-  if (rebuild_ && rebuild_->thread.joinable()) rebuild_->thread.join();
+  rebuild_.reset();  // joins its helper
   if (retire_thread_.joinable()) retire_thread_.join();
 }
 
@@ -90,148 +87,16 @@ void Estimator::FinishUpdate() {
 }
 
 void Estimator::StartRebuild() {
-  // The helper reads only what is copied here (the factors are immutable and shared).
-  auto rebuild = std::make_unique<Rebuild>();
-  const std::vector<core::FactorPtr>& slots = isam_->factor_slots();
-  core::FactorGraph factors;
-  rebuild->position.assign(slots.size(), -1);
-  for (size_t i = 0; i < slots.size(); ++i) {
-    if (!slots[i]) continue;
-    rebuild->position[i] = static_cast<int>(factors.size());
-    factors.Add(slots[i]);
-  }
-  Rebuild* r = rebuild.get();
-  // One thread: the other core is the live solver's. (The rebuilt solver keeps it after the
-  // swap; with background relinearisation the steps large enough for threads are the rebuilds.
-  // A/B at 1 kHz: ingest-to-publish p99 victoriaPark 4.2-4.5 -> 3.3-4.1 ms, manhattan 2.5-2.7 ->
-  // 1.6-2.3 ms.)
-  core::Isam2Params params = isam_->params();
-  params.threads = 1;
-  rebuild->thread = std::thread([r, params, factors = std::move(factors),
-                                 estimate = isam_->CalculateEstimate(), newest = NewestPoses(),
-                                 max_rounds = replaying_ ? 0 : params_.rebuild_catch_up_rounds,
-                                 with_chi2 = !replaying_ && params_.chi2_interval_s > 0.0,
-                                 start_sequence = sequence_]() mutable {
-    core::NameThisThread("slamd-rebuild");
-    core::Result<std::unique_ptr<core::Isam2>> made = core::Isam2::Create(params);
-    if (made.ok()) {
-      r->solver = std::move(made).value();
-      r->status = r->solver->Update(factors, estimate, {.order_last = newest}).status;
-      // A relinearisation check now: its first pass in a new solver evaluates every factor
-      // (Relinearization::error_threshold; nothing is known of their curvature yet), 4-5 ms on
-      // victoriaPark, which would otherwise fall on the first checking update after the swap.
-      if (r->status.ok()) {
-        r->status =
-            r->solver->Update({}, {}, {.order_last = newest, .force_relinearize = true}).status;
-      }
-    } else {
-      r->status = made.status();
-    }
-    // Freed now, not after `done` with the lambda: freeing a large map's copies (up to 30 ms in
-    // the soak) would fall on the estimator thread, in FinishRebuild's join.
-    factors = core::FactorGraph();
-    estimate = core::Values();
-    // Catch-up rounds: each takes what was logged while the last one ran, so the backlog
-    // shrinks round by round; at most max_rounds, for input faster than them. The new variables
-    // come at their initial guesses (the live estimate is the estimator thread's): each round
-    // relinearises what moved past the thresholds. With `finish`, the check that finds nothing
-    // waiting also marks the rebuild done, under the log's lock: every update the estimator
-    // logged before it saw the rebuild not done is taken here, and the swap takes only what
-    // came after (on manhattan.g2o at 1 kHz, leaving the last 2 and what came during the chi2
-    // pass made swaps of up to 4 ms on the estimator thread).
-    const auto catch_up = [&](bool finish) {
-      for (;;) {
-        size_t end = 0;
-        {
-          std::lock_guard lock(r->log_mutex);
-          end = r->log.size();
-          if (end == r->caught_up || !r->status.ok() ||
-              static_cast<int>(r->rounds.size()) >= max_rounds) {
-            if (finish) r->done.store(true, std::memory_order_release);
-            return;
-          }
-        }
-        const int taken = static_cast<int>(end - r->caught_up);
-        r->status = CatchUp(r, end, {.force_relinearize = true}, nullptr).status;
-        r->rounds.push_back(taken);
-      }
-    };
-    catch_up(false);
-    // The status chi2 of the rebuilt map, here rather than on the estimator thread, where a
-    // pass over every factor (50-350 ms at 250k variables) held up every message behind it.
-    // It describes the updates taken so far; the swap hands it over.
-    if (r->status.ok() && with_chi2) {
-      r->chi2 = r->solver->Chi2();
-      std::lock_guard lock(r->log_mutex);
-      r->chi2_sequence = r->caught_up == 0 ? start_sequence : r->log[r->caught_up - 1].sequence;
-    }
-    catch_up(true);  // what came during the chi2 pass (2-4 ms on manhattan.g2o)
-  });
-  rebuild_ = std::move(rebuild);
-}
-
-core::Isam2Result Estimator::CatchUp(Rebuild* r, size_t end, core::Isam2UpdateOptions options,
-                                     const core::Isam2* live) {
-  core::FactorGraph added;
-  std::vector<int> live_index;  // of each factor in `added`
-  core::Values values;
-  {
-    std::lock_guard lock(r->log_mutex);
-    SLAMD_CHECK(end <= r->log.size()) << "catch-up past the log";
-    std::vector<std::pair<int, core::FactorPtr>> factors;
-    for (size_t e = r->caught_up; e < end; ++e) {
-      const LoggedUpdate& u = r->log[e];
-      factors.insert(factors.end(), u.added.begin(), u.added.end());
-      for (size_t v = 0; v < u.values.size(); ++v) {
-        const Key key = u.values.KeyAt(static_cast<int>(v));
-        const core::Status s = values.Insert(
-            key, live ? live->CalculateEstimate(key) : u.values.VariableAt(static_cast<int>(v)));
-        SLAMD_CHECK(s.ok()) << s.ToString();  // the live solver took it as new
-      }
-      for (int index : u.removed) {
-        if (static_cast<size_t>(index) < r->position.size() && r->position[index] >= 0) {
-          options.remove_factors.push_back(r->position[index]);
-          r->position[index] = -1;
-          continue;
-        }
-        // Added in this round: it never reaches the new solver.
-        const auto it = std::find_if(factors.begin(), factors.end(),
-                                     [&](const auto& f) { return f.first == index; });
-        SLAMD_CHECK(it != factors.end()) << "removed live factor " << index << " is unknown";
-        it->second = nullptr;
-      }
-    }
-    for (auto& [index, factor] : factors) {
-      if (!factor) continue;
-      live_index.push_back(index);
-      added.Add(std::move(factor));
-    }
-  }
-  r->caught_up = end;
-  if (added.size() == 0 && values.empty() && options.remove_factors.empty()) return {};
-  core::Isam2Result update = r->solver->Update(added, values, options);
-  if (!update.status.ok()) return update;
-  for (size_t k = 0; k < live_index.size(); ++k) {
-    const int i = live_index[k];
-    if (static_cast<size_t>(i) >= r->position.size()) r->position.resize(i + 1, -1);
-    r->position[i] = update.new_factor_indices[k];
-  }
-  return update;
+  rebuild_ = BackgroundRebuild::Start(
+      *isam_, {.order_last = NewestPoses(),
+               .max_rounds = replaying_ ? 0 : params_.rebuild_catch_up_rounds,
+               .with_chi2 = !replaying_ && params_.chi2_interval_s > 0.0,
+               .start_sequence = sequence_});
 }
 
 void Estimator::LogForRebuild(const core::FactorGraph& factors, const core::Values& values,
                               const core::Isam2Result& update, std::span<const int> removed) {
-  if (!rebuild_) return;
-  LoggedUpdate u;
-  u.added.reserve(factors.size());
-  for (size_t k = 0; k < factors.size(); ++k) {
-    u.added.emplace_back(update.new_factor_indices[k], factors[k]);
-  }
-  u.values = values;
-  u.removed.assign(removed.begin(), removed.end());
-  u.sequence = sequence_;
-  std::lock_guard lock(rebuild_->log_mutex);
-  rebuild_->log.push_back(std::move(u));
+  if (rebuild_) rebuild_->Log(factors, values, update, removed, sequence_);
 }
 
 std::vector<Key> Estimator::NewestPoses() const {
@@ -245,44 +110,22 @@ std::vector<Key> Estimator::NewestPoses() const {
 core::Result<bool> Estimator::FinishRebuild(std::span<const int> replay_rounds) {
   FinishUpdate();
   if (!rebuild_) return false;
-  if (rebuild_->thread.joinable()) rebuild_->thread.join();
-  SLAMD_CHECK(replay_rounds.empty() || rebuild_->rounds.empty())
-      << "replayed catch-up rounds for a rebuild whose helper ran rounds (SetReplaying)";
-  // Rounds recorded for another rebuild than this one cannot apply: recovery from a snapshot
-  // taken while the journal's rebuild was in flight replays into a solver restored in a new
-  // order, which may defer (and start its own rebuild) at other updates. Its swap then takes
-  // everything in one update (a snapshot recovery is not bit for bit anyway).
-  size_t named = 0;
-  bool fits = true;
-  for (int n : replay_rounds) {
-    fits = fits && n > 0;
-    named += static_cast<size_t>(std::max(n, 0));
-  }
-  if (!fits || rebuild_->caught_up + named > rebuild_->log.size()) replay_rounds = {};
-  const std::unique_ptr<Rebuild> r = std::move(rebuild_);
-  const auto failed = [this](const core::Status& s, const char* when) {
+  core::Result<BackgroundRebuild::Swap> finished =
+      rebuild_->Finish(replay_rounds, UpdateOptions(), *isam_);
+  rebuild_.reset();
+  if (!finished.ok()) {
     rebuild_failed_ = true;
-    return core::Status(s.code(), std::string("background rebuild: ") + when + s.message());
-  };
-  if (!r->status.ok()) return failed(r->status, "");
-  for (int n : replay_rounds) {
-    const core::Isam2Result round =
-        CatchUp(r.get(), r->caught_up + n, {.force_relinearize = true}, nullptr);
-    if (!round.status.ok()) return failed(round.status, "catching up: ");
-    r->rounds.push_back(n);
+    return finished.status();
   }
-  // The rest in one update, its new variables at the live estimate, checked for relinearisation
-  // as any update from messages.
-  const core::Isam2Result update = CatchUp(r.get(), r->log.size(), UpdateOptions(), isam_.get());
-  if (!update.status.ok()) return failed(update.status, "catching up: ");
+  BackgroundRebuild::Swap& r = finished.value();
   // Each factor's index in the new solver (a pass over a vector, not over applied_).
   for (int& index : solver_index_) {
     if (index < 0) continue;
-    SLAMD_CHECK(static_cast<size_t>(index) < r->position.size() && r->position[index] >= 0)
+    SLAMD_CHECK(static_cast<size_t>(index) < r.position.size() && r.position[index] >= 0)
         << "applied factor " << index << " is not in the rebuilt solver";
-    index = r->position[index];
+    index = r.position[index];
   }
-  last_swap_rounds_ = r->rounds;
+  last_swap_rounds_ = r.rounds;
   // The old solver and its marginals are freed on a helper thread: thousands of blocks, up to
   // 3.5 ms on victoriaPark, which the next message would wait for. (The marginals first: they
   // point to the solver.)
@@ -293,18 +136,18 @@ core::Result<bool> Estimator::FinishRebuild(std::span<const int> replay_rounds) 
         marginals.reset();
         old.reset();
       });
-  isam_ = std::move(r->solver);
+  isam_ = std::move(r.solver);
   marginals_ = std::make_unique<core::Isam2Marginals>(
       isam_.get(), core::MarginalsParams{.threads = marginals_threads_});
   ++counters_.rebuilds;
   settled_ = false;
-  if (r->chi2 >= 0.0 && r->chi2_sequence > chi2_sequence_) {
-    chi2_ = r->chi2;
-    chi2_sequence_ = r->chi2_sequence;
+  if (r.chi2 >= 0.0 && r.chi2_sequence > chi2_sequence_) {
+    chi2_ = r.chi2;
+    chi2_sequence_ = r.chi2_sequence;
     chi2_time_ = std::chrono::steady_clock::now();  // as if computed here: not due again yet
   }
   PublishSnapshot(true);
-  AfterUpdate(update.relinearization_deferred);
+  AfterUpdate(r.update.relinearization_deferred);
   return true;
 }
 
@@ -348,7 +191,7 @@ Outcome Estimator::AddMeasured(core::FactorPtr factor, Key first, const char* wh
   return Outcome::kApplied;
 }
 
-Estimator::RobotState& Estimator::Robot(std::uint8_t id, Staged* s) {
+RobotState& Estimator::Robot(std::uint8_t id, Staged* s) {
   for (const auto& [saved, state] : s->robots_before) {
     if (saved == id) return robots_[id];
   }
@@ -624,104 +467,6 @@ core::Result<Variable> Estimator::PoseEstimate(const std::string& robot,
     return core::NotFound(PoseName(robot, index) + " is not in the graph");
   }
   return isam_->CalculateEstimate(key);
-}
-
-EstimatorState Estimator::ExportState() const {
-  EstimatorState state;
-  state.update_sequence = sequence_;
-  std::vector<int> position(isam_->factor_slots().size(), -1);
-  for (size_t i = 0; i < isam_->factor_slots().size(); ++i) {
-    if (const core::FactorPtr& f = isam_->factor_slots()[i]) {
-      position[i] = static_cast<int>(state.factors.size());
-      state.factors.push_back(f);
-    }
-  }
-  state.linearization_point = isam_->linearization_point();
-  state.applied.reserve(applied_.size());
-  for (size_t n = 0; n < applied_factors_.size(); ++n) {
-    const AppliedFactor& f = applied_factors_[n];
-    const int slot = solver_index_[n];
-    if (slot < 0 || f.dim == 0) continue;  // removed, or no measurement
-    SLAMD_CHECK(position[slot] >= 0) << "applied measurement on a removed factor";
-    const auto& [type, a, b, kind] = f.id;
-    state.applied.push_back({type, a, b, kind, position[slot], f.first, f.dim});
-  }
-  for (std::uint8_t id : registry_.ids()) {
-    const RobotState& r = robots_[id];
-    state.robots.push_back({registry_.Name(id), id, r.anchored, r.newest, r.measurement_utime,
-                            r.published, r.published_index, r.moved_sequence});
-  }
-  for (const Held& h : held_) state.held.push_back({h.message, h.waited});
-  state.counters = counters_;
-  state.num_factors = num_factors_;
-  state.residual_dimension = residual_dimension_;
-  return state;
-}
-
-core::Result<std::unique_ptr<Estimator>> Estimator::Restore(const EstimatorParams& params,
-                                                            const core::Isam2Params& isam2,
-                                                            const EstimatorState& state) {
-  core::Result<std::unique_ptr<Estimator>> made = Create(params, isam2);
-  if (!made.ok()) return made.status();
-  std::unique_ptr<Estimator> e = std::move(made).value();
-  for (const EstimatorState::Robot& r : state.robots) {
-    const std::optional<std::uint8_t> id = e->registry_.FindOrAdd(r.name);
-    if (!id || *id != r.id) {
-      return core::DataLoss("snapshot: robot '" + r.name + "' has id " + std::to_string(r.id) +
-                            ", registration order gives another");
-    }
-    RobotState& s = e->robots_[*id];
-    s.anchored = r.anchored;
-    s.newest = r.newest;
-    s.measurement_utime = r.measurement_utime;
-    s.published = r.published;
-    s.published_index = r.published_index;
-    s.moved_sequence = r.moved_sequence;
-  }
-  e->applied_factors_.resize(state.factors.size());  // the state's factor i is number i
-  for (const EstimatorState::Applied& a : state.applied) {
-    if (a.factor < 0 || a.factor >= static_cast<int>(state.factors.size())) {
-      return core::DataLoss("snapshot: applied measurement names factor " +
-                            std::to_string(a.factor) + " of " +
-                            std::to_string(state.factors.size()));
-    }
-    if (a.dim <= 0 || e->applied_factors_[a.factor].dim != 0) {
-      return core::DataLoss("snapshot: applied measurement on factor " + std::to_string(a.factor) +
-                            " has dimension " + std::to_string(a.dim) +
-                            " or is not the only one on it");
-    }
-    const MeasurementId id{a.type, a.a, a.b, a.kind};
-    e->applied_[id] = a.factor;
-    e->applied_factors_[a.factor] = {id, a.first, a.dim};
-  }
-  // An anchored robot's newest pose is read after every update: it must be in the graph.
-  for (const EstimatorState::Robot& r : state.robots) {
-    if (!r.anchored) continue;
-    if (r.newest > core::kMaxKeyIndex ||
-        !state.linearization_point.Contains(MakeKey('x', r.newest, r.id))) {
-      return core::DataLoss("snapshot: robot '" + r.name + "' is anchored but its newest pose " +
-                            std::to_string(r.newest) + " is not in the graph");
-    }
-  }
-  if (!state.factors.empty() || !state.linearization_point.empty()) {
-    core::FactorGraph graph;
-    for (const core::FactorPtr& f : state.factors) graph.Add(f);
-    // The newest poses at the root, as an incremental run keeps them (see order_last).
-    const core::Isam2Result r =
-        e->isam_->Update(graph, state.linearization_point, {.order_last = e->NewestPoses()});
-    if (!r.status.ok()) return core::DataLoss("snapshot: " + r.status.ToString());
-  }
-  e->solver_index_.resize(state.factors.size());  // the state's factor i is the solver's i
-  std::iota(e->solver_index_.begin(), e->solver_index_.end(), 0);
-  for (const EstimatorState::HeldMessage& h : state.held) e->held_.push_back({h.message, h.waited});
-  e->counters_ = state.counters;
-  e->sequence_ = state.update_sequence;
-  e->num_factors_ = state.num_factors;
-  e->residual_dimension_ = state.residual_dimension;
-  e->settled_ = false;
-  e->snapshot_.reset();
-  e->PublishSnapshot(false);
-  return e;
 }
 
 std::optional<Key> Estimator::KeyOf(const WireKey& key) const {

@@ -77,14 +77,14 @@
 
 #include "core/isam/isam2.h"
 #include "core/marginals/marginals.h"
-#include "server/estimator/estimate_snapshot.h"
+#include "server/estimator/background_rebuild.h"
 #include "server/estimator/estimator_params.h"
 #include "server/estimator/robot_registry.h"
 #include "server/messages/inbound.h"
+#include "server/snapshot/estimate_snapshot.h"
+#include "server/snapshot/estimator_state.h"
 
 namespace slamd::server {
-
-struct EstimatorState;  // estimator_state.h
 
 struct Rejection {
   Inbound message;
@@ -138,7 +138,7 @@ class Estimator {
   // Background relinearisation (file comment). A rebuild is in flight / done and waiting for
   // FinishRebuild.
   bool Rebuilding() const { return rebuild_ != nullptr; }
-  bool RebuildReady() const { return rebuild_ && rebuild_->done.load(std::memory_order_acquire); }
+  bool RebuildReady() const { return rebuild_ && rebuild_->Ready(); }
   // Waits for the rebuild in flight, brings it up to date and swaps it in; a new snapshot.
   // false when no rebuild was in flight. When the rebuild failed, the live solver stays (and the
   // next update relinearises in the update) and the status says why. `replay_rounds`: in a
@@ -184,15 +184,6 @@ class Estimator {
   struct Held {
     Inbound message;
     int waited = 0;  // Process calls it has waited through
-  };
-  struct RobotState {
-    bool anchored = false;  // has a pose in the graph (or staged)
-    std::uint64_t newest = 0;
-    std::int64_t measurement_utime = 0;
-    std::int64_t received_us = 0;
-    core::Variable published;  // newest pose's estimate in the last snapshot
-    std::uint64_t published_index = 0;
-    std::int64_t moved_sequence = 0;
   };
   struct AppliedFactor {
     MeasurementId id;
@@ -245,36 +236,6 @@ class Estimator {
   // The newest pose of every anchored robot (what the next updates most likely touch).
   std::vector<core::Key> NewestPoses() const;
 
-  // What one live update gave the solver while a rebuild was in flight.
-  struct LoggedUpdate {
-    std::vector<std::pair<int, core::FactorPtr>> added;  // (live factor index, factor)
-    core::Values values;                                 // new variables, initial guesses
-    std::vector<int> removed;                            // live factor indices
-    std::int64_t sequence = 0;                           // the live update sequence it made
-  };
-  // A solver being rebuilt on `thread`. `log` is shared (under `log_mutex`); the rest belongs
-  // to the helper until `done`, then to the estimator thread.
-  struct Rebuild {
-    std::thread thread;
-    std::atomic<bool> done = false;
-    std::unique_ptr<core::Isam2> solver;
-    core::Status status;
-    // Per live factor index: its index in `solver` (-1: not in it, or removed).
-    std::vector<int> position;
-    std::mutex log_mutex;
-    std::vector<LoggedUpdate> log;  // the live updates since the start, in order
-    size_t caught_up = 0;           // log entries `solver` has taken
-    std::vector<int> rounds;        // entries taken per catch-up round
-    // The status chi2 of `solver` after its rounds (-1: not computed), and the live update
-    // sequence whose factors it covers.
-    double chi2 = -1.0;
-    std::int64_t chi2_sequence = 0;
-  };
-  // Gives r->solver the log entries [r->caught_up, end) in one update (none when they add and
-  // remove nothing) and maps their factors in r->position. New variables at their logged
-  // initial guesses, or at `live`'s estimate when given (the estimator thread only).
-  static core::Isam2Result CatchUp(Rebuild* r, size_t end, core::Isam2UpdateOptions options,
-                                   const core::Isam2* live);
   // Logs a successful live update for the rebuild in flight (if any).
   void LogForRebuild(const core::FactorGraph& factors, const core::Values& values,
                      const core::Isam2Result& update, std::span<const int> removed);
@@ -295,7 +256,7 @@ class Estimator {
   std::vector<int> solver_index_;
   int marginals_threads_;  // Isam2Params::threads as configured (a rebuilt solver has 1)
   std::unique_ptr<core::Isam2Marginals> marginals_;
-  std::unique_ptr<Rebuild> rebuild_;
+  std::unique_ptr<BackgroundRebuild> rebuild_;
   bool rebuild_failed_ = false;  // the last rebuild failed: the next update relinearises inline
   std::thread retire_thread_;    // frees the solver a rebuild replaced
   std::vector<int> last_swap_rounds_;

@@ -5,6 +5,17 @@
 
 #include "core/base/status.h"
 
+// Returns InvalidArgument naming a config path ("estimator.anchor_sigma = 0; violates > 0") when
+// `path op bound` does not hold (core's SLAMD_PARAM_CHECK names "Struct::field"; the config
+// speaks in plain paths). For the Validate() of config sections.
+#define SLAMD_CONFIG_CHECK(path, op, bound)                                          \
+  do {                                                                               \
+    if (!(path op bound)) {                                                          \
+      return core::InvalidArgument(std::string(#path " = ") + std::to_string(path) + \
+                                   "; violates " #op " " #bound);                    \
+    }                                                                                \
+  } while (false)
+
 namespace slamd::server {
 
 // What happens to a robot whose first message is not an absolute pose prior.

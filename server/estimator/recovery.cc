@@ -3,11 +3,11 @@
 #include <sys/stat.h>
 
 #include "core/base/timing.h"
-#include "server/estimator/estimator_state.h"
 #include "server/journal/journal.h"
 #include "server/journal/journal_reader.h"
 #include "server/journal/snapshot_file.h"
 #include "server/messages/inbound_codec.h"
+#include "server/snapshot/estimator_state.h"
 #include "server/snapshot/state_codec.h"
 #include "slamd_proto/journal.pb.h"
 

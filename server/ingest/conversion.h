@@ -12,15 +12,12 @@
 // Thread-safe; never throws; a rejected message yields no value, only the Verdict.
 #pragma once
 
-#include <cstdint>
 #include <optional>
 #include <utility>
-#include <vector>
 
 #include "core/base/check.h"
 #include "server/ingest/measurements.h"
 #include "server/ingest/validation.h"
-#include "server/publish/wire_values.h"
 
 namespace slamd::server {
 
@@ -48,23 +45,5 @@ class [[nodiscard]] Checked {
   std::optional<T> value_;
   Verdict verdict_;
 };
-
-namespace internal {
-
-// A validated message's pose values: 3 (x, y, theta) -> Pose2, 7 (x, y, z, qw, qx, qy, qz) ->
-// Pose3 (quaternion normalised), and back (qw >= 0); its dimension field (2 or 3).
-RelativePose ToPose(const std::vector<double>& values);
-std::vector<double> PoseValues(const RelativePose& pose);
-std::int8_t PoseDimension(const RelativePose& pose);
-// Fills a message's values / covariance pairs (counts from the vectors, so they always agree).
-template <typename Msg>
-void SetMeasurement(std::vector<double> values, const core::NoiseModel& noise, Msg* out) {
-  out->values = std::move(values);
-  out->num_values = static_cast<std::int32_t>(out->values.size());
-  out->covariance = ToRowMajor(noise.Covariance());
-  out->num_covariance = static_cast<std::int32_t>(out->covariance.size());
-}
-
-}  // namespace internal
 
 }  // namespace slamd::server

@@ -5,6 +5,7 @@
 #include "core/factors/bearing_range_factor.h"
 #include "core/factors/relative_point_factor.h"
 #include "server/ingest/field_checks.h"
+#include "server/messages/wire_values.h"
 #include "slamd/landmark_observation_t.hpp"
 
 namespace slamd::server {
@@ -24,7 +25,6 @@ using internal::FormatNumber;
 using internal::kLandmarkKinds;
 using internal::Layout;
 using internal::Reject;
-using internal::SetMeasurement;
 
 }  // namespace
 

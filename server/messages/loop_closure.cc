@@ -6,6 +6,7 @@
 
 #include "core/factors/between_factor.h"
 #include "server/ingest/field_checks.h"
+#include "server/messages/wire_values.h"
 #include "slamd/loop_closure_t.hpp"
 
 namespace slamd::server {
@@ -19,11 +20,7 @@ using internal::CheckName;
 using internal::CheckRobustKernel;
 using internal::CheckUtime;
 using internal::Layout;
-using internal::PoseDimension;
-using internal::PoseValues;
 using internal::Reject;
-using internal::SetMeasurement;
-using internal::ToPose;
 
 }  // namespace
 

@@ -5,6 +5,7 @@
 #include "core/factors/between_factor.h"
 #include "core/factors/prior_factor.h"
 #include "server/ingest/field_checks.h"
+#include "server/messages/wire_values.h"
 #include "slamd/odometry_t.hpp"
 
 namespace slamd::server {
@@ -16,11 +17,7 @@ using internal::CheckMeasurement;
 using internal::CheckName;
 using internal::CheckUtime;
 using internal::Layout;
-using internal::PoseDimension;
-using internal::PoseValues;
 using internal::Reject;
-using internal::SetMeasurement;
-using internal::ToPose;
 
 }  // namespace
 

@@ -5,6 +5,7 @@
 #include "core/factors/position_prior_factor.h"
 #include "core/factors/prior_factor.h"
 #include "server/ingest/field_checks.h"
+#include "server/messages/wire_values.h"
 #include "slamd/prior_t.hpp"
 
 namespace slamd::server {
@@ -23,8 +24,6 @@ using internal::CheckName;
 using internal::CheckUtime;
 using internal::kPriorKinds;
 using internal::Layout;
-using internal::SetMeasurement;
-using internal::ToPose;
 
 }  // namespace
 

@@ -1,6 +1,6 @@
 #include "server/publish/replies.h"
 
-#include "server/publish/wire_values.h"
+#include "server/messages/wire_values.h"
 
 namespace slamd::server {
 namespace {
@@ -100,6 +100,18 @@ std::vector<slamd::map_t> MapPages(const RobotMap& map, std::int64_t update_sequ
     pages[i].page_count = static_cast<std::int32_t>(pages.size());
   }
   return pages;
+}
+
+void FillReject(const Verdict& verdict, std::string_view channel, std::string_view message_type,
+                std::string_view robot, std::int64_t message_utime, std::int64_t now_utime,
+                slamd::reject_t* out) {
+  out->utime = now_utime;
+  out->channel = std::string(channel);
+  out->message_type = std::string(message_type);
+  out->robot = std::string(robot);
+  out->message_utime = message_utime;
+  out->reason = static_cast<std::int32_t>(verdict.reason);
+  out->detail = verdict.message;
 }
 
 }  // namespace slamd::server

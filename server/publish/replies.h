@@ -5,11 +5,14 @@
 #pragma once
 
 #include <cstdint>
+#include <string_view>
 #include <vector>
 
+#include "server/ingest/validation.h"
 #include "server/query/query_service.h"
 #include "slamd/map_t.hpp"
 #include "slamd/query_reply_t.hpp"
+#include "slamd/reject_t.hpp"
 
 namespace slamd::server {
 
@@ -28,5 +31,12 @@ void FillRejectedQueryReply(const QueryRequest& query, const std::string& error,
 std::vector<slamd::map_t> MapPages(const RobotMap& map, std::int64_t update_sequence,
                                    std::int64_t request_id, std::int64_t now_utime,
                                    int max_bytes = kMaxMapPageBytes);
+
+// Fills *out for a rejected message: `verdict` (not ok) gives reason and detail; `channel`,
+// `message_type` (e.g. "odometry_t"), `robot` and `message_utime` name the message; `now_utime`
+// is the rejection time [µs].
+void FillReject(const Verdict& verdict, std::string_view channel, std::string_view message_type,
+                std::string_view robot, std::int64_t message_utime, std::int64_t now_utime,
+                slamd::reject_t* out);
 
 }  // namespace slamd::server

@@ -178,12 +178,12 @@ std::string EncodeState(const EstimatorState& state, const JournalPosition& posi
     pb::RobotState* m = out.add_robots();
     m->set_name(r.name);
     m->set_id(r.id);
-    m->set_anchored(r.anchored);
-    m->set_newest(r.newest);
-    m->set_measurement_utime(r.measurement_utime);
-    WriteVariable(r.published, m->mutable_published());
-    m->set_published_index(r.published_index);
-    m->set_moved_sequence(r.moved_sequence);
+    m->set_anchored(r.state.anchored);
+    m->set_newest(r.state.newest);
+    m->set_measurement_utime(r.state.measurement_utime);
+    WriteVariable(r.state.published, m->mutable_published());
+    m->set_published_index(r.state.published_index);
+    m->set_moved_sequence(r.state.moved_sequence);
   }
   for (const EstimatorState::HeldMessage& h : state.held) {
     pb::HeldMessage* m = out.add_held();
@@ -237,9 +237,14 @@ core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition
     core::Result<core::Variable> published =
         ReadVariable(m.published(), "robot '" + m.name() + "'");
     if (!published.ok()) return published.status();
-    state.robots.push_back({m.name(), static_cast<std::uint8_t>(m.id()), m.anchored(), m.newest(),
-                            m.measurement_utime(), published.value(), m.published_index(),
-                            m.moved_sequence()});
+    state.robots.push_back({m.name(), static_cast<std::uint8_t>(m.id()),
+                            RobotState{.anchored = m.anchored(),
+                                       .newest = m.newest(),
+                                       .measurement_utime = m.measurement_utime(),
+                                       .received_us = 0,
+                                       .published = published.value(),
+                                       .published_index = m.published_index(),
+                                       .moved_sequence = m.moved_sequence()}});
   }
   for (const pb::HeldMessage& m : in.held()) {
     const auto* data = reinterpret_cast<const std::uint8_t*>(m.lcm_payload().data());

@@ -8,7 +8,7 @@
 #include <string_view>
 
 #include "core/base/status.h"
-#include "server/estimator/estimator_state.h"
+#include "server/snapshot/estimator_state.h"
 
 namespace slamd::server {
 

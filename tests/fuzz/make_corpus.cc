@@ -12,10 +12,10 @@
 
 #include "core/isam/isam2.h"
 #include "server/estimator/estimator.h"
-#include "server/estimator/estimator_state.h"
 #include "server/journal/journal_format.h"
 #include "server/messages/inbound.h"
 #include "server/messages/inbound_codec.h"
+#include "server/snapshot/estimator_state.h"
 #include "server/snapshot/state_codec.h"
 #include "slamd_proto/journal.pb.h"
 #include "tests/fuzz/fuzz_util.h"

@@ -11,7 +11,7 @@
 
 #include "core/isam/isam2.h"
 #include "server/estimator/estimator.h"
-#include "server/estimator/estimator_state.h"
+#include "server/snapshot/estimator_state.h"
 #include "server/snapshot/state_codec.h"
 #include "tests/fuzz/fuzz_util.h"
 

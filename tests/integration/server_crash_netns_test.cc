@@ -40,11 +40,11 @@
 
 #include "core/io/dataset_stream.h"
 #include "server/config/config_loader.h"
-#include "server/estimator/estimator_state.h"
 #include "server/estimator/recovery.h"
 #include "server/journal/journal.h"
 #include "server/journal/read_journal.h"
 #include "server/messages/inbound.h"
+#include "server/snapshot/estimator_state.h"
 #include "server/transport/lcm_bus.h"
 #include "server/transport/typed_subscribe.h"
 #include "slamd/estimate_t.hpp"

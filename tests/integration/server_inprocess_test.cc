@@ -9,7 +9,7 @@
 #include "core/factors/between_factor.h"
 #include "core/io/dataset_stream.h"
 #include "core/isam/isam2.h"
-#include "server/estimator/daemon.h"
+#include "server/daemon/daemon.h"
 #include "server/messages/inbound.h"
 #include "server/transport/in_process_bus.h"
 #include "server/transport/typed_subscribe.h"

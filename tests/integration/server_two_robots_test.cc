@@ -8,7 +8,7 @@
 #include <random>
 
 #include "core/batch/batch_solver.h"
-#include "server/estimator/daemon.h"
+#include "server/daemon/daemon.h"
 #include "server/messages/inbound.h"
 #include "server/transport/in_process_bus.h"
 #include "server/transport/typed_subscribe.h"

@@ -9,8 +9,8 @@
 #include <string>
 
 #include "server/estimator/estimator.h"
-#include "server/estimator/estimator_state.h"
 #include "server/journal/snapshot_file.h"
+#include "server/snapshot/estimator_state.h"
 #include "server/snapshot/state_codec.h"
 #include "tests/clients/slamctl/slamctl_runner.h"
 #include "tests/testing/datasets.h"

@@ -96,5 +96,19 @@ TEST(RepliesTest, QueryReplyLaysOutResultsAndJoint) {
   EXPECT_EQ(out.error, "why");
 }
 
+TEST(FillReject, CopiesEveryField) {
+  Verdict v{.reason = RejectReason::kNotFinite,
+            .message = "odometry_t.values[0]: not finite (nan)"};
+  slamd::reject_t r;
+  FillReject(v, "SLAMD_ODOMETRY", "odometry_t", "alpha", 123, 456, &r);
+  EXPECT_EQ(r.utime, 456);
+  EXPECT_EQ(r.channel, "SLAMD_ODOMETRY");
+  EXPECT_EQ(r.message_type, "odometry_t");
+  EXPECT_EQ(r.robot, "alpha");
+  EXPECT_EQ(r.message_utime, 123);
+  EXPECT_EQ(r.reason, slamd::reject_t::REASON_NOT_FINITE);
+  EXPECT_EQ(r.detail, v.message);
+}
+
 }  // namespace
 }  // namespace slamd::server

@@ -20,7 +20,7 @@ struct EstimatorCounters {
   std::int64_t rejected = 0;   // stateful rejections (also counted per reason)
   // messages the graph held already (re-sent): acknowledged, neither applied nor rejected
   std::int64_t already_held = 0;
-  std::int64_t updates = 0;    // Isam2::Update calls (one per Process with anything new)
+  std::int64_t updates = 0;  // Isam2::Update calls (one per Process with anything new)
   std::int64_t refinements = 0;
   std::int64_t rebuilds = 0;  // background rebuilds swapped in
   std::array<std::int64_t, kNumRejectReasonCodes> rejects_by_reason = {};

@@ -10,15 +10,28 @@
 
 #include "core/factors/factor.h"
 #include "core/factors/values.h"
-#include "server/estimator/estimate_snapshot.h"
-#include "server/estimator/estimator.h"
+#include "server/messages/inbound.h"
+#include "server/snapshot/estimate_snapshot.h"
 
 namespace slamd::server {
+
+// A robot as the estimator keeps it (by robot id), and as snapshots store it.
+struct RobotState {
+  bool anchored = false;  // has a pose in the graph (or staged)
+  std::uint64_t newest = 0;
+  // utime of its newest applied message, and when that message was received [µs, steady clock
+  // of this process: not stored in snapshots].
+  std::int64_t measurement_utime = 0;
+  std::int64_t received_us = 0;
+  core::Variable published;  // the newest pose's estimate in the last EstimateSnapshot
+  std::uint64_t published_index = 0;
+  std::int64_t moved_sequence = 0;  // the update sequence that last moved it
+};
 
 struct EstimatorState {
   std::int64_t update_sequence = 0;
   std::vector<core::FactorPtr> factors = {};  // the current factors, in solver index order
-  core::Values linearization_point;  // θ (a restore re-solves δ there)
+  core::Values linearization_point;           // θ (a restore re-solves δ there)
 
   // A retractable measurement (remove_factor_t) and its factor's position in `factors`.
   struct Applied {
@@ -34,12 +47,7 @@ struct EstimatorState {
   struct Robot {
     std::string name;
     std::uint8_t id = 0;
-    bool anchored = false;
-    std::uint64_t newest = 0;
-    std::int64_t measurement_utime = 0;
-    core::Variable published;
-    std::uint64_t published_index = 0;
-    std::int64_t moved_sequence = 0;
+    RobotState state;
   };
   std::vector<Robot> robots = {};  // registration order
 

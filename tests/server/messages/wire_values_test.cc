@@ -1,10 +1,8 @@
-#include "server/publish/wire_values.h"
+#include "server/messages/wire_values.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
-
-#include "slamd/reject_t.hpp"
 
 namespace slamd::server {
 namespace {
@@ -45,20 +43,6 @@ TEST(ToRowMajor, OrderIsRowByRow) {
   Eigen::MatrixXd m(2, 3);
   m << 1, 2, 3, 4, 5, 6;
   EXPECT_EQ(ToRowMajor(m), (std::vector<double>{1, 2, 3, 4, 5, 6}));
-}
-
-TEST(FillReject, CopiesEveryField) {
-  Verdict v{.reason = RejectReason::kNotFinite,
-            .message = "odometry_t.values[0]: not finite (nan)"};
-  slamd::reject_t r;
-  FillReject(v, "SLAMD_ODOMETRY", "odometry_t", "alpha", 123, 456, &r);
-  EXPECT_EQ(r.utime, 456);
-  EXPECT_EQ(r.channel, "SLAMD_ODOMETRY");
-  EXPECT_EQ(r.message_type, "odometry_t");
-  EXPECT_EQ(r.robot, "alpha");
-  EXPECT_EQ(r.message_utime, 123);
-  EXPECT_EQ(r.reason, slamd::reject_t::REASON_NOT_FINITE);
-  EXPECT_EQ(r.detail, v.message);
 }
 
 }  // namespace

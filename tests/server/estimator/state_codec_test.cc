@@ -8,6 +8,7 @@
 
 #include "core/factors/factor_registry.h"
 #include "core/geometry/rot3.h"
+#include "server/estimator/estimator.h"
 #include "slamd_proto/snapshot.pb.h"
 #include "tests/testing/factor_examples.h"
 
@@ -200,7 +201,7 @@ TEST(StateCodecTest, CorruptBytesGiveDataLossNamingThePart) {
   // update read that pose and aborted).
   EstimatorState missing = e->ExportState();
   ASSERT_FALSE(missing.robots.empty());
-  missing.robots[0].newest = 1000;
+  missing.robots[0].state.newest = 1000;
   bad = Estimator::Restore({}, isam2, missing);
   ASSERT_FALSE(bad.ok());
   EXPECT_EQ(bad.status().code(), core::StatusCode::kDataLoss);

@@ -45,8 +45,9 @@
 #include <vector>
 
 #include "server/config/server_params.h"
+#include "server/daemon/ingest_queue.h"
+#include "server/daemon/snapshot_writer.h"
 #include "server/estimator/estimator.h"
-#include "server/estimator/ingest_queue.h"
 #include "server/journal/journal.h"
 #include "server/transport/bus.h"
 #include "server/transport/channels.h"
@@ -102,7 +103,6 @@ class Daemon {
   // the last one), so a flood of bad input cannot flood the log.
   void NoteReject(std::string_view type, const Verdict& verdict);
   void MaybeSnapshot();
-  void JoinSnapshotWriter();
 
   core::Status Subscribe();
   template <typename Msg>
@@ -173,10 +173,7 @@ class Daemon {
   std::int64_t last_map_us_ = 0, last_map_sequence_ = -1;
   std::int64_t last_input_us_ = 0;       // steady clock
   std::int64_t processed_sequence_ = 0;  // last journal sequence handed to the estimator
-  std::int64_t snapshot_update_sequence_ = 0, snapshot_us_ = 0;
-  std::thread snapshot_thread_;
-  std::atomic<bool> snapshot_busy_{false};
-  std::atomic<std::int64_t> snapshot_cost_us_{0};  // the last snapshot's export + write time
+  std::unique_ptr<SnapshotWriter> snapshot_writer_;  // null without a journal
 
   mutable std::mutex snapshot_mutex_;
   std::shared_ptr<const EstimateSnapshot> snapshot_;

@@ -4,9 +4,9 @@
 
 #include <algorithm>
 
-#include "server/estimator/daemon.h"
+#include "server/daemon/daemon.h"
+#include "server/messages/wire_values.h"
 #include "server/publish/replies.h"
-#include "server/publish/wire_values.h"
 #include "server/query/query_service.h"
 #include "server/transport/typed_subscribe.h"
 #include "slamd/estimate_t.hpp"

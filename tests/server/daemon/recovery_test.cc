@@ -10,7 +10,7 @@
 #include <fstream>
 #include <random>
 
-#include "server/estimator/daemon.h"
+#include "server/daemon/daemon.h"
 #include "server/journal/journal.h"
 #include "server/journal/read_journal.h"
 #include "server/journal/snapshot_file.h"

@@ -1,4 +1,4 @@
-#include "server/estimator/daemon.h"
+#include "server/daemon/daemon.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

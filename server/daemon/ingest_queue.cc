@@ -1,4 +1,4 @@
-#include "server/estimator/ingest_queue.h"
+#include "server/daemon/ingest_queue.h"
 
 #include <algorithm>
 #include <chrono>

@@ -1,4 +1,4 @@
-#include "server/estimator/daemon.h"
+#include "server/daemon/daemon.h"
 
 #include <spdlog/spdlog.h>
 
@@ -9,12 +9,11 @@
 #include "core/base/check.h"
 #include "core/base/thread_name.h"
 #include "core/base/timing.h"
-#include "server/estimator/estimator_state.h"
 #include "server/estimator/recovery.h"
-#include "server/journal/snapshot_file.h"
 #include "server/messages/inbound.h"
+#include "server/messages/wire_values.h"
 #include "server/publish/replies.h"
-#include "server/publish/wire_values.h"
+#include "server/snapshot/estimator_state.h"
 #include "server/snapshot/state_codec.h"
 #include "server/transport/typed_subscribe.h"
 #include "slamd/query_reply_t.hpp"
@@ -109,7 +108,11 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
     daemon->processed_sequence_ = daemon->journal_->last_sequence();
   }
   daemon->snapshot_ = daemon->estimator_->snapshot();
-  daemon->snapshot_update_sequence_ = daemon->snapshot_->update_sequence;
+  if (daemon->journal_) {
+    daemon->snapshot_writer_ =
+        std::make_unique<SnapshotWriter>(params.data_dir, params.journal, daemon->log_,
+                                         daemon->snapshot_->update_sequence, SteadyMicros());
+  }
   SLAMD_RETURN_IF_ERROR(daemon->Subscribe());
   return daemon;
 }
@@ -125,7 +128,6 @@ Daemon::Daemon(const ServerParams& params, Bus* bus, std::unique_ptr<Estimator> 
       snapshot_(estimator_->snapshot()) {
   log_ = spdlog::get("slamd");
   if (!log_) log_ = spdlog::default_logger();
-  snapshot_us_ = SteadyMicros();
 }
 
 Daemon::~Daemon() { Stop(); }
@@ -397,49 +399,16 @@ void Daemon::NoteJournalError(const core::Status& s) {
 }
 
 void Daemon::MaybeSnapshot() {
-  if (!journal_ || snapshot_busy_) return;
+  if (!snapshot_writer_) return;
   const std::int64_t sequence = estimator_->snapshot()->update_sequence;
-  if (sequence == snapshot_update_sequence_) return;
   const std::int64_t now = SteadyMicros();
-  const auto& j = params_.journal;
-  const bool by_count = j.snapshot_every_updates > 0 &&
-                        sequence - snapshot_update_sequence_ >= j.snapshot_every_updates;
-  const bool by_time = j.snapshot_every_s > 0 && now - snapshot_us_ >= j.snapshot_every_s * 1e6;
-  if (!by_count && !by_time) return;
-  // A snapshot of a large map costs (export here, encoding and writing in the background): at
-  // most kSnapshotMaxLoad of the time goes to them, whatever snapshot_every_* ask for.
-  constexpr double kSnapshotMaxLoad = 0.05;
-  if (static_cast<double>(now - snapshot_us_) * kSnapshotMaxLoad <
-      static_cast<double>(snapshot_cost_us_)) {
-    return;
-  }
-  JoinSnapshotWriter();
-  snapshot_update_sequence_ = sequence;
-  snapshot_us_ = now;
-  auto state = std::make_shared<EstimatorState>(estimator_->ExportState());
-  const std::int64_t export_us = SteadyMicros() - now;
-  const JournalPosition position{.last_message_sequence = processed_sequence_,
-                                 .journal_offset = journal_->offset()};
-  snapshot_busy_ = true;
-  snapshot_thread_ = std::thread([this, state, position, export_us] {
-    core::NameThisThread("slamd-snapshot");
-    core::Stopwatch timer;
-    const std::string bytes = EncodeState(*state, position);
-    const core::Result<std::string> path = WriteSnapshotFile(
-        params_.data_dir, position.journal_offset, bytes, {.keep = params_.journal.keep_snapshots});
-    snapshot_cost_us_ = export_us + static_cast<std::int64_t>(timer.Seconds() * 1e6);
-    if (path.ok()) {
-      log_->info("snapshot {} ({} bytes, message {}) in {:.3f} s", path.value(), bytes.size(),
-                 position.last_message_sequence, timer.Seconds());
-    } else {
-      log_->error("snapshot: {}", path.status().ToString());
-    }
-    snapshot_busy_ = false;
-  });
-}
-
-void Daemon::JoinSnapshotWriter() {
-  if (snapshot_thread_.joinable()) snapshot_thread_.join();
+  if (!snapshot_writer_->Due(sequence, now)) return;
+  snapshot_writer_->Join();  // before the export: it may still be reading the last state
+  auto state = std::make_shared<const EstimatorState>(estimator_->ExportState());
+  snapshot_writer_->Write(
+      std::move(state),
+      {.last_message_sequence = processed_sequence_, .journal_offset = journal_->offset()},
+      sequence, now, SteadyMicros() - now);
 }
 
 std::shared_ptr<const EstimateSnapshot> Daemon::snapshot() const {
@@ -503,7 +472,7 @@ void Daemon::Stop() {
   queue_.Close();
   stop_estimator_ = true;
   if (estimator_thread_.joinable()) estimator_thread_.join();
-  JoinSnapshotWriter();
+  snapshot_writer_.reset();  // waits for the snapshot being written
   if (journal_) {
     const core::Status s = journal_->Sync();
     if (!s.ok()) log_->error("journal sync at shutdown: {}", s.ToString());

@@ -1,0 +1,65 @@
+#include "server/daemon/snapshot_writer.h"
+
+#include <spdlog/spdlog.h>
+
+#include <utility>
+
+#include "core/base/thread_name.h"
+#include "core/base/timing.h"
+#include "server/journal/snapshot_file.h"
+
+namespace slamd::server {
+
+SnapshotWriter::SnapshotWriter(std::string data_dir, const ServerParams::Journal& params,
+                               std::shared_ptr<spdlog::logger> log, std::int64_t last_sequence,
+                               std::int64_t now_us)
+    : data_dir_(std::move(data_dir)),
+      params_(params),
+      log_(std::move(log)),
+      last_sequence_(last_sequence),
+      last_us_(now_us) {}
+
+SnapshotWriter::~SnapshotWriter() { Join(); }
+
+bool SnapshotWriter::Due(std::int64_t sequence, std::int64_t now_us) const {
+  if (busy_ || sequence == last_sequence_) return false;
+  const bool by_count = params_.snapshot_every_updates > 0 &&
+                        sequence - last_sequence_ >= params_.snapshot_every_updates;
+  const bool by_time =
+      params_.snapshot_every_s > 0 && now_us - last_us_ >= params_.snapshot_every_s * 1e6;
+  if (!by_count && !by_time) return false;
+  // A snapshot of a large map costs (export on the estimator thread, encoding and writing
+  // here): at most kMaxLoad of the time goes to them, whatever snapshot_every_* ask for.
+  constexpr double kMaxLoad = 0.05;
+  return static_cast<double>(now_us - last_us_) * kMaxLoad >= static_cast<double>(cost_us_);
+}
+
+void SnapshotWriter::Write(std::shared_ptr<const EstimatorState> state,
+                           const JournalPosition& position, std::int64_t sequence,
+                           std::int64_t now_us, std::int64_t export_us) {
+  Join();
+  last_sequence_ = sequence;
+  last_us_ = now_us;
+  busy_ = true;
+  thread_ = std::thread([this, state = std::move(state), position, export_us] {
+    core::NameThisThread("slamd-snapshot");
+    core::Stopwatch timer;
+    const std::string bytes = EncodeState(*state, position);
+    const core::Result<std::string> path = WriteSnapshotFile(
+        data_dir_, position.journal_offset, bytes, {.keep = params_.keep_snapshots});
+    cost_us_ = export_us + static_cast<std::int64_t>(timer.Seconds() * 1e6);
+    if (path.ok()) {
+      log_->info("snapshot {} ({} bytes, message {}) in {:.3f} s", path.value(), bytes.size(),
+                 position.last_message_sequence, timer.Seconds());
+    } else {
+      log_->error("snapshot: {}", path.status().ToString());
+    }
+    busy_ = false;
+  });
+}
+
+void SnapshotWriter::Join() {
+  if (thread_.joinable()) thread_.join();
+}
+
+}  // namespace slamd::server

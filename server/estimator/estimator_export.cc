@@ -1,0 +1,104 @@
+// Estimator::ExportState and Estimator::Restore: an estimator as values (EstimatorState, what
+// snapshots store) and back.
+#include <numeric>
+
+#include "server/estimator/estimator.h"
+
+namespace slamd::server {
+
+using core::Key;
+using core::MakeKey;
+
+EstimatorState Estimator::ExportState() const {
+  EstimatorState state;
+  state.update_sequence = sequence_;
+  std::vector<int> position(isam_->factor_slots().size(), -1);
+  for (size_t i = 0; i < isam_->factor_slots().size(); ++i) {
+    if (const core::FactorPtr& f = isam_->factor_slots()[i]) {
+      position[i] = static_cast<int>(state.factors.size());
+      state.factors.push_back(f);
+    }
+  }
+  state.linearization_point = isam_->linearization_point();
+  state.applied.reserve(applied_.size());
+  for (size_t n = 0; n < applied_factors_.size(); ++n) {
+    const AppliedFactor& f = applied_factors_[n];
+    const int slot = solver_index_[n];
+    if (slot < 0 || f.dim == 0) continue;  // removed, or no measurement
+    SLAMD_CHECK(position[slot] >= 0) << "applied measurement on a removed factor";
+    const auto& [type, a, b, kind] = f.id;
+    state.applied.push_back({type, a, b, kind, position[slot], f.first, f.dim});
+  }
+  for (std::uint8_t id : registry_.ids()) {
+    const RobotState& r = robots_[id];
+    state.robots.push_back({registry_.Name(id), id, r});
+  }
+  for (const Held& h : held_) state.held.push_back({h.message, h.waited});
+  state.counters = counters_;
+  state.num_factors = num_factors_;
+  state.residual_dimension = residual_dimension_;
+  return state;
+}
+
+core::Result<std::unique_ptr<Estimator>> Estimator::Restore(const EstimatorParams& params,
+                                                            const core::Isam2Params& isam2,
+                                                            const EstimatorState& state) {
+  core::Result<std::unique_ptr<Estimator>> made = Create(params, isam2);
+  if (!made.ok()) return made.status();
+  std::unique_ptr<Estimator> e = std::move(made).value();
+  for (const EstimatorState::Robot& r : state.robots) {
+    const std::optional<std::uint8_t> id = e->registry_.FindOrAdd(r.name);
+    if (!id || *id != r.id) {
+      return core::DataLoss("snapshot: robot '" + r.name + "' has id " + std::to_string(r.id) +
+                            ", registration order gives another");
+    }
+    e->robots_[*id] = r.state;
+    e->robots_[*id].received_us = 0;
+  }
+  e->applied_factors_.resize(state.factors.size());  // the state's factor i is number i
+  for (const EstimatorState::Applied& a : state.applied) {
+    if (a.factor < 0 || a.factor >= static_cast<int>(state.factors.size())) {
+      return core::DataLoss("snapshot: applied measurement names factor " +
+                            std::to_string(a.factor) + " of " +
+                            std::to_string(state.factors.size()));
+    }
+    if (a.dim <= 0 || e->applied_factors_[a.factor].dim != 0) {
+      return core::DataLoss("snapshot: applied measurement on factor " + std::to_string(a.factor) +
+                            " has dimension " + std::to_string(a.dim) +
+                            " or is not the only one on it");
+    }
+    const MeasurementId id{a.type, a.a, a.b, a.kind};
+    e->applied_[id] = a.factor;
+    e->applied_factors_[a.factor] = {id, a.first, a.dim};
+  }
+  // An anchored robot's newest pose is read after every update: it must be in the graph.
+  for (const EstimatorState::Robot& r : state.robots) {
+    if (!r.state.anchored) continue;
+    if (r.state.newest > core::kMaxKeyIndex ||
+        !state.linearization_point.Contains(MakeKey('x', r.state.newest, r.id))) {
+      return core::DataLoss("snapshot: robot '" + r.name + "' is anchored but its newest pose " +
+                            std::to_string(r.state.newest) + " is not in the graph");
+    }
+  }
+  if (!state.factors.empty() || !state.linearization_point.empty()) {
+    core::FactorGraph graph;
+    for (const core::FactorPtr& f : state.factors) graph.Add(f);
+    // The newest poses at the root, as an incremental run keeps them (see order_last).
+    const core::Isam2Result r =
+        e->isam_->Update(graph, state.linearization_point, {.order_last = e->NewestPoses()});
+    if (!r.status.ok()) return core::DataLoss("snapshot: " + r.status.ToString());
+  }
+  e->solver_index_.resize(state.factors.size());  // the state's factor i is the solver's i
+  std::iota(e->solver_index_.begin(), e->solver_index_.end(), 0);
+  for (const EstimatorState::HeldMessage& h : state.held) e->held_.push_back({h.message, h.waited});
+  e->counters_ = state.counters;
+  e->sequence_ = state.update_sequence;
+  e->num_factors_ = state.num_factors;
+  e->residual_dimension_ = state.residual_dimension;
+  e->settled_ = false;
+  e->snapshot_.reset();
+  e->PublishSnapshot(false);
+  return e;
+}
+
+}  // namespace slamd::server

@@ -1,0 +1,40 @@
+#include "server/estimator/estimator_params.h"
+
+#include <string>
+
+#include "core/factors/robust_kernel.h"
+
+namespace slamd::server {
+
+core::Status EstimatorParams::Validate() const {
+  const EstimatorParams& estimator = *this;
+  if (new_robot_anchor != AnchorPolicy::kHoldUntilConnected &&
+      new_robot_anchor != AnchorPolicy::kAnchorAtOrigin) {
+    return core::InvalidArgument(
+        "estimator.new_robot_anchor = " + std::to_string(static_cast<int>(new_robot_anchor)) +
+        "; not a known policy");
+  }
+  SLAMD_CONFIG_CHECK(estimator.anchor_sigma, >, 0.0);
+  SLAMD_CONFIG_CHECK(estimator.anchor_sigma, <=, 1e3);
+  SLAMD_CONFIG_CHECK(estimator.max_held_messages, >=, 0);
+  SLAMD_CONFIG_CHECK(estimator.max_hold_updates, >=, 1);
+  SLAMD_CONFIG_CHECK(estimator.chi2_interval_s, >=, 0.0);
+  SLAMD_CONFIG_CHECK(estimator.background_relinearization_above, >=, 0);
+  SLAMD_CONFIG_CHECK(estimator.rebuild_catch_up_rounds, >=, 0);
+  SLAMD_CONFIG_CHECK(estimator.rebuild_catch_up_rounds, <=, 64);
+  const core::Result<core::RobustKernel::Kind> kind =
+      core::RobustKernel::ParseKind(loop_closure_kernel);
+  if (!kind.ok()) {
+    return core::InvalidArgument("estimator.loop_closure_kernel = \"" + loop_closure_kernel +
+                                 "\"; not one of none huber cauchy gemanmcclure dcs");
+  }
+  if (kind.value() != core::RobustKernel::Kind::kNone &&
+      !core::RobustKernel::Create(kind.value(), loop_closure_kernel_parameter).ok()) {
+    return core::InvalidArgument("estimator.loop_closure_kernel_parameter = " +
+                                 std::to_string(loop_closure_kernel_parameter) +
+                                 "; must be positive and finite");
+  }
+  return core::Status::Ok();
+}
+
+}  // namespace slamd::server
