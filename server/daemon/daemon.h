@@ -11,9 +11,9 @@
 //                     come for refine.idle_s and refine.enabled, Isam2::Refine(refine.budget_s)
 //                     until settled.
 //
-// Inbound channels: ODOMETRY, LANDMARK, LOOP_CLOSURE, PRIOR, REMOVE_FACTOR (all through the
-// queue into Estimator::Process) and QUERY (through the same queue, so a query sees everything
-// sent before it; answered on QUERY_REPLY, maps on MAP, after the update of its batch, within
+// Inbound channels: one per message spec (server/messages/inbound.h), all through the queue;
+// measurements and retractions into Estimator::Process, queries (so a query sees everything
+// sent before it) answered on QUERY_REPLY, maps on MAP, after the update of its batch, within
 // publish.query_budget_s for marginals). An invalid query gets a reject_t and a
 // STATUS_REJECTED reply. estimate_t carries the newest pose's marginal covariance when
 // publish.estimate_covariance; map_t pages of every robot go out at publish.map_rate_hz.
@@ -24,8 +24,16 @@
 // rejected with REASON_STORAGE_ERROR: nothing unjournaled is ever accepted); the estimator
 // appends an update boundary after each update and commits (journal.sync) before publishing;
 // refinements are journaled by round count, swaps of a solver rebuilt in the background
-// (Estimator::FinishRebuild) by a record; a background thread writes snapshots from an
+// (Estimator::FinishRebuild) by a record; the SnapshotWriter writes snapshots from an
 // exported copy of the estimator every journal.snapshot_every_updates / _s.
+//
+// Threads, each named and owned by one object, started and stopped in this order:
+//   slamd-estimator  Daemon (Start; Stop joins it after slamd-intake, once the queue is drained)
+//   slamd-intake     Daemon (Start; Stop joins it first: nothing new is taken in)
+//   slamd-rebuild    BackgroundRebuild, owned by the Estimator (joined by the swap or its end)
+//   slamd-retire     the Estimator (frees a solver a swap replaced)
+//   slamd-snapshot   SnapshotWriter (joined before the next snapshot and by Stop)
+//   slamd-worker     the solver's parallel steps (core/base/worker_pool.h)
 //
 // Either Start() the two threads, or drive the same steps by hand (no threads) with
 // PumpIntake / StepEstimator, as deterministic tests do; do not mix the two.
