@@ -28,9 +28,9 @@ namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
-constexpr const char* kCommand = "journal bench";
+constexpr const char* kJournalBenchCommand = "journal bench";
 
-struct BenchOptions {
+struct JournalBenchOptions {
   std::string dataset;
   std::string dir;
   int tail = 200;             // steps after the hand-made snapshot
@@ -49,7 +49,7 @@ double Since(Clock::time_point t0) {
 }
 
 void Check(const core::Status& s) {
-  if (!s.ok()) CommandFail(kCommand, kExitFailure, s.ToString());
+  if (!s.ok()) CommandFail(kJournalBenchCommand, kExitFailure, s.ToString());
 }
 template <typename T>
 T Take(core::Result<T> r) {
@@ -127,7 +127,7 @@ std::string Snapshot(const server::Daemon& d, const std::string& journal_path,
   return path;
 }
 
-void RunBench(const BenchOptions& opt) {
+void RunBench(const JournalBenchOptions& opt) {
   core::Dataset data = Take(core::ReadDataset(opt.dataset));
   const std::vector<StepMessages> groups = Take(MakeDatasetMessages(data, {.robot = "bench"}));
   const server::ChannelNames channels;
@@ -229,7 +229,7 @@ void RunBench(const BenchOptions& opt) {
 }  // namespace
 
 void RegisterJournalBench(CLI::App* journal) {
-  auto opt = std::make_shared<BenchOptions>();
+  auto opt = std::make_shared<JournalBenchOptions>();
   CLI::App* cmd = journal->add_subcommand(
       "bench", "Journal append cost per sync policy, snapshot time and size, recovery time");
   cmd->add_option("DATASET", opt->dataset, "dataset file (g2o, TORO, iSAM)")

@@ -15,7 +15,7 @@
 namespace slamd::clients {
 namespace {
 
-constexpr const char* kCommand = "query";
+constexpr const char* kQueryCommand = "query";
 
 struct QueryOptions {
   std::vector<std::string> keys;
@@ -31,14 +31,14 @@ struct QueryOptions {
 
 void RunQueryCommand(const QueryOptions& opt) {
   if (opt.keys.empty() && opt.map_robot.empty()) {
-    CommandFail(kCommand, kExitUsage, "give at least one KEY (e.g. robot:x12) or --map ROBOT");
+    CommandFail(kQueryCommand, kExitUsage, "give at least one KEY (e.g. robot:x12) or --map ROBOT");
   }
-  if (opt.keys.size() > 100) CommandFail(kCommand, kExitUsage, "at most 100 keys per query");
+  if (opt.keys.size() > 100) CommandFail(kQueryCommand, kExitUsage, "at most 100 keys per query");
   if (opt.joint && opt.keys.size() > 10) {
-    CommandFail(kCommand, kExitUsage, "--joint takes at most 10 keys");
+    CommandFail(kQueryCommand, kExitUsage, "--joint takes at most 10 keys");
   }
   if (!opt.map_robot.empty() && opt.map_robot != "*" && !IsValidRobotName(opt.map_robot)) {
-    CommandFail(kCommand, kExitUsage, "--map '" + opt.map_robot + "': a robot name or '*'");
+    CommandFail(kQueryCommand, kExitUsage, "--map '" + opt.map_robot + "': a robot name or '*'");
   }
   server::QueryRequest request;
   request.client = opt.client;
@@ -48,7 +48,7 @@ void RunQueryCommand(const QueryOptions& opt) {
   request.map_robot = opt.map_robot;
   for (const std::string& text : opt.keys) {
     core::Result<server::WireKey> key = ParseKey(text, opt.robot);
-    if (!key.ok()) CommandFail(kCommand, kExitUsage, key.status().message());
+    if (!key.ok()) CommandFail(kQueryCommand, kExitUsage, key.status().message());
     request.keys.push_back(*key);
   }
   slamd::query_t query;
@@ -57,16 +57,16 @@ void RunQueryCommand(const QueryOptions& opt) {
                     std::chrono::system_clock::now().time_since_epoch())
                     .count();
   server::ChannelNames channels;
-  std::unique_ptr<LcmClient> client = ConnectOrFail(kCommand, opt.connection, &channels);
+  std::unique_ptr<LcmClient> client = ConnectOrFail(kQueryCommand, opt.connection, &channels);
   core::Result<QueryAnswer> answer = RunQuery(*client, channels, query, opt.timeout_s);
   if (!answer.ok()) {
-    CommandFail(kCommand, kExitFailure,
+    CommandFail(kQueryCommand, kExitFailure,
                 answer.status().message() + " (is slamd running on " + client->url() + "?)");
   }
   std::fputs((opt.json ? AnswerJson(*answer) + "\n" : FormatAnswer(*answer)).c_str(), stdout);
   std::fflush(stdout);
   if (answer->reply.status == slamd::query_reply_t::STATUS_REJECTED) {
-    CommandFail(kCommand, kExitFailure, "query rejected: " + answer->reply.error);
+    CommandFail(kQueryCommand, kExitFailure, "query rejected: " + answer->reply.error);
   }
 }
 

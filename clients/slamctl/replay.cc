@@ -15,11 +15,11 @@ namespace slamd::clients {
 namespace replay {
 namespace {
 
-constexpr const char* kCommand = "replay";
+constexpr const char* kReplayCommand = "replay";
 
-[[noreturn]] void Usage(const std::string& message) { CommandFail(kCommand, kExitUsage, message); }
+[[noreturn]] void Usage(const std::string& message) { CommandFail(kReplayCommand, kExitUsage, message); }
 [[noreturn]] void Failure(const std::string& message) {
-  CommandFail(kCommand, kExitFailure, message);
+  CommandFail(kReplayCommand, kExitFailure, message);
 }
 
 // The file stem with characters a robot name cannot hold replaced by '_'.

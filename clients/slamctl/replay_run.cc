@@ -22,7 +22,7 @@
 namespace slamd::clients::replay {
 namespace {
 
-constexpr const char* kCommand = "replay";
+constexpr const char* kReplayRunCommand = "replay";
 
 double Now() {
   using namespace std::chrono;
@@ -138,10 +138,10 @@ void PrintSummary(const ReplayOptions& opt, const ReplayTracker& tracker, double
 int Run(const ReplayOptions& opt, const std::vector<ReplayItem>& items,
         const std::set<std::string>& robots) {
   server::ChannelNames channels;
-  std::unique_ptr<LcmClient> client = ConnectOrFail(kCommand, opt.connection, &channels);
+  std::unique_ptr<LcmClient> client = ConnectOrFail(kReplayRunCommand, opt.connection, &channels);
   ReplayTracker tracker(robots);
   auto check = [&](const core::Status& s) {
-    if (!s.ok()) CommandFail(kCommand, kExitFailure, s.ToString());
+    if (!s.ok()) CommandFail(kReplayRunCommand, kExitFailure, s.ToString());
   };
   check(client->Subscribe<slamd::estimate_t>(channels.Estimate(), [&](const slamd::estimate_t& e) {
     tracker.OnEstimate(e.robot, e.pose_index, Now());
@@ -152,7 +152,7 @@ int Run(const ReplayOptions& opt, const std::vector<ReplayItem>& items,
                                            [&](const slamd::status_t& s) { tracker.OnStatus(s); }));
   auto handle_until = [&](const std::function<bool()>& done, double timeout_s) {
     core::Result<bool> r = client->HandleUntil(done, timeout_s);
-    if (!r.ok()) CommandFail(kCommand, kExitFailure, r.status().ToString());
+    if (!r.ok()) CommandFail(kReplayRunCommand, kExitFailure, r.status().ToString());
     return *r;
   };
 
@@ -177,7 +177,7 @@ int Run(const ReplayOptions& opt, const std::vector<ReplayItem>& items,
     const bool pose = item.new_pose >= 0;
     if (pose && opt.pacing == Pacing::kLockstep &&
         !handle_until([&] { return tracker.AllAcked(); }, opt.ack_timeout_s)) {
-      CommandFail(kCommand, kExitFailure,
+      CommandFail(kReplayRunCommand, kExitFailure,
                   "--lockstep: no estimate_t acknowledged the previous pose within " +
                       std::to_string(opt.ack_timeout_s) + " s (before " + item.robot + ":x" +
                       std::to_string(item.new_pose) + "; " + std::to_string(tracker.rejected()) +
@@ -186,7 +186,7 @@ int Run(const ReplayOptions& opt, const std::vector<ReplayItem>& items,
     if (pose && opt.pacing == Pacing::kFast &&
         !handle_until([&] { return tracker.Unacked(item.robot) < static_cast<size_t>(opt.window); },
                       opt.ack_timeout_s)) {
-      CommandFail(kCommand, kExitFailure,
+      CommandFail(kReplayRunCommand, kExitFailure,
                   "--fast: the server acknowledged no pose of robot '" + item.robot + "' within " +
                       std::to_string(opt.ack_timeout_s) + " s (" +
                       std::to_string(tracker.Unacked(item.robot)) + " waiting; newest estimate x" +
@@ -207,7 +207,7 @@ int Run(const ReplayOptions& opt, const std::vector<ReplayItem>& items,
     check(client->PublishBytes(item.channel, item.bytes));
     tracker.OnSent(item, Now());
     if (pose) ++poses_sent;
-    if (!client->Drain().ok()) CommandFail(kCommand, kExitFailure, "LCM handle failed");
+    if (!client->Drain().ok()) CommandFail(kReplayRunCommand, kExitFailure, "LCM handle failed");
     progress.Update(i + 1, tracker, Now() - t0);
   }
   progress.Update(items.size(), tracker, Now() - t0, true);

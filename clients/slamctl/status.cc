@@ -8,7 +8,7 @@
 namespace slamd::clients {
 namespace {
 
-constexpr const char* kCommand = "status";
+constexpr const char* kStatusCommand = "status";
 
 struct StatusOptions {
   double timeout_s = 3.0;
@@ -18,15 +18,15 @@ struct StatusOptions {
 
 void RunStatus(const StatusOptions& opt) {
   server::ChannelNames channels;
-  std::unique_ptr<LcmClient> client = ConnectOrFail(kCommand, opt.connection, &channels);
+  std::unique_ptr<LcmClient> client = ConnectOrFail(kStatusCommand, opt.connection, &channels);
   std::optional<slamd::status_t> status;
   const core::Status sub = client->Subscribe<slamd::status_t>(
       channels.Status(), [&](const slamd::status_t& s) { status = s; });
-  if (!sub.ok()) CommandFail(kCommand, kExitFailure, sub.ToString());
+  if (!sub.ok()) CommandFail(kStatusCommand, kExitFailure, sub.ToString());
   core::Result<bool> got = client->HandleUntil([&] { return status.has_value(); }, opt.timeout_s);
-  if (!got.ok()) CommandFail(kCommand, kExitFailure, got.status().ToString());
+  if (!got.ok()) CommandFail(kStatusCommand, kExitFailure, got.status().ToString());
   if (!*got) {
-    CommandFail(kCommand, kExitFailure,
+    CommandFail(kStatusCommand, kExitFailure,
                 "no status_t on " + channels.Status() + " within " + std::to_string(opt.timeout_s) +
                     " s (is slamd running on " + client->url() +
                     " with this --channel-prefix and publish.status_rate_hz > 0?)");

@@ -17,7 +17,7 @@
 namespace slamd::clients {
 namespace {
 
-constexpr const char* kCommand = "watch";
+constexpr const char* kWatchCommand = "watch";
 
 std::atomic<bool> g_interrupted{false};
 extern "C" void OnInterrupt(int) { g_interrupted = true; }
@@ -73,7 +73,7 @@ std::string Frame(const std::optional<slamd::status_t>& status,
 
 void RunWatch(const WatchOptions& opt) {
   server::ChannelNames channels;
-  std::unique_ptr<LcmClient> client = ConnectOrFail(kCommand, opt.connection, &channels);
+  std::unique_ptr<LcmClient> client = ConnectOrFail(kWatchCommand, opt.connection, &channels);
   std::optional<slamd::status_t> status;
   std::map<std::string, RobotView> robots;
   for (const core::Status& s :
@@ -85,7 +85,7 @@ void RunWatch(const WatchOptions& opt) {
           ++v.count;
           v.received_s = Now();
         })}) {
-    if (!s.ok()) CommandFail(kCommand, kExitFailure, s.ToString());
+    if (!s.ok()) CommandFail(kWatchCommand, kExitFailure, s.ToString());
   }
   std::signal(SIGINT, OnInterrupt);
   std::signal(SIGTERM, OnInterrupt);
@@ -99,7 +99,7 @@ void RunWatch(const WatchOptions& opt) {
         std::min(last_frame + opt.period_s, opt.duration_s > 0 ? start + opt.duration_s : 1e300);
     core::Result<bool> r = client->HandleUntil([&] { return g_interrupted || Now() >= next; },
                                                std::max(0.0, next - now));
-    if (!r.ok()) CommandFail(kCommand, kExitFailure, r.status().ToString());
+    if (!r.ok()) CommandFail(kWatchCommand, kExitFailure, r.status().ToString());
     const double t = Now();
     const std::string frame = Frame(status, &robots, t, t - last_frame, client->url());
     last_frame = t;

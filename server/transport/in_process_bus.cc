@@ -13,24 +13,6 @@
 namespace slamd::server {
 namespace {
 
-struct Entry {
-  std::uint64_t id = 0;
-  std::string pattern;
-  bool literal = false;  // the pattern has no regex syntax: compare strings, skip std::regex
-  std::regex regex;
-  MessageCallback callback;
-  std::atomic<bool> active{true};
-
-  bool Matches(const std::string& channel) const {
-    return literal ? channel == pattern : std::regex_match(channel, regex);
-  }
-};
-
-struct Message {
-  std::string channel;
-  std::vector<std::uint8_t> bytes;
-};
-
 bool IsLiteral(std::string_view pattern) {
   for (char c : pattern) {
     const bool plain = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
@@ -43,6 +25,24 @@ bool IsLiteral(std::string_view pattern) {
 }  // namespace
 
 struct InProcessBus::State {
+  struct Entry {
+    std::uint64_t id = 0;
+    std::string pattern;
+    bool literal = false;  // the pattern has no regex syntax: compare strings, skip std::regex
+    std::regex regex;
+    MessageCallback callback;
+    std::atomic<bool> active{true};
+
+    bool Matches(const std::string& channel) const {
+      return literal ? channel == pattern : std::regex_match(channel, regex);
+    }
+  };
+
+  struct Message {
+    std::string channel;
+    std::vector<std::uint8_t> bytes;
+  };
+
   mutable std::mutex mutex;
   std::condition_variable arrived;
   std::deque<Message> queue;
@@ -68,7 +68,7 @@ core::Status InProcessBus::Publish(std::string_view channel, std::span<const std
   SLAMD_RETURN_IF_ERROR(CheckChannelName(channel));
   {
     std::lock_guard lock(state_->mutex);
-    state_->queue.push_back(Message{std::string(channel), {bytes.begin(), bytes.end()}});
+    state_->queue.push_back(State::Message{std::string(channel), {bytes.begin(), bytes.end()}});
   }
   state_->arrived.notify_one();
   return core::Status::Ok();
@@ -79,7 +79,7 @@ core::Result<Subscription> InProcessBus::Subscribe(std::string_view channel_rege
   if (channel_regex.empty()) return core::InvalidArgument("empty channel pattern");
   if (!callback)
     return core::InvalidArgument("null callback for channel '" + std::string(channel_regex) + "'");
-  auto entry = std::make_shared<Entry>();
+  auto entry = std::make_shared<State::Entry>();
   entry->pattern = std::string(channel_regex);
   entry->literal = IsLiteral(channel_regex);
   if (!entry->literal) {
@@ -105,8 +105,8 @@ core::Result<Subscription> InProcessBus::Subscribe(std::string_view channel_rege
 
 core::Result<int> InProcessBus::HandleFor(std::chrono::microseconds timeout) {
   if (timeout.count() < 0) return core::InvalidArgument("HandleFor: timeout must be >= 0");
-  std::deque<Message> batch;
-  std::vector<std::shared_ptr<Entry>> entries;
+  std::deque<State::Message> batch;
+  std::vector<std::shared_ptr<State::Entry>> entries;
   {
     std::unique_lock lock(state_->mutex);
     state_->arrived.wait_for(lock, timeout, [&] { return !state_->queue.empty(); });
@@ -119,7 +119,7 @@ core::Result<int> InProcessBus::HandleFor(std::chrono::microseconds timeout) {
   auto record = [&](const std::string& channel, const char* what) {
     if (errors++ == 0) first_error = "callback on channel '" + channel + "' threw: " + what;
   };
-  for (const Message& message : batch) {
+  for (const State::Message& message : batch) {
     for (const auto& entry : entries) {
       if (!entry->active || !entry->Matches(message.channel)) continue;
       try {
