@@ -11,6 +11,10 @@
 
 namespace slamd::testing {
 
+// The keys the factor tests build their factors on: pose x0 and landmark l0.
+inline const core::Key kX = core::MakeKey('x', 0);
+inline const core::Key kL = core::MakeKey('l', 0);
+
 inline void ExpectJacobiansMatchNumerical(const core::Factor& factor, const core::Values& values,
                                           double tol = 1e-7) {
   core::LinearizedFactor lf;

@@ -20,17 +20,17 @@
 namespace slamd::clients::plot {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
+using std::numbers::pi;
 
 // Pose i on a circle of radius 10, heading along it; covariance diag(0.01, 0.02, 0.001)·(1 + i)
 // (body frame); `landmarks` points inside the circle with covariance diag(0.04, 0.09).
 server::RobotMap CircleMap(const std::string& name, int poses, int landmarks) {
   server::RobotMap map{.robot = name};
   for (int i = 0; i < poses; ++i) {
-    const double a = 2 * kPi * i / poses;
+    const double a = 2 * pi * i / poses;
     map.poses.push_back(
         {.index = static_cast<std::uint64_t>(i),
-         .value = core::Pose2(10 * std::cos(a), 10 * std::sin(a), a + kPi / 2),
+         .value = core::Pose2(10 * std::cos(a), 10 * std::sin(a), a + pi / 2),
          .covariance =
              (Eigen::Vector3d(0.01, 0.02, 0.001) * (1.0 + i)).asDiagonal().toDenseMatrix()});
   }
@@ -77,7 +77,7 @@ TEST(PlotLiveTest, AssemblesPagesInAnyOrder) {
   EXPECT_EQ(robot.name, "bot");
   ASSERT_EQ(robot.trajectory.size(), 120u);
   for (int i = 0; i < 120; ++i) {
-    const double a = 2 * kPi * i / 120;
+    const double a = 2 * pi * i / 120;
     EXPECT_NEAR(robot.trajectory[i].x(), 10 * std::cos(a), 1e-12) << i;
     EXPECT_NEAR(robot.trajectory[i].y(), 10 * std::sin(a), 1e-12) << i;
   }
@@ -138,7 +138,7 @@ TEST(PlotLiveTest, KnownCovarianceGivesTheEllipse2D) {
   // Heading +y: body x is world y. Body translation covariance diag(4, 1) -> world diag(1, 4).
   Eigen::Matrix3d pose_cov;
   pose_cov << 4, 0, 0.05, 0, 1, 0, 0.05, 0, 0.1;
-  map.poses.push_back({.index = 0, .value = core::Pose2(1, 2, kPi / 2), .covariance = pose_cov});
+  map.poses.push_back({.index = 0, .value = core::Pose2(1, 2, pi / 2), .covariance = pose_cov});
   Eigen::Matrix2d lm_cov;
   lm_cov << 2, 0.5, 0.5, 1;  // world frame
   map.landmarks.push_back({.index = 9, .value = core::Point2(5, -1), .covariance = lm_cov});
@@ -151,7 +151,7 @@ TEST(PlotLiveTest, KnownCovarianceGivesTheEllipse2D) {
   EXPECT_NEAR(e.center.y(), 2, 1e-12);
   EXPECT_NEAR(e.semi_major, 3 * 2.0, 1e-9);
   EXPECT_NEAR(e.semi_minor, 3 * 1.0, 1e-9);
-  EXPECT_NEAR(std::abs(e.angle), kPi / 2, 1e-9);  // major axis along world y
+  EXPECT_NEAR(std::abs(e.angle), pi / 2, 1e-9);  // major axis along world y
 
   ASSERT_EQ(robot.landmark_ellipses.size(), 1u);
   const Ellipse& l = robot.landmark_ellipses[0];
@@ -169,12 +169,12 @@ TEST(PlotLiveTest, ThreeDMapsAreProjectedTopDown) {
   // Yawed 90°: body x -> world y: world x-y covariance diag(1, 4).
   map.poses.push_back(
       {.index = 0,
-       .value = core::Pose3(core::Rot3::FromRollPitchYaw(0, 0, kPi / 2), core::Point3(1, 2, 5)),
+       .value = core::Pose3(core::Rot3::FromRollPitchYaw(0, 0, pi / 2), core::Point3(1, 2, 5)),
        .covariance = cov});
   // Rolled 90°: body y -> world z, body z -> world −y: world x-y covariance diag(4, 9).
   map.poses.push_back(
       {.index = 1,
-       .value = core::Pose3(core::Rot3::FromRollPitchYaw(kPi / 2, 0, 0), core::Point3(3, 4, -2)),
+       .value = core::Pose3(core::Rot3::FromRollPitchYaw(pi / 2, 0, 0), core::Point3(3, 4, -2)),
        .covariance = cov});
   map.landmarks.push_back({.index = 0,
                            .value = core::Point3(3, 4, 7),
@@ -190,10 +190,10 @@ TEST(PlotLiveTest, ThreeDMapsAreProjectedTopDown) {
   ASSERT_EQ(robot.pose_ellipses.size(), 2u);
   EXPECT_NEAR(robot.pose_ellipses[0].semi_major, 2.0, 1e-9);
   EXPECT_NEAR(robot.pose_ellipses[0].semi_minor, 1.0, 1e-9);
-  EXPECT_NEAR(std::abs(robot.pose_ellipses[0].angle), kPi / 2, 1e-9);
+  EXPECT_NEAR(std::abs(robot.pose_ellipses[0].angle), pi / 2, 1e-9);
   EXPECT_NEAR(robot.pose_ellipses[1].semi_major, 3.0, 1e-9);
   EXPECT_NEAR(robot.pose_ellipses[1].semi_minor, 2.0, 1e-9);
-  EXPECT_NEAR(std::abs(robot.pose_ellipses[1].angle), kPi / 2, 1e-9);
+  EXPECT_NEAR(std::abs(robot.pose_ellipses[1].angle), pi / 2, 1e-9);
   ASSERT_EQ(robot.landmarks.size(), 1u);
   EXPECT_EQ(robot.landmarks[0], Eigen::Vector2d(3, 4));
   ASSERT_EQ(robot.landmark_ellipses.size(), 1u);

@@ -12,14 +12,10 @@
 #include <string>
 
 #include "tests/testing/datasets.h"
+#include "tests/testing/files.h"
 
 namespace slamd::clients::plot {
 namespace {
-
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
 
 // An L-shaped trajectory from (0, 0) to (100, 0) to (100, 50), a landmark and an ellipse.
 PlotScene LScene() {
@@ -110,7 +106,7 @@ TEST(RenderTest, PngHasRequestedSizeTrajectoryAndBackgroundMargins) {
   for (const auto& [w, h] : {std::pair{1200, 900}, std::pair{640, 480}}) {
     const std::string path = testing::WriteTempFile("plot.png", "");
     ASSERT_TRUE(RenderScene(scene, path, {.width = w, .height = h}).ok());
-    EXPECT_EQ(ReadAll(path).substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+    EXPECT_EQ(testing::ReadFileBytes(path).substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
     const Image img = ReadPng(path);
     ASSERT_EQ(img.status, CAIRO_STATUS_SUCCESS);
     EXPECT_EQ(img.width, w);
@@ -153,7 +149,7 @@ TEST(RenderTest, EmptySceneRenders) {
 TEST(RenderTest, SvgHasRequestedSize) {
   const std::string path = testing::WriteTempFile("plot.svg", "");
   ASSERT_TRUE(RenderScene(LScene(), path, {.width = 800, .height = 600, .format = PlotFormat::kSvg}).ok());
-  const std::string svg = ReadAll(path);
+  const std::string svg = testing::ReadFileBytes(path);
   const std::size_t tag = svg.find("<svg");
   ASSERT_NE(tag, std::string::npos);
   const std::string head = svg.substr(tag, svg.find('>', tag) - tag);
@@ -164,7 +160,7 @@ TEST(RenderTest, SvgHasRequestedSize) {
 TEST(RenderTest, PdfStartsWithSignature) {
   const std::string path = testing::WriteTempFile("plot.pdf", "");
   ASSERT_TRUE(RenderScene(LScene(), path, {.format = PlotFormat::kPdf}).ok());
-  const std::string pdf = ReadAll(path);
+  const std::string pdf = testing::ReadFileBytes(path);
   EXPECT_EQ(pdf.substr(0, 5), "%PDF-");
   EXPECT_NE(pdf.find("/MediaBox [ 0 0 1200 900 ]"), std::string::npos);
 }

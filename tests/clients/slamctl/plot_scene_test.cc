@@ -18,7 +18,7 @@
 namespace slamd::clients::plot {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
+using std::numbers::pi;
 
 Eigen::Matrix2d Rot(double angle) {
   Eigen::Matrix2d R;
@@ -28,22 +28,24 @@ Eigen::Matrix2d Rot(double angle) {
 
 TEST(CovarianceEllipseTest, RotatedDiagonal) {
   // Σ = R(30°) diag(4, 1) R(30°)ᵀ: 3σ semi-axes 3·2 and 3·1, the major one at 30°.
-  const Eigen::Matrix2d cov = Rot(kPi / 6) * Eigen::Vector2d(4.0, 1.0).asDiagonal() * Rot(kPi / 6).transpose();
+  const Eigen::Matrix2d cov =
+      Rot(pi / 6) * Eigen::Vector2d(4.0, 1.0).asDiagonal() * Rot(pi / 6).transpose();
   const Ellipse e = CovarianceEllipse({1.0, 2.0}, cov, 3.0);
   EXPECT_NEAR(e.semi_major, 6.0, 1e-12);
   EXPECT_NEAR(e.semi_minor, 3.0, 1e-12);
-  EXPECT_NEAR(e.angle, kPi / 6, 1e-12);
+  EXPECT_NEAR(e.angle, pi / 6, 1e-12);
   EXPECT_EQ(e.center, Eigen::Vector2d(1.0, 2.0));
 }
 
 TEST(CovarianceEllipseTest, AngleFoldedIntoHalfOpenRange) {
-  const Eigen::Matrix2d cov = Rot(2 * kPi / 3) * Eigen::Vector2d(9.0, 4.0).asDiagonal() * Rot(2 * kPi / 3).transpose();
+  const Eigen::Matrix2d cov =
+      Rot(2 * pi / 3) * Eigen::Vector2d(9.0, 4.0).asDiagonal() * Rot(2 * pi / 3).transpose();
   const Ellipse e = CovarianceEllipse({0.0, 0.0}, cov, 1.0);
   EXPECT_NEAR(e.semi_major, 3.0, 1e-12);
   EXPECT_NEAR(e.semi_minor, 2.0, 1e-12);
-  EXPECT_NEAR(e.angle, -kPi / 3, 1e-12);  // 120° is the same axis as −60°
+  EXPECT_NEAR(e.angle, -pi / 3, 1e-12);  // 120° is the same axis as −60°
   const Ellipse vertical = CovarianceEllipse({0.0, 0.0}, Eigen::Vector2d(1.0, 4.0).asDiagonal(), 1.0);
-  EXPECT_NEAR(vertical.angle, kPi / 2, 1e-12);
+  EXPECT_NEAR(vertical.angle, pi / 2, 1e-12);
 }
 
 TEST(CovarianceEllipseTest, SingularCovarianceGivesFlatEllipse) {
@@ -53,7 +55,7 @@ TEST(CovarianceEllipseTest, SingularCovarianceGivesFlatEllipse) {
   EXPECT_NEAR(e.semi_major, 3.0 * std::sqrt(2.0), 1e-9);
   EXPECT_GE(e.semi_minor, 0.0);
   EXPECT_LT(e.semi_minor, 1e-6);
-  EXPECT_NEAR(e.angle, kPi / 4, 1e-9);
+  EXPECT_NEAR(e.angle, pi / 4, 1e-9);
 }
 
 TEST(EllipseTest, BoundsAreTight) {
@@ -61,7 +63,7 @@ TEST(EllipseTest, BoundsAreTight) {
   // Reference: sample the boundary densely.
   Eigen::Vector2d lo(1e9, 1e9), hi(-1e9, -1e9);
   for (int k = 0; k < 100000; ++k) {
-    const double t = 2 * kPi * k / 100000;
+    const double t = 2 * pi * k / 100000;
     const Eigen::Vector2d p = e.center + Rot(e.angle) * Eigen::Vector2d(5.0 * std::cos(t), 2.0 * std::sin(t));
     lo = lo.cwiseMin(p);
     hi = hi.cwiseMax(p);
@@ -96,7 +98,7 @@ Eigen::Matrix<double, D, D> RandomCovariance(std::mt19937* rng) {
 
 TEST(WorldXyCovarianceTest, Pose2RotatesBodyTranslationIntoWorld) {
   // At θ = 90° the body x axis is world y: diag(4, 1) in the body is diag(1, 4) in the world.
-  const core::Pose2 X(3.0, 4.0, kPi / 2);
+  const core::Pose2 X(3.0, 4.0, pi / 2);
   const Eigen::Matrix3d body = Eigen::Vector3d(4.0, 1.0, 0.5).asDiagonal();
   const Eigen::Matrix2d world = core::PlanarCovariance(X, body);
   EXPECT_NEAR((world - Eigen::Matrix2d(Eigen::Vector2d(1.0, 4.0).asDiagonal())).norm(), 0.0, 1e-12) << world;

@@ -14,17 +14,13 @@
 #include "server/snapshot/state_codec.h"
 #include "tests/clients/slamctl/slamctl_runner.h"
 #include "tests/testing/datasets.h"
+#include "tests/testing/files.h"
 
 namespace slamd::clients {
 namespace {
 
 using testing::RunSlamctl;
 using testing::SlamctlRun;
-
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
 
 // Width and height of a PNG file as Cairo reads it (0, 0 if unreadable).
 std::pair<int, int> PngSize(const std::string& path) {
@@ -68,7 +64,7 @@ TEST(PlotTest, SvgOfRequestedSize) {
   const SlamctlRun r =
       RunSlamctl("plot " + testing::TestDataPath("small_slam2d.g2o") + " --size 800x500 -o " + out);
   ASSERT_EQ(r.exit_code, 0) << r.out;
-  const std::string svg = ReadAll(out);
+  const std::string svg = testing::ReadFileBytes(out);
   const std::size_t tag = svg.find("<svg");
   ASSERT_NE(tag, std::string::npos);
   const std::string head = svg.substr(tag, svg.find('>', tag) - tag);
@@ -83,7 +79,7 @@ TEST(PlotTest, ThreeDimensionalAndTwoRobotsToPdf) {
                                   data3d + " --optimize --covariances -o " + out);
   ASSERT_EQ(r.exit_code, 0) << r.out;
   EXPECT_NE(r.out.find("9 poses, 2 landmarks, 2 loop closures"), std::string::npos) << r.out;
-  EXPECT_EQ(ReadAll(out).substr(0, 5), "%PDF-");
+  EXPECT_EQ(testing::ReadFileBytes(out).substr(0, 5), "%PDF-");
   // --format overrides the extension.
   const std::string forced = testing::WriteTempFile("forced.out", "");
   const SlamctlRun f = RunSlamctl("plot " + data3d + " --format png -o " + forced);

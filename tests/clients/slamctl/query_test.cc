@@ -7,24 +7,19 @@
 namespace slamd::clients {
 namespace {
 
+using testing::ExpectUsageError;
 using testing::RunSlamctl;
 
-void ExpectUsage(const std::string& args, const std::string& message) {
-  const testing::SlamctlRun run = RunSlamctl("query " + args);
-  EXPECT_EQ(run.exit_code, 2) << args << "\n" << run.out;
-  EXPECT_NE(run.out.find(message), std::string::npos) << args << "\n" << run.out;
-}
-
 TEST(QueryCommandTest, ArgumentErrorsExit2) {
-  ExpectUsage("", "give at least one KEY");
-  ExpectUsage("x12", "key 'x12': no robot");
-  ExpectUsage("bot:y3", "no x or l index");
-  ExpectUsage("bot:x1a", "index is not a number");
-  ExpectUsage("'bad name:x1'", "robot name");
-  ExpectUsage("--joint a:x1 a:x2 a:x3 a:x4 a:x5 a:x6 a:x7 a:x8 a:x9 a:x10 a:x11",
-              "--joint takes at most 10 keys");
-  ExpectUsage("--map 'a b'", "--map 'a b'");
-  ExpectUsage("a:x1 --timeout 0", "--timeout");
+  ExpectUsageError("query", "", "give at least one KEY");
+  ExpectUsageError("query", "x12", "key 'x12': no robot");
+  ExpectUsageError("query", "bot:y3", "no x or l index");
+  ExpectUsageError("query", "bot:x1a", "index is not a number");
+  ExpectUsageError("query", "'bad name:x1'", "robot name");
+  ExpectUsageError("query", "--joint a:x1 a:x2 a:x3 a:x4 a:x5 a:x6 a:x7 a:x8 a:x9 a:x10 a:x11",
+                   "--joint takes at most 10 keys");
+  ExpectUsageError("query", "--map 'a b'", "--map 'a b'");
+  ExpectUsageError("query", "a:x1 --timeout 0", "--timeout");
 }
 
 TEST(QueryCommandTest, NoReplyExits1) {

@@ -11,29 +11,27 @@
 namespace slamd::clients {
 namespace {
 
+using testing::ExpectUsageError;
 using testing::RunSlamctl;
 
 const std::string kData = testing::TestDataPath("small_slam2d.g2o");
 
-void ExpectUsage(const std::string& args, const std::string& message) {
-  const testing::SlamctlRun run = RunSlamctl("replay " + args);
-  EXPECT_EQ(run.exit_code, 2) << args << "\n" << run.out;
-  EXPECT_NE(run.out.find(message), std::string::npos) << args << "\n" << run.out;
-}
-
 TEST(ReplayCommandTest, ArgumentErrorsExit2WithAHelpfulMessage) {
-  ExpectUsage("", "source is required");
-  ExpectUsage("/nonexistent.g2o", "does not exist");
-  ExpectUsage(kData + " --fast --lockstep", "choose one of --rate, --fast and --lockstep");
-  ExpectUsage(kData + " --rate 10 --fast", "choose one of");
-  ExpectUsage(kData + " --rate -1", "--rate");
-  ExpectUsage(kData + " --robot a --robot b", "--robot given 2 times for 1 datasets");
-  ExpectUsage(kData + " " + kData, "two datasets are both robot 'small_slam2d'");
-  ExpectUsage(kData + " --robot 'bad name'", "robot name 'bad name'");
-  ExpectUsage(kData + " --speed 2", "--speed scales LCM log time");
-  ExpectUsage(kData + " --channels 'X.*'", "--channels selects channels of an LCM log");
-  ExpectUsage(kData + " --window 0", "--window must be >= 1");
-  ExpectUsage(kData + " --channel-prefix 'a-b'", "--channel-prefix 'a-b'");
+  ExpectUsageError("replay", "", "source is required");
+  ExpectUsageError("replay", "/nonexistent.g2o", "does not exist");
+  ExpectUsageError("replay", kData + " --fast --lockstep",
+                   "choose one of --rate, --fast and --lockstep");
+  ExpectUsageError("replay", kData + " --rate 10 --fast", "choose one of");
+  ExpectUsageError("replay", kData + " --rate -1", "--rate");
+  ExpectUsageError("replay", kData + " --robot a --robot b",
+                   "--robot given 2 times for 1 datasets");
+  ExpectUsageError("replay", kData + " " + kData, "two datasets are both robot 'small_slam2d'");
+  ExpectUsageError("replay", kData + " --robot 'bad name'", "robot name 'bad name'");
+  ExpectUsageError("replay", kData + " --speed 2", "--speed scales LCM log time");
+  ExpectUsageError("replay", kData + " --channels 'X.*'",
+                   "--channels selects channels of an LCM log");
+  ExpectUsageError("replay", kData + " --window 0", "--window must be >= 1");
+  ExpectUsageError("replay", kData + " --channel-prefix 'a-b'", "--channel-prefix 'a-b'");
 }
 
 TEST(ReplayCommandTest, LogsAreDetectedByContentNotByName) {
@@ -42,12 +40,13 @@ TEST(ReplayCommandTest, LogsAreDetectedByContentNotByName) {
   std::stringstream text;
   text << in.rdbuf();
   const std::string fake_log = testing::WriteTempFile("looks_like.lcm", text.str());
-  ExpectUsage(fake_log + " --channels 'X.*'", "--channels selects channels of an LCM log");
+  ExpectUsageError("replay", fake_log + " --channels 'X.*'",
+                   "--channels selects channels of an LCM log");
   // A real log (sync word 0xEDA1DA01) is refused next to a dataset.
   const std::string log =
       testing::WriteTempFile("recorded.g2o", std::string("\xED\xA1\xDA\x01", 4));
-  ExpectUsage(log + " " + kData, "mix of LCM logs and datasets");
-  ExpectUsage(log + " --robot a", "--robot names dataset robots");
+  ExpectUsageError("replay", log + " " + kData, "mix of LCM logs and datasets");
+  ExpectUsageError("replay", log + " --robot a", "--robot names dataset robots");
 }
 
 TEST(ReplayCommandTest, UnreadableInterRobotFileOrNoServerExit1) {

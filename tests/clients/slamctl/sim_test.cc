@@ -3,51 +3,31 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include <atomic>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <string>
 
 #include "core/io/dataset.h"
 #include "tests/clients/slamctl/slamctl_runner.h"
+#include "tests/testing/files.h"
 
 namespace slamd::clients {
 namespace {
 
 namespace fs = std::filesystem;
 
+using testing::ReadFileBytes;
 using testing::RunSlamctl;
 using testing::SlamctlRun;
 
 // A path for a directory the command creates; removed at the end of the scope.
-class TempDir {
+class SimOutputDir : public testing::TempDir {
  public:
-  TempDir() {
-    static std::atomic<int> counter{0};
-    path_ = ::testing::TempDir() + "slamd_simcli_" + std::to_string(::getpid()) + "_" +
-            std::to_string(counter++);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const std::string& path() const { return path_; }
-  std::string File(const std::string& name) const { return path_ + "/" + name; }
-
- private:
-  std::string path_;
+  SimOutputDir() : testing::TempDir("slamd_simcli_", /*create=*/false) {}
 };
 
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 TEST(SimTest, SameSeedSameFiles) {
-  TempDir a, b, c;
+  SimOutputDir a, b, c;
   const std::string args = "sim landmarks --steps 120 --outliers 0.2 --loop-probability 0.8";
   const SlamctlRun ra = RunSlamctl(args + " --seed 5 -o " + a.path());
   ASSERT_EQ(ra.exit_code, 0) << ra.out;
@@ -57,9 +37,9 @@ TEST(SimTest, SameSeedSameFiles) {
   for (const char* f : {"world.g2o", "world.isam", "world_groundtruth.g2o",
                         "world_bearing_range.txt", "outliers.txt"}) {
     ASSERT_TRUE(fs::exists(a.File(f))) << f;
-    EXPECT_EQ(ReadAll(a.File(f)), ReadAll(b.File(f))) << f;
+    EXPECT_EQ(ReadFileBytes(a.File(f)), ReadFileBytes(b.File(f))) << f;
   }
-  EXPECT_NE(ReadAll(a.File("world.g2o")), ReadAll(c.File("world.g2o")));
+  EXPECT_NE(ReadFileBytes(a.File("world.g2o")), ReadFileBytes(c.File("world.g2o")));
   core::Result<core::Dataset> d = core::ReadDataset(a.File("world.g2o"));
   ASSERT_TRUE(d.ok()) << d.status().ToString();
   EXPECT_EQ(d.value().poses.size(), 120u);
@@ -67,7 +47,7 @@ TEST(SimTest, SameSeedSameFiles) {
 
 TEST(SimTest, EveryWorldAndSeveralRobots) {
   for (const char* world : {"manhattan", "sphere", "helix"}) {
-    TempDir dir;
+    SimOutputDir dir;
     const SlamctlRun r =
         RunSlamctl(std::string("sim ") + world + " --steps 64 --robots 2 -o " + dir.path());
     ASSERT_EQ(r.exit_code, 0) << r.out;
@@ -75,16 +55,16 @@ TEST(SimTest, EveryWorldAndSeveralRobots) {
                           "robot1_groundtruth.g2o", "inter_robot.txt", "outliers.txt"}) {
       EXPECT_TRUE(fs::exists(dir.File(f))) << world << " " << f;
     }
-    EXPECT_EQ(ReadAll(dir.File("inter_robot.txt")).rfind("# slamctl sim", 0), 0u);
+    EXPECT_EQ(ReadFileBytes(dir.File("inter_robot.txt")).rfind("# slamctl sim", 0), 0u);
   }
   // An existing directory is fine (files are overwritten).
-  TempDir dir;
+  SimOutputDir dir;
   ASSERT_EQ(RunSlamctl("sim manhattan --steps 10 -o " + dir.path()).exit_code, 0);
   EXPECT_EQ(RunSlamctl("sim manhattan --steps 10 -o " + dir.path()).exit_code, 0);
 }
 
 TEST(SimTest, BadArgumentsExit2NamingTheOption) {
-  TempDir dir;
+  SimOutputDir dir;
   const struct {
     std::string args;
     std::string expected;

@@ -6,16 +6,16 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include <atomic>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <set>
-#include <sstream>
 
 #include "core/batch/batch_solver.h"
 #include "core/factors/between_factor.h"
 #include "core/io/dataset.h"
+#include "tests/testing/files.h"
+#include "tests/testing/read_dataset.h"
 
 namespace slamd::clients::sim {
 namespace {
@@ -26,32 +26,9 @@ using core::MakeKey;
 using core::Pose2;
 using core::Pose3;
 
-// A fresh directory, removed with everything in it at the end of the scope.
-class TempDir {
- public:
-  TempDir() {
-    static std::atomic<int> counter{0};
-    path_ = ::testing::TempDir() + "slamd_sim_" + std::to_string(::getpid()) + "_" +
-            std::to_string(counter++);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const std::string& path() const { return path_; }
-  std::string File(const std::string& name) const { return path_ + "/" + name; }
-
- private:
-  std::string path_;
-};
-
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using testing::MustReadDataset;
+using testing::ReadFileBytes;
+using testing::TempDir;
 
 SimWorld MustGenerate(const SimParams& params) {
   core::Result<SimWorld> world = Generate(params);
@@ -66,14 +43,8 @@ std::vector<std::string> MustWrite(const SimWorld& world, const TempDir& dir) {
   return written;
 }
 
-Dataset MustRead(const std::string& path) {
-  core::Result<Dataset> d = core::ReadDataset(path);
-  EXPECT_TRUE(d.ok()) << d.status().ToString();
-  return d.ok() ? std::move(d).value() : Dataset{};
-}
-
 // The ground truth as read back from the *_groundtruth.g2o file.
-core::Values TruthFromFile(const std::string& path) { return MustRead(path).initial; }
+core::Values TruthFromFile(const std::string& path) { return MustReadDataset(path).initial; }
 
 SimParams Small(WorldKind kind) {
   SimParams p;
@@ -97,10 +68,12 @@ TEST(SimWorld, SameSeedSameBytesOtherSeedOtherBytes) {
     MustWrite(MustGenerate(p), c);
     ASSERT_GE(files.size(), 3u);
     for (const std::string& f : files) {
-      EXPECT_EQ(ReadAll(a.File(f)), ReadAll(b.File(f))) << WorldKindName(kind) << " " << f;
-      EXPECT_FALSE(ReadAll(a.File(f)).empty()) << f;
+      EXPECT_EQ(ReadFileBytes(a.File(f)), ReadFileBytes(b.File(f)))
+          << WorldKindName(kind) << " " << f;
+      EXPECT_FALSE(ReadFileBytes(a.File(f)).empty()) << f;
     }
-    EXPECT_NE(ReadAll(a.File("world.g2o")), ReadAll(c.File("world.g2o"))) << WorldKindName(kind);
+    EXPECT_NE(ReadFileBytes(a.File("world.g2o")), ReadFileBytes(c.File("world.g2o")))
+        << WorldKindName(kind);
   }
 }
 
@@ -111,7 +84,7 @@ TEST(SimWorld, ReadsBackWithTheExpectedCounts) {
     MustWrite(w, dir);
     std::size_t loops = 0;
     for (const SimEdge& e : w.edges) loops += e.kind == SimEdge::Kind::kLoop;
-    const Dataset d = MustRead(dir.File("world.g2o"));
+    const Dataset d = MustReadDataset(dir.File("world.g2o"));
     SCOPED_TRACE(WorldKindName(kind));
     EXPECT_EQ(d.is_3d, kind == WorldKind::kSphere || kind == WorldKind::kHelix);
     EXPECT_EQ(d.poses.size(), static_cast<std::size_t>(w.params.steps));
@@ -133,7 +106,7 @@ TEST(SimWorld, ReadsBackWithTheExpectedCounts) {
     }
     if (kind == WorldKind::kLandmarks) {
       EXPECT_GT(w.landmarks.size(), 10u);
-      const Dataset isam = MustRead(dir.File("world.isam"));
+      const Dataset isam = MustReadDataset(dir.File("world.isam"));
       EXPECT_EQ(isam.format, core::DatasetFormat::kIsam);
       EXPECT_EQ(isam.graph.size(), d.graph.size());
       EXPECT_EQ(isam.landmarks, d.landmarks);
@@ -169,9 +142,9 @@ TEST(SimWorld, NoiselessMeasurementsMatchTheGroundTruth) {
       MustWrite(w, dir);
       SCOPED_TRACE(std::string(WorldKindName(kind)) + (noise_free_flag ? " noise-free" : " zero"));
       const core::Values truth = TruthFromFile(dir.File("world_groundtruth.g2o"));
-      ExpectConsistent(MustRead(dir.File("world.g2o")).graph, truth, 1e-9);
+      ExpectConsistent(MustReadDataset(dir.File("world.g2o")).graph, truth, 1e-9);
       if (kind == WorldKind::kLandmarks) {
-        ExpectConsistent(MustRead(dir.File("world.isam")).graph, truth, 1e-9);
+        ExpectConsistent(MustReadDataset(dir.File("world.isam")).graph, truth, 1e-9);
       }
     }
   }
@@ -264,7 +237,7 @@ TEST(SimWorld, OutliersFileListsTheWrongLoopClosures) {
     SCOPED_TRACE(WorldKindName(kind));
     EXPECT_EQ(listed.size(), static_cast<std::size_t>(std::llround(0.3 * loops)));
     EXPECT_GT(listed.size(), 20u);
-    const Dataset d = MustRead(dir.File("world.g2o"));
+    const Dataset d = MustReadDataset(dir.File("world.g2o"));
     const core::Values truth = TruthFromFile(dir.File("world_groundtruth.g2o"));
     std::set<int> outliers;
     for (const OutlierLine& o : listed) {
@@ -298,7 +271,7 @@ TEST(SimWorld, SeveralRobotsWriteOneFilePerRobotAndInterRobotClosures) {
     std::vector<core::Values> truth;
     for (int k = 0; k < 3; ++k) {
       const std::string name = "robot" + std::to_string(k);
-      const Dataset d = MustRead(dir.File(name + ".g2o"));
+      const Dataset d = MustReadDataset(dir.File(name + ".g2o"));
       EXPECT_EQ(d.poses.size(), static_cast<std::size_t>(p.steps));
       truth.push_back(TruthFromFile(dir.File(name + "_groundtruth.g2o")));
       if (kind == WorldKind::kLandmarks) {

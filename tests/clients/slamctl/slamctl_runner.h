@@ -1,7 +1,9 @@
 // Test helper: runs the slamctl binary (SLAMCTL_PATH) with arguments and captures its exit code
-// and output (stdout and stderr together, or stdout alone).
+// and output (stdout and stderr together, or stdout alone); ExpectUsageError checks that a
+// command's arguments are refused.
 #pragma once
 
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 
 #include <array>
@@ -29,6 +31,14 @@ inline SlamctlRun RunSlamctl(const std::string& args, bool merge_stderr = true) 
   const int status = pclose(pipe);
   run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return run;
+}
+
+// Expects `slamctl <command> <args>` to exit 2 (a usage error) with `message` in its output.
+inline void ExpectUsageError(const std::string& command, const std::string& args,
+                             const std::string& message) {
+  const SlamctlRun run = RunSlamctl(command + " " + args);
+  EXPECT_EQ(run.exit_code, 2) << command << " " << args << "\n" << run.out;
+  EXPECT_NE(run.out.find(message), std::string::npos) << command << " " << args << "\n" << run.out;
 }
 
 }  // namespace slamd::testing

@@ -7,7 +7,8 @@
 namespace slamd::core {
 namespace {
 
-const Key kX = MakeKey('x', 0), kL = MakeKey('l', 0);
+using testing::kL;
+using testing::kX;
 
 TEST(BearingRangeFactorTest, ZeroErrorForConsistentMeasurement) {
   // A pose at the origin facing +y sees (−1, 1) at 45° to its left... i.e. bearing +π/4, range √2.

@@ -12,7 +12,9 @@
 namespace slamd::core {
 namespace {
 
-const Key kX = MakeKey('x', 0), kY = MakeKey('x', 1), kL = MakeKey('l', 0);
+using testing::kL;
+using testing::kX;
+const Key kY = MakeKey('x', 1);
 
 // A prediction is where the factor's error vanishes.
 void ExpectZeroError(const Factor& f, const Variable& a, const Variable& b) {

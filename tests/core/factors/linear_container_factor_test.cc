@@ -4,12 +4,15 @@
 
 #include <random>
 
+#include "tests/testing/factor_testing.h"
 #include "tests/testing/random_values.h"
 
 namespace slamd::core {
 namespace {
 
-const Key kX = MakeKey('x', 0), kL = MakeKey('l', 0), kC = MakeKey('c', 0);
+using testing::kL;
+using testing::kX;
+const Key kC = MakeKey('c', 0);
 
 struct Made {
   std::vector<Variable> x0;

@@ -7,7 +7,7 @@
 namespace slamd::core {
 namespace {
 
-const Key kX = MakeKey('x', 0);
+using testing::kX;
 
 TEST(PositionPriorFactorTest, IgnoresOrientation) {
   PositionPriorFactor<Pose2> f(kX, Point2(1, 2), NoiseModel::Unit(2));

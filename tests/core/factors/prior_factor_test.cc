@@ -7,7 +7,7 @@
 namespace slamd::core {
 namespace {
 
-const Key kX = MakeKey('x', 0);
+using testing::kX;
 
 TEST(PriorFactorTest, JacobiansMatchNumericalForEveryType) {
   std::mt19937 rng(21);

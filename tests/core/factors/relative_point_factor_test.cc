@@ -7,7 +7,8 @@
 namespace slamd::core {
 namespace {
 
-const Key kX = MakeKey('x', 0), kL = MakeKey('l', 0);
+using testing::kL;
+using testing::kX;
 
 TEST(RelativePointFactorTest, ErrorIsLandmarkInPoseFrameMinusMeasurement) {
   RelativePointFactor<Pose2, Point2> f(kX, kL, Point2(1, 0), NoiseModel::Unit(2));

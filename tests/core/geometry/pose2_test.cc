@@ -21,7 +21,7 @@ double RelDiff(const Eigen::MatrixXd& actual, const Eigen::MatrixXd& expected) {
   return testing::MaxRelDiff(actual, expected);
 }
 
-constexpr double kTol = 1e-7;
+constexpr double kPose2Tol = 1e-7;
 
 class Pose2Test : public ::testing::Test {
  protected:
@@ -71,18 +71,18 @@ TEST_F(Pose2Test, ComposeBetweenInverseJacobians) {
     Matrix3 H1, H2;
     a.Compose(b, &H1, &H2);
     EXPECT_LT(RelDiff(H1, NumericalJacobianRight([&](const Pose2& x) { return x.Compose(b); }, a)),
-              kTol);
+              kPose2Tol);
     EXPECT_LT(RelDiff(H2, NumericalJacobianRight([&](const Pose2& x) { return a.Compose(x); }, b)),
-              kTol);
+              kPose2Tol);
     a.Between(b, &H1, &H2);
     EXPECT_LT(RelDiff(H1, NumericalJacobianRight([&](const Pose2& x) { return x.Between(b); }, a)),
-              kTol);
+              kPose2Tol);
     EXPECT_LT(RelDiff(H2, NumericalJacobianRight([&](const Pose2& x) { return a.Between(x); }, b)),
-              kTol);
+              kPose2Tol);
     Matrix3 H;
     a.Inverse(&H);
     EXPECT_LT(RelDiff(H, NumericalJacobianRight([](const Pose2& x) { return x.Inverse(); }, a)),
-              kTol);
+              kPose2Tol);
   }
 }
 
@@ -95,19 +95,19 @@ TEST_F(Pose2Test, TransformJacobians) {
     a.TransformFrom(p, &Hx, &Hp);
     EXPECT_LT(
         RelDiff(Hx, NumericalJacobianRight([&](const Pose2& x) { return x.TransformFrom(p); }, a)),
-        kTol);
+        kPose2Tol);
     EXPECT_LT(RelDiff(Hp, NumericalJacobian([&](const Eigen::VectorXd& q)
                                                 -> Eigen::VectorXd { return a.TransformFrom(q); },
                                             p)),
-              kTol);
+              kPose2Tol);
     a.TransformTo(p, &Hx, &Hp);
     EXPECT_LT(
         RelDiff(Hx, NumericalJacobianRight([&](const Pose2& x) { return x.TransformTo(p); }, a)),
-        kTol);
+        kPose2Tol);
     EXPECT_LT(RelDiff(Hp, NumericalJacobian([&](const Eigen::VectorXd& q)
                                                 -> Eigen::VectorXd { return a.TransformTo(q); },
                                             p)),
-              kTol);
+              kPose2Tol);
   }
 }
 
@@ -130,7 +130,7 @@ TEST_F(Pose2Test, ExpLogJacobiansRandomAndSpecialAngles) {
     const Pose2 X = Pose2::Exp(xi, &H);
     EXPECT_LT(RelDiff(H, NumericalJacobianVector(
                              [](const Eigen::VectorXd& v) { return Pose2::Exp(v); }, xi)),
-              kTol);
+              kPose2Tol);
     // Log: keep the finite-difference step well inside the branch when theta is near +-pi.
     const double margin = kPi - std::abs(xi[2]);
     const double h = std::min(1e-6, margin / 10.0);
@@ -138,7 +138,7 @@ TEST_F(Pose2Test, ExpLogJacobiansRandomAndSpecialAngles) {
     const Vector3 back = Pose2::Log(X, &Hl);
     EXPECT_LT(
         RelDiff(Hl, NumericalJacobianRight([](const Pose2& x) { return Pose2::Log(x); }, X, h)),
-        h < 1e-6 ? 1e-5 : kTol);
+        h < 1e-6 ? 1e-5 : kPose2Tol);
     // Log(Exp(xi)) == xi and Jr^-1 * Jr == I.
     EXPECT_LT(RelDiff(back, xi), 1e-12);
     EXPECT_LT(RelDiff(Hl * H, Matrix3::Identity()), 1e-12);
@@ -183,7 +183,7 @@ TEST_F(Pose2Test, ChartLocalJacobian) {
     EXPECT_LT(RelDiff(v, Vector3(a.x(), a.y(), a.theta())), 1e-15);
     EXPECT_LT(
         RelDiff(H, NumericalJacobianRight([](const Pose2& x) { return Pose2::ChartLocal(x); }, a)),
-        kTol);
+        kPose2Tol);
   }
 }
 

@@ -34,7 +34,7 @@ using testing::NumericalJacobian;
 using testing::NumericalJacobianRight;
 using testing::NumericalJacobianVector;
 
-constexpr double kTol = 1e-7;
+constexpr double kPose3Tol = 1e-7;
 
 Eigen::Matrix4d Hat(const Vector6& xi) {
   Eigen::Matrix4d X = Eigen::Matrix4d::Zero();
@@ -104,21 +104,21 @@ TEST_F(Pose3Test, ComposeBetweenInverseJacobians) {
     a.Compose(b, &H1, &H2);
     EXPECT_LT(
         MaxRelDiff(H1, NumericalJacobianRight([&](const Pose3& x) { return x.Compose(b); }, a)),
-        kTol);
+        kPose3Tol);
     EXPECT_LT(
         MaxRelDiff(H2, NumericalJacobianRight([&](const Pose3& x) { return a.Compose(x); }, b)),
-        kTol);
+        kPose3Tol);
     a.Between(b, &H1, &H2);
     EXPECT_LT(
         MaxRelDiff(H1, NumericalJacobianRight([&](const Pose3& x) { return x.Between(b); }, a)),
-        kTol);
+        kPose3Tol);
     EXPECT_LT(
         MaxRelDiff(H2, NumericalJacobianRight([&](const Pose3& x) { return a.Between(x); }, b)),
-        kTol);
+        kPose3Tol);
     Matrix6 H;
     a.Inverse(&H);
     EXPECT_LT(MaxRelDiff(H, NumericalJacobianRight([](const Pose3& x) { return x.Inverse(); }, a)),
-              kTol);
+              kPose3Tol);
   }
 }
 
@@ -131,21 +131,21 @@ TEST_F(Pose3Test, TransformJacobians) {
     a.TransformFrom(p, &Hx, &Hp);
     EXPECT_LT(MaxRelDiff(Hx, NumericalJacobianRight(
                                  [&](const Pose3& x) { return x.TransformFrom(p); }, a)),
-              kTol);
+              kPose3Tol);
     EXPECT_LT(MaxRelDiff(Hp, NumericalJacobian(
                                  [&](const Eigen::VectorXd& q) -> Eigen::VectorXd {
                                    return a.TransformFrom(q);
                                  },
                                  p)),
-              kTol);
+              kPose3Tol);
     a.TransformTo(p, &Hx, &Hp);
     EXPECT_LT(
         MaxRelDiff(Hx, NumericalJacobianRight([&](const Pose3& x) { return x.TransformTo(p); }, a)),
-        kTol);
+        kPose3Tol);
     EXPECT_LT(MaxRelDiff(Hp, NumericalJacobian([&](const Eigen::VectorXd& q)
                                                    -> Eigen::VectorXd { return a.TransformTo(q); },
                                                p)),
-              kTol);
+              kPose3Tol);
   }
 }
 
@@ -166,14 +166,14 @@ TEST_F(Pose3Test, ExpLogJacobiansAndRoundTrips) {
     const Pose3 X = Pose3::Exp(xi, &H);
     EXPECT_LT(MaxRelDiff(H, NumericalJacobianVector(
                                 [](const Eigen::VectorXd& v) { return Pose3::Exp(v); }, xi)),
-              kTol);
+              kPose3Tol);
     const double margin = kPi - xi.tail<3>().norm();
     const double h = std::min(1e-6, margin / 10.0);
     Matrix6 Hl;
     const Vector6 back = Pose3::Log(X, &Hl);
     EXPECT_LT(
         MaxRelDiff(Hl, NumericalJacobianRight([](const Pose3& x) { return Pose3::Log(x); }, X, h)),
-        h < 1e-6 ? 1e-5 : kTol);
+        h < 1e-6 ? 1e-5 : kPose3Tol);
     EXPECT_LT(MaxRelDiff(back, xi), 1e-10);
     EXPECT_LT(MaxRelDiff(Hl * H, Matrix6::Identity()), 1e-9);
     EXPECT_TRUE(Pose3::Exp(back).Equals(X, 1e-13));

@@ -17,7 +17,7 @@ using testing::NumericalJacobian;
 using testing::NumericalJacobianRight;
 using testing::NumericalJacobianVector;
 
-constexpr double kTol = 1e-7;
+constexpr double kRot3Tol = 1e-7;
 
 // Independent reference for Exp: Eigen's angle-axis conversion.
 Matrix3 AngleAxisMatrix(const Vector3& w) {
@@ -105,7 +105,7 @@ TEST_F(Rot3Test, ExpLogJacobians) {
     const Rot3 R = Rot3::Exp(w, &H);
     EXPECT_LT(MaxRelDiff(H, NumericalJacobianVector(
                                 [](const Eigen::VectorXd& v) { return Rot3::Exp(v); }, w)),
-              kTol);
+              kRot3Tol);
     EXPECT_LT(MaxRelDiff(H, Rot3::RightJacobian(w)), 1e-15);
     // Log: keep the finite-difference step inside the branch when the angle is near pi.
     const double margin = kPi - w.norm();
@@ -114,7 +114,7 @@ TEST_F(Rot3Test, ExpLogJacobians) {
     Rot3::Log(R, &Hl);
     EXPECT_LT(
         MaxRelDiff(Hl, NumericalJacobianRight([](const Rot3& x) { return Rot3::Log(x); }, R, h)),
-        h < 1e-6 ? 1e-5 : kTol);
+        h < 1e-6 ? 1e-5 : kRot3Tol);
     EXPECT_LT(MaxRelDiff(Hl * H, Matrix3::Identity()), 1e-10);
     EXPECT_LT(MaxRelDiff(Rot3::RightJacobianInverse(w), Hl), 1e-10);
   }
@@ -129,23 +129,23 @@ TEST_F(Rot3Test, GroupOperationsAndJacobians) {
     EXPECT_LT(MaxRelDiff((a * b).matrix(), c.matrix()), 1e-15);
     EXPECT_LT(
         MaxRelDiff(H1, NumericalJacobianRight([&](const Rot3& x) { return x.Compose(b); }, a)),
-        kTol);
+        kRot3Tol);
     EXPECT_LT(
         MaxRelDiff(H2, NumericalJacobianRight([&](const Rot3& x) { return a.Compose(x); }, b)),
-        kTol);
+        kRot3Tol);
     const Rot3 d = a.Between(b, &H1, &H2);
     EXPECT_LT(MaxRelDiff(d.matrix(), a.matrix().transpose() * b.matrix()), 1e-14);
     EXPECT_LT(
         MaxRelDiff(H1, NumericalJacobianRight([&](const Rot3& x) { return x.Between(b); }, a)),
-        kTol);
+        kRot3Tol);
     EXPECT_LT(
         MaxRelDiff(H2, NumericalJacobianRight([&](const Rot3& x) { return a.Between(x); }, b)),
-        kTol);
+        kRot3Tol);
     Matrix3 H;
     const Rot3 ai = a.Inverse(&H);
     EXPECT_TRUE((ai * a).Equals(Rot3(), 1e-14));
     EXPECT_LT(MaxRelDiff(H, NumericalJacobianRight([](const Rot3& x) { return x.Inverse(); }, a)),
-              kTol);
+              kRot3Tol);
   }
 }
 
@@ -156,21 +156,21 @@ TEST_F(Rot3Test, RotateUnrotateJacobians) {
     Matrix3 Hr, Hp;
     EXPECT_LT(MaxRelDiff(R.Rotate(p, &Hr, &Hp), R.matrix() * p), 1e-14);
     EXPECT_LT(MaxRelDiff(Hr, NumericalJacobianRight([&](const Rot3& x) { return x.Rotate(p); }, R)),
-              kTol);
+              kRot3Tol);
     EXPECT_LT(
         MaxRelDiff(
             Hp, NumericalJacobian(
                     [&](const Eigen::VectorXd& q) -> Eigen::VectorXd { return R.Rotate(q); }, p)),
-        kTol);
+        kRot3Tol);
     EXPECT_LT(MaxRelDiff(R.Unrotate(p, &Hr, &Hp), R.matrix().transpose() * p), 1e-14);
     EXPECT_LT(
         MaxRelDiff(Hr, NumericalJacobianRight([&](const Rot3& x) { return x.Unrotate(p); }, R)),
-        kTol);
+        kRot3Tol);
     EXPECT_LT(
         MaxRelDiff(
             Hp, NumericalJacobian(
                     [&](const Eigen::VectorXd& q) -> Eigen::VectorXd { return R.Unrotate(q); }, p)),
-        kTol);
+        kRot3Tol);
   }
 }
 

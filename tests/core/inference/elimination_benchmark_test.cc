@@ -99,7 +99,7 @@ double RelativeGradient(const Graph& g, const std::vector<int>& offsets, const E
 }
 
 TEST(EliminationBenchmark, M3500FullElimination) {
-  const std::string path = testing::SharedDatasetPath("input_M3500_g2o.g2o");
+  const std::string path = slamd::testing::SharedDatasetPath("input_M3500_g2o.g2o");
   SLAMD_SKIP_IF_NO_SHARED_DATASET(path);
   Graph g;
   ASSERT_TRUE(LoadM3500(path, &g));
@@ -165,7 +165,7 @@ TEST(EliminationBenchmark, M3500FullElimination) {
 // poses; the cliques of the touched variables and their ancestors are removed and re-eliminated
 // (touched variables last, CCOLAMD), orphans re-attached, wildfire back-substitution.
 TEST(EliminationBenchmark, M3500StreamOnePosePerUpdate) {
-  const std::string path = testing::SharedDatasetPath("input_M3500_g2o.g2o");
+  const std::string path = slamd::testing::SharedDatasetPath("input_M3500_g2o.g2o");
   SLAMD_SKIP_IF_NO_SHARED_DATASET(path);
   Graph g;
   ASSERT_TRUE(LoadM3500(path, &g));

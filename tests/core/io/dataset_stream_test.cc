@@ -11,6 +11,7 @@
 #include "core/factors/between_factor.h"
 #include "core/factors/prior_factor.h"
 #include "tests/testing/datasets.h"
+#include "tests/testing/read_dataset.h"
 
 namespace slamd::core {
 namespace {
@@ -18,11 +19,7 @@ namespace {
 using slamd::testing::SharedDatasetPath;
 using slamd::testing::TestDataPath;
 
-Dataset MustRead(const std::string& path, const ReadOptions& options = {}) {
-  Result<Dataset> d = ReadDataset(path, options);
-  EXPECT_TRUE(d.ok()) << d.status().ToString();
-  return d.ok() ? std::move(d).value() : Dataset{};
-}
+using testing::MustReadDataset;
 
 bool IsBetween(const Factor& f) {
   return dynamic_cast<const BetweenFactor<Pose2>*>(&f) ||
@@ -107,7 +104,7 @@ class SharedStreamTest : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(SharedStreamTest, Invariants) {
   SLAMD_SKIP_IF_NO_SHARED_DATASET(SharedDatasetPath(GetParam()));
-  const Dataset d = MustRead(SharedDatasetPath(GetParam()));
+  const Dataset d = MustReadDataset(SharedDatasetPath(GetParam()));
   ExpectStreamInvariants(d, MakeIncrementalSteps(d));
 }
 
@@ -125,7 +122,7 @@ INSTANTIATE_TEST_SUITE_P(AllFiles, SharedStreamTest,
 
 TEST(DatasetStream, VictoriaParkNonContiguousIds) {
   SLAMD_SKIP_IF_NO_SHARED_DATASET(SharedDatasetPath("victoriaPark.txt"));
-  const Dataset d = MustRead(SharedDatasetPath("victoriaPark.txt"));
+  const Dataset d = MustReadDataset(SharedDatasetPath("victoriaPark.txt"));
   const std::vector<DatasetStep> steps = MakeIncrementalSteps(d);
   ExpectStreamInvariants(d, steps);
   // Odometry always comes from the previous step's pose, even across id gaps (4 -> 6, 8 -> 10).
@@ -152,7 +149,7 @@ TEST(DatasetStream, VictoriaParkNonContiguousIds) {
 
 TEST(DatasetStream, W100ReversedEdges) {
   SLAMD_SKIP_IF_NO_SHARED_DATASET(SharedDatasetPath("w100.graph"));
-  const Dataset d = MustRead(SharedDatasetPath("w100.graph"));
+  const Dataset d = MustReadDataset(SharedDatasetPath("w100.graph"));
   const std::vector<DatasetStep> steps = MakeIncrementalSteps(d);
   ExpectStreamInvariants(d, steps);
   EXPECT_EQ(steps[0].odometry, nullptr);
@@ -168,7 +165,7 @@ TEST(DatasetStream, W100ReversedEdges) {
 }
 
 TEST(DatasetStream, SmallFileStepByStep) {
-  const Dataset d = MustRead(TestDataPath("small_slam2d.g2o"));
+  const Dataset d = MustReadDataset(TestDataPath("small_slam2d.g2o"));
   const std::vector<DatasetStep> steps = MakeIncrementalSteps(d);
   ExpectStreamInvariants(d, steps);
   ASSERT_EQ(steps.size(), 5u);
@@ -197,7 +194,7 @@ TEST(DatasetStream, SmallFileStepByStep) {
 }
 
 TEST(DatasetStream, LandmarkOnlyFactorsAndUnobservedLandmarks) {
-  Dataset d = MustRead(TestDataPath("small_slam2d.g2o"));
+  Dataset d = MustReadDataset(TestDataPath("small_slam2d.g2o"));
   const Key l7 = MakeKey('l', 7), l9 = MakeKey('l', 9);
   d.graph.Emplace<PriorFactor<Point2>>(l7, Point2(0, 0), NoiseModel::Unit(2));  // factor 8
   ASSERT_TRUE(d.initial.Insert(l9, Point2(4, 4)).ok());

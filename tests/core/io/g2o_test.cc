@@ -11,6 +11,7 @@
 #include "core/io/dataset.h"
 #include "tests/testing/datasets.h"
 #include "tests/testing/factor_examples.h"
+#include "tests/testing/read_dataset.h"
 
 namespace slamd::core {
 namespace {
@@ -20,11 +21,7 @@ using slamd::testing::TestDataPath;
 using slamd::testing::WriteTempFile;
 using ::testing::HasSubstr;
 
-Dataset MustRead(const std::string& path, const ReadOptions& options = {}) {
-  Result<Dataset> d = ReadDataset(path, options);
-  EXPECT_TRUE(d.ok()) << d.status().ToString();
-  return d.ok() ? std::move(d).value() : Dataset{};
-}
+using testing::MustReadDataset;
 
 // The measurement of a factor the writer supports, as a Variable.
 Variable Measured(const Factor& f) {
@@ -61,14 +58,14 @@ void ExpectSameDataset(const Dataset& a, const Dataset& b, double tol) {
 void ExpectRoundTrip(const Dataset& d) {
   const std::string path = WriteTempFile("round_trip.g2o", "");
   ASSERT_TRUE(WriteG2o(d, path).ok());
-  const Dataset back = MustRead(path);
+  const Dataset back = MustReadDataset(path);
   EXPECT_EQ(back.format, DatasetFormat::kG2o);
   ExpectSameDataset(d, back, 1e-12);
 }
 
 TEST(G2oRead, Information2dUpperTriangleRowMajor) {
   const Dataset d =
-      MustRead(WriteTempFile("info.g2o", "EDGE_SE2 0 1 1 2 0.5 110 1.2 1.3 220 2.3 330\n"));
+      MustReadDataset(WriteTempFile("info.g2o", "EDGE_SE2 0 1 1 2 0.5 110 1.2 1.3 220 2.3 330\n"));
   Eigen::Matrix3d omega;
   omega << 110, 1.2, 1.3, 1.2, 220, 2.3, 1.3, 2.3, 330;
   const Eigen::MatrixXd info = d.graph[0]->noise_model().Information();
@@ -91,7 +88,7 @@ TEST(G2oRead, Information3dInTranslationRotationOrder) {
       text += std::to_string(omega(r, c));
     }
   }
-  const Dataset d = MustRead(WriteTempFile("info3.g2o", text + "\n"));
+  const Dataset d = MustReadDataset(WriteTempFile("info3.g2o", text + "\n"));
   ASSERT_EQ(d.graph.size(), 1u);
   const Eigen::MatrixXd info = d.graph[0]->noise_model().Information();
   for (int r = 0; r < 6; ++r) {
@@ -107,7 +104,8 @@ TEST(G2oRead, Information3dInTranslationRotationOrder) {
 }
 
 TEST(G2oRead, FixLinesAreRecorded) {
-  const Dataset d = MustRead(WriteTempFile("fix.g2o", "FIX 0 1\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n"));
+  const Dataset d =
+      MustReadDataset(WriteTempFile("fix.g2o", "FIX 0 1\nEDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n"));
   EXPECT_EQ(d.fixed, (KeyVector{MakeKey('x', 0), MakeKey('x', 1)}));
   EXPECT_EQ(d.graph.size(), 1u);  // no factor for FIX
 }
@@ -153,29 +151,29 @@ TEST(G2oWrite, EveryFactorTypeWithAG2oFormRoundTrips) {
 }
 
 TEST(G2oWrite, RoundTrip2dWithLandmarks) {
-  Dataset d = MustRead(TestDataPath("small_slam2d.g2o"));
+  Dataset d = MustReadDataset(TestDataPath("small_slam2d.g2o"));
   d.fixed.push_back(MakeKey('x', 0));
   ExpectRoundTrip(d);
 }
 
 TEST(G2oWrite, RoundTrip3d) {
   SLAMD_SKIP_IF_NO_SHARED_DATASET(SharedDatasetPath("pose3example.txt"));
-  ExpectRoundTrip(MustRead(SharedDatasetPath("pose3example.txt")));
+  ExpectRoundTrip(MustReadDataset(SharedDatasetPath("pose3example.txt")));
   // Near-singular rotation information (README oddity 3) survives too.
-  ExpectRoundTrip(MustRead(SharedDatasetPath("parking-garage.g2o")));
+  ExpectRoundTrip(MustReadDataset(SharedDatasetPath("parking-garage.g2o")));
 }
 
 TEST(G2oWrite, RoundTripOfOtherFormats) {
   SLAMD_SKIP_IF_NO_SHARED_DATASET(SharedDatasetPath("victoriaPark.txt"));
   // Landmarks, non-contiguous pose ids, composed initial guess, iSAM sqrt-info.
-  ExpectRoundTrip(MustRead(SharedDatasetPath("victoriaPark.txt")));
+  ExpectRoundTrip(MustReadDataset(SharedDatasetPath("victoriaPark.txt")));
   // TORO information order and EQUIV (written as identity EDGE_SE2 with unit information).
-  const Dataset w100 = MustRead(SharedDatasetPath("w100.graph"));
+  const Dataset w100 = MustReadDataset(SharedDatasetPath("w100.graph"));
   ExpectRoundTrip(w100);
 }
 
 TEST(G2oWrite, FactorsWithoutG2oFormAreRejected) {
-  Dataset d = MustRead(TestDataPath("small_slam2d.g2o"));
+  Dataset d = MustReadDataset(TestDataPath("small_slam2d.g2o"));
   d.graph.Emplace<PriorFactor<Pose2>>(MakeKey('x', 0), Pose2(), NoiseModel::Unit(3));
   const std::string path = WriteTempFile("prior.g2o", "untouched");
   const Status s = WriteG2o(d, path);
@@ -188,7 +186,7 @@ TEST(G2oWrite, FactorsWithoutG2oFormAreRejected) {
 }
 
 TEST(G2oWrite, KeysAndPathsAreChecked) {
-  Dataset d = MustRead(TestDataPath("small_slam2d.g2o"));
+  Dataset d = MustReadDataset(TestDataPath("small_slam2d.g2o"));
   EXPECT_EQ(WriteG2o(d, "/nonexistent/dir/out.g2o").code(), StatusCode::kIoError);
   Dataset robot = d;
   const Key odd = MakeKey('x', 9, 'a');

@@ -15,14 +15,14 @@ namespace {
 
 using slamd::testing::WriteTempFile;
 
-Dataset MustRead(const std::string& text, const ReadOptions& options = {}) {
+Dataset MustReadIsam(const std::string& text, const ReadOptions& options = {}) {
   Result<Dataset> d = ReadDataset(WriteTempFile("isam.txt", text), options);
   EXPECT_TRUE(d.ok()) << d.status().ToString();
   return d.ok() ? std::move(d).value() : Dataset{};
 }
 
 TEST(Isam, SqrtInformationIsSquared) {
-  const Dataset d = MustRead(
+  const Dataset d = MustReadIsam(
       "ODOMETRY 0 1 1 0 0.1 1 2 3 4 5 6\n"
       "LANDMARK 1 0 2 -1 2 1 3\n");
   Eigen::Matrix3d R;
@@ -45,7 +45,7 @@ TEST(Isam, SqrtInformationIsSquared) {
 TEST(Isam, CovarianceOption) {
   ReadOptions options;
   options.isam_noise = ReadOptions::IsamNoise::kCovariance;
-  const Dataset d = MustRead(
+  const Dataset d = MustReadIsam(
       "ODOMETRY 0 1 1 0 0.1 4 1 0 9 0 16\n"
       "LANDMARK 1 0 2 -1 0.5 0.1 0.25\n",
       options);
@@ -78,7 +78,7 @@ TEST(Isam, Edge3NoiseMatchesIsamErrorToFirstOrder) {
     text += ' ';
     text += std::to_string(v);
   }
-  const Dataset d = MustRead(text + "\n");
+  const Dataset d = MustReadIsam(text + "\n");
   ASSERT_TRUE(d.is_3d);
   const auto& f = dynamic_cast<const BetweenFactor<Pose3>&>(*d.graph[0]);
   const Pose3& m = f.measured();
@@ -115,7 +115,7 @@ TEST(Isam, Edge3NoiseMatchesIsamErrorToFirstOrder) {
 }
 
 TEST(Isam, Edge3WithoutNoiseUsesUnitSqrtInformation) {
-  const Dataset d = MustRead("EDGE3 0 1 1 0 0 0 0 0\nEDGE3 2 1 1 0 0 0 0 0.5\n");
+  const Dataset d = MustReadIsam("EDGE3 0 1 1 0 0 0 0 0\nEDGE3 2 1 1 0 0 0 0 0.5\n");
   // At zero angles J = I, so Ω = I.
   EXPECT_TRUE(d.graph[0]->noise_model().Information().isApprox(Matrix6::Identity(), 1e-14));
   // Reversed edge 2 -> 1: x2 = x1 ∘ z.

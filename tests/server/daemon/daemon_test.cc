@@ -27,11 +27,12 @@
 #include "slamd/remove_factor_t.hpp"
 #include "slamd/status_t.hpp"
 #include "slamd_proto/journal.pb.h"
+#include "tests/testing/noise.h"
 
 namespace slamd::server {
 namespace {
 
-core::NoiseModel Noise(int dim, double s) { return core::NoiseModel::Isotropic(dim, s).value(); }
+using testing::Noise;
 
 slamd::odometry_t Odo(std::uint64_t from, std::uint64_t to, const std::string& robot = "r") {
   slamd::odometry_t msg;

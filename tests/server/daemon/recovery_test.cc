@@ -21,13 +21,14 @@
 #include "slamd/odometry_t.hpp"
 #include "slamd/prior_t.hpp"
 #include "slamd/reject_t.hpp"
+#include "tests/testing/noise.h"
 
 namespace slamd::server {
 namespace {
 
 namespace fs = std::filesystem;
 
-core::NoiseModel Noise(int dim, double s) { return core::NoiseModel::Isotropic(dim, s).value(); }
+using testing::Noise;
 
 class TempDir {
  public:

@@ -9,14 +9,14 @@
 #include <set>
 #include <thread>
 
+#include "tests/testing/noise.h"
+
 namespace slamd::server {
 namespace {
 
 using core::Pose2;
 
-core::NoiseModel Noise(int dim, double sigma) {
-  return core::NoiseModel::Isotropic(dim, sigma).value();
-}
+using testing::Noise;
 
 Inbound Odo(const std::string& robot, std::uint64_t from, std::uint64_t to, const Pose2& z) {
   return {OdometryMeasurement{1, robot, from, to, z, Noise(3, 0.1)}, 0};

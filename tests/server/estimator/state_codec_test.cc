@@ -11,6 +11,7 @@
 #include "server/estimator/estimator.h"
 #include "slamd_proto/snapshot.pb.h"
 #include "tests/testing/factor_examples.h"
+#include "tests/testing/noise.h"
 
 namespace slamd::server {
 namespace {
@@ -18,9 +19,7 @@ namespace {
 using core::Pose2;
 using core::Pose3;
 
-core::NoiseModel Noise(int dim, double sigma) {
-  return core::NoiseModel::Isotropic(dim, sigma).value();
-}
+using testing::Noise;
 
 Pose3 P3(double x, double yaw) {
   return Pose3(core::Rot3::FromRollPitchYaw(0.1, -0.05, yaw), core::Point3(x, 0.2, -0.1));

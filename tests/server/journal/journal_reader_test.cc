@@ -14,23 +14,14 @@
 #include "server/journal/journal_writer.h"
 #include "server/journal/read_journal.h"
 #include "slamd_proto/journal.pb.h"
+#include "tests/testing/files.h"
 
 namespace slamd::server {
 namespace {
 
 using journal::JournalRecord;
 
-std::string ReadFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
-void WriteFile(const std::string& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-}
-
-JournalRecord Message(int64_t seq, std::size_t payload_bytes, std::mt19937* rng) {
+JournalRecord LandmarkMessage(int64_t seq, std::size_t payload_bytes, std::mt19937* rng) {
   JournalRecord r;
   auto* m = r.mutable_message();
   m->set_sequence(seq);
@@ -74,14 +65,14 @@ class JournalReaderTest : public ::testing::Test {
         r.mutable_boundary()->set_last_message_sequence(i);
         r.mutable_boundary()->set_message_count(3);
       } else {
-        r = Message(i + 1, 1 + rng() % 1500, &rng);
+        r = LandmarkMessage(i + 1, 1 + rng() % 1500, &rng);
       }
       EXPECT_TRUE((*w)->Append(r).ok());
       f.records.push_back(r);
       f.offsets.push_back((*w)->offset());
     }
     EXPECT_TRUE((*w)->Close().ok());
-    f.bytes = ReadFile(path);
+    f.bytes = testing::ReadFileBytes(path);
     return f;
   }
 
@@ -99,7 +90,7 @@ void ExpectPrefix(const JournalContents& c, const Fixture& f, std::size_t k) {
 
 TEST_F(JournalReaderTest, StreamsRecordsWithOffsetsAndEndsClean) {
   const Fixture f = Make(12, 1);
-  WriteFile(path_, f.bytes);
+  testing::WriteFileBytes(path_, f.bytes);
   auto reader = JournalReader::Open(path_, {});
   ASSERT_TRUE(reader.ok()) << reader.status().ToString();
   JournalRecord r;
@@ -116,7 +107,7 @@ TEST_F(JournalReaderTest, StreamsRecordsWithOffsetsAndEndsClean) {
 }
 
 TEST_F(JournalReaderTest, EmptyJournalIsClean) {
-  WriteFile(path_, internal::EncodeJournalHeader());
+  testing::WriteFileBytes(path_, internal::EncodeJournalHeader());
   auto c = ReadJournal(path_);
   ASSERT_TRUE(c.ok());
   EXPECT_EQ(c->end, JournalReadState::kCleanEnd);
@@ -134,7 +125,7 @@ TEST_F(JournalReaderTest, TornTailAtRandomCutsThenTruncateAndAppend) {
   for (int64_t k = 0; k <= 40; ++k) cuts.push_back(f.offsets[k]);  // exact boundaries
   for (const int64_t cut : cuts) {
     SCOPED_TRACE("cut at " + std::to_string(cut));
-    WriteFile(path_, f.bytes.substr(0, cut));
+    testing::WriteFileBytes(path_, f.bytes.substr(0, cut));
     auto c = ReadJournal(path_);
     ASSERT_TRUE(c.ok()) << c.status().ToString();
     std::size_t k = 0;
@@ -185,7 +176,7 @@ TEST_F(JournalReaderTest, BitFlipInTheMiddleIsAnErrorNamingTheOffsetAndSalvageSk
                  std::to_string(bit));
     std::string bytes = f.bytes;
     bytes[byte] = static_cast<char>(bytes[byte] ^ (1 << bit));
-    WriteFile(path_, bytes);
+    testing::WriteFileBytes(path_, bytes);
 
     auto c = ReadJournal(path_);
     ASSERT_FALSE(c.ok());
@@ -221,7 +212,7 @@ TEST_F(JournalReaderTest, BitFlipInTheLastRecordIsATornTail) {
     std::string bytes = f.bytes;
     const int64_t byte = start + static_cast<int64_t>(rng() % (bytes.size() - start));
     bytes[byte] = static_cast<char>(bytes[byte] ^ (1 << (rng() % 8)));
-    WriteFile(path_, bytes);
+    testing::WriteFileBytes(path_, bytes);
     auto c = ReadJournal(path_);
     ASSERT_TRUE(c.ok()) << c.status().ToString();
     EXPECT_EQ(c->end, JournalReadState::kTornTail);
@@ -238,7 +229,7 @@ TEST_F(JournalReaderTest, SalvageSkipsSeveralRegionsIncludingInsertedGarbage) {
   bytes[f.offsets[3] + 2] ^= 0x01;      // and record 3's length
   const std::string garbage(37, '\0');  // and a hole of zeros before record 7
   bytes.insert(f.offsets[7], garbage);
-  WriteFile(path_, bytes);
+  testing::WriteFileBytes(path_, bytes);
 
   auto c = ReadJournal(path_);
   ASSERT_FALSE(c.ok());
@@ -259,7 +250,7 @@ TEST_F(JournalReaderTest, TrailingZerosOrGarbageAreATornTail) {
   const Fixture f = Make(6, 6);
   for (const std::string& tail :
        {std::string(4096, '\0'), std::string("\x05\x00\x00\x00xx", 6), std::string(3, '\xff')}) {
-    WriteFile(path_, f.bytes + tail);
+    testing::WriteFileBytes(path_, f.bytes + tail);
     auto c = ReadJournal(path_);
     ASSERT_TRUE(c.ok());
     EXPECT_EQ(c->end, JournalReadState::kTornTail);
@@ -272,14 +263,14 @@ TEST_F(JournalReaderTest, ChecksumValidButUnparseableOrKindlessRecordIsInvalid) 
   const Fixture f = Make(3, 7);
   std::string frame;
   internal::AppendJournalFrame(std::string("\x18\x01", 2), &frame);  // field 3: no kind
-  WriteFile(path_, f.bytes + frame);
+  testing::WriteFileBytes(path_, f.bytes + frame);
   auto c = ReadJournal(path_);
   ASSERT_TRUE(c.ok());
   EXPECT_EQ(c->end, JournalReadState::kTornTail);
   EXPECT_NE(c->end_reason.find("no kind"), std::string::npos) << c->end_reason;
   frame.clear();
   internal::AppendJournalFrame(std::string("\x0a\x7f", 2), &frame);  // truncated submessage
-  WriteFile(path_, f.bytes + frame);
+  testing::WriteFileBytes(path_, f.bytes + frame);
   c = ReadJournal(path_);
   ASSERT_TRUE(c.ok());
   EXPECT_NE(c->end_reason.find("does not parse"), std::string::npos) << c->end_reason;
@@ -289,7 +280,7 @@ TEST_F(JournalReaderTest, BadMagicOrVersionIsAClearErrorEvenWithSalvage) {
   const Fixture f = Make(3, 8);
   std::string bytes = f.bytes;
   bytes[7] = 'X';
-  WriteFile(path_, bytes);
+  testing::WriteFileBytes(path_, bytes);
   for (bool salvage : {false, true}) {
     auto c = ReadJournal(path_, {.salvage = salvage});
     ASSERT_FALSE(c.ok());
@@ -299,11 +290,11 @@ TEST_F(JournalReaderTest, BadMagicOrVersionIsAClearErrorEvenWithSalvage) {
   }
   bytes = f.bytes;
   bytes[8] = 2;
-  WriteFile(path_, bytes);
+  testing::WriteFileBytes(path_, bytes);
   auto c = ReadJournal(path_);
   ASSERT_FALSE(c.ok());
   EXPECT_NE(c.status().message().find("unsupported version 2"), std::string::npos);
-  WriteFile(path_, "NOTJNL");  // short and not a header prefix
+  testing::WriteFileBytes(path_, "NOTJNL");  // short and not a header prefix
   c = ReadJournal(path_);
   EXPECT_EQ(c.status().code(), core::StatusCode::kDataLoss);
   c = ReadJournal(dir_ + "/missing.jnl");
@@ -311,7 +302,7 @@ TEST_F(JournalReaderTest, BadMagicOrVersionIsAClearErrorEvenWithSalvage) {
 }
 
 TEST_F(JournalReaderTest, TruncateTornTailRejectsOffsetsOutsideTheFile) {
-  WriteFile(path_, internal::EncodeJournalHeader());
+  testing::WriteFileBytes(path_, internal::EncodeJournalHeader());
   EXPECT_EQ(TruncateTornTail(path_, 17).code(), core::StatusCode::kInvalidArgument);
   EXPECT_EQ(TruncateTornTail(path_, -1).code(), core::StatusCode::kInvalidArgument);
   EXPECT_EQ(TruncateTornTail(dir_ + "/missing", 0).code(), core::StatusCode::kIoError);

@@ -42,7 +42,7 @@ class JournalWriterTest : public ::testing::Test {
   std::string dir_, path_;
 };
 
-JournalRecord Message(int64_t seq, std::size_t payload_bytes, std::mt19937* rng) {
+JournalRecord OdometryMessage(int64_t seq, std::size_t payload_bytes, std::mt19937* rng) {
   JournalRecord r;
   auto* m = r.mutable_message();
   m->set_sequence(seq);
@@ -81,7 +81,7 @@ TEST_F(JournalWriterTest, WritesRecordsThatReadBackEqualWithTheirOffsets) {
   for (int i = 0; i < 60; ++i) {
     // Mostly small messages, one large one, a boundary every 5.
     written.push_back(i % 5 == 4 ? Boundary(i / 5 + 1, seq, 4)
-                                 : Message(++seq, i == 17 ? 300'000 : rng() % 3000, &rng));
+                                 : OdometryMessage(++seq, i == 17 ? 300'000 : rng() % 3000, &rng));
     starts.push_back(w->offset());
     auto end = w->Append(written.back());
     ASSERT_TRUE(end.ok()) << end.status().ToString();
@@ -110,7 +110,7 @@ TEST_F(JournalWriterTest, ReopenAppendsAtTheEnd) {
   {
     auto w = MustOpen(path_);
     ASSERT_TRUE(w);
-    ASSERT_TRUE(w->Append(Message(1, 100, &rng)).ok());
+    ASSERT_TRUE(w->Append(OdometryMessage(1, 100, &rng)).ok());
     end = w->offset();
   }  // destroyed without Close: the bytes are in the file anyway
   auto w = MustOpen(path_);
@@ -118,7 +118,7 @@ TEST_F(JournalWriterTest, ReopenAppendsAtTheEnd) {
   EXPECT_EQ(w->offset(), end);
   EXPECT_EQ(w->durable_offset(), end);  // Open syncs what it found
   EXPECT_EQ(w->records(), 0);
-  ASSERT_TRUE(w->Append(Message(2, 100, &rng)).ok());
+  ASSERT_TRUE(w->Append(OdometryMessage(2, 100, &rng)).ok());
   auto c = ReadJournal(path_);
   ASSERT_TRUE(c.ok());
   ASSERT_EQ(c->records.size(), 2u);
@@ -132,7 +132,7 @@ TEST_F(JournalWriterTest, RejectsRecordsWithoutKindOrTooLargeAndWritesNothing) {
   ASSERT_TRUE(w);
   auto r = w->Append(JournalRecord());
   EXPECT_EQ(r.status().code(), core::StatusCode::kInvalidArgument);
-  r = w->Append(Message(1, kJournalMaxRecordPayload, &rng));
+  r = w->Append(OdometryMessage(1, kJournalMaxRecordPayload, &rng));
   EXPECT_EQ(r.status().code(), core::StatusCode::kInvalidArgument);
   EXPECT_NE(r.status().message().find("exceeds the maximum"), std::string::npos);
   EXPECT_EQ(w->offset(), kJournalHeaderSize);
@@ -175,7 +175,7 @@ TEST_F(JournalWriterTest, NeverPolicySyncsOnlyWhenAsked) {
   auto w = MustOpen(path_, {.sync_policy = SyncPolicy::kNever});
   ASSERT_TRUE(w);
   EXPECT_EQ(w->durable_offset(), kJournalHeaderSize);
-  for (int i = 1; i <= 10; ++i) ASSERT_TRUE(w->Append(Message(i, 50, &rng)).ok());
+  for (int i = 1; i <= 10; ++i) ASSERT_TRUE(w->Append(OdometryMessage(i, 50, &rng)).ok());
   const auto now = JournalWriter::Clock::now();
   ASSERT_TRUE(w->MaybeSync(now + std::chrono::hours(1)).ok());
   EXPECT_EQ(w->durable_offset(), kJournalHeaderSize);
@@ -195,7 +195,7 @@ TEST_F(JournalWriterTest, AlwaysPolicySyncsOncePerCommitNotPerRecord) {
   ASSERT_TRUE(w);
   int64_t seq = 0;
   for (int update = 1; update <= 5; ++update) {
-    for (int i = 0; i < 7; ++i) ASSERT_TRUE(w->Append(Message(++seq, 80, &rng)).ok());
+    for (int i = 0; i < 7; ++i) ASSERT_TRUE(w->Append(OdometryMessage(++seq, 80, &rng)).ok());
     ASSERT_TRUE(w->Append(Boundary(update, seq, 7)).ok());
     EXPECT_EQ(w->durable_offset() < w->offset(), true);
     ASSERT_TRUE(w->MaybeSync(JournalWriter::Clock::now()).ok());
@@ -211,12 +211,12 @@ TEST_F(JournalWriterTest, IntervalPolicySyncsWhenTheIntervalHasPassed) {
   auto w = MustOpen(path_, {.sync_policy = SyncPolicy::kInterval, .interval_ms = 100});
   ASSERT_TRUE(w);
   const auto t0 = JournalWriter::Clock::now();  // Open's sync time is <= t0
-  ASSERT_TRUE(w->Append(Message(1, 10, &rng)).ok());
+  ASSERT_TRUE(w->Append(OdometryMessage(1, 10, &rng)).ok());
   ASSERT_TRUE(w->MaybeSync(t0 + milliseconds(200)).ok());
   EXPECT_EQ(w->sync_count(), 1);
   EXPECT_EQ(w->durable_offset(), w->offset());
 
-  ASSERT_TRUE(w->Append(Message(2, 10, &rng)).ok());
+  ASSERT_TRUE(w->Append(OdometryMessage(2, 10, &rng)).ok());
   ASSERT_TRUE(w->MaybeSync(t0 + milliseconds(250)).ok());  // 50 ms since the last sync
   EXPECT_EQ(w->sync_count(), 1);
   EXPECT_LT(w->durable_offset(), w->offset());
@@ -266,7 +266,7 @@ TEST_F(JournalWriterTest, DiskFullFailsCleanlyAndIntakeResumesWhenSpaceReturns) 
   ASSERT_TRUE(w);
   std::vector<JournalRecord> accepted;
   for (int i = 1; i <= 5; ++i) {
-    accepted.push_back(Message(i, 200, &rng));
+    accepted.push_back(OdometryMessage(i, 200, &rng));
     ASSERT_TRUE(w->Append(accepted.back()).ok());
   }
   ASSERT_TRUE(w->MaybeSync(JournalWriter::Clock::now()).ok());
@@ -277,7 +277,7 @@ TEST_F(JournalWriterTest, DiskFullFailsCleanlyAndIntakeResumesWhenSpaceReturns) 
     FileSizeLimit limit(static_cast<rlim_t>(full_at + 100));
     ASSERT_TRUE(limit.ok());
     for (int attempt = 0; attempt < 3; ++attempt) {
-      auto r = w->Append(Message(6, 1000, &rng));
+      auto r = w->Append(OdometryMessage(6, 1000, &rng));
       ASSERT_FALSE(r.ok());
       const std::string& m = r.status().message();
       EXPECT_EQ(r.status().code(), core::StatusCode::kIoError);
@@ -298,7 +298,7 @@ TEST_F(JournalWriterTest, DiskFullFailsCleanlyAndIntakeResumesWhenSpaceReturns) 
     EXPECT_EQ(c->records.size(), accepted.size());
   }
   // Space is back: the retried message goes in and the journal reads back clean.
-  accepted.push_back(Message(6, 1000, &rng));
+  accepted.push_back(OdometryMessage(6, 1000, &rng));
   auto r = w->Append(accepted.back());
   ASSERT_TRUE(r.ok()) << r.status().ToString();
   ASSERT_TRUE(w->Close().ok());

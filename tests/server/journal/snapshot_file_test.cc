@@ -9,20 +9,12 @@
 #include <random>
 #include <string>
 
+#include "tests/testing/files.h"
+
 namespace slamd::server {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string ReadFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
-void WriteFile(const std::string& path, const std::string& bytes) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-}
 
 std::string RandomBytes(std::size_t n, uint32_t seed) {
   std::mt19937 rng(seed);
@@ -106,9 +98,9 @@ TEST_F(SnapshotFileTest, InterruptedTemporaryIsIgnoredThenRemoved) {
   ASSERT_TRUE(WriteSnapshotFile(dir_, 5, "five").ok());
   // What a crash during WriteSnapshotFile(6) leaves: a half-written hidden temporary.
   const std::string temp = dir_ + "/." + SnapshotFileName(6) + ".tmp";
-  WriteFile(temp, "SLAMDSNP\x01");
-  WriteFile(dir_ + "/notes.txt", "unrelated");
-  WriteFile(dir_ + "/snapshot-12.snp", "wrong name pattern");
+  testing::WriteFileBytes(temp, "SLAMDSNP\x01");
+  testing::WriteFileBytes(dir_ + "/notes.txt", "unrelated");
+  testing::WriteFileBytes(dir_ + "/snapshot-12.snp", "wrong name pattern");
   EXPECT_EQ(Sequences(), (std::vector<int64_t>{5}));
   auto loaded = LoadNewestSnapshot(dir_);
   ASSERT_TRUE(loaded.ok());
@@ -124,13 +116,13 @@ TEST_F(SnapshotFileTest, CorruptOrTornFilesAreReportedWithPathAndReason) {
   const std::string bytes = RandomBytes(5000, 9);
   auto path = WriteSnapshotFile(dir_, 1, bytes);
   ASSERT_TRUE(path.ok());
-  const std::string good = ReadFile(*path);
+  const std::string good = testing::ReadFileBytes(*path);
   std::mt19937 rng(10);
   for (int trial = 0; trial < 50; ++trial) {  // any single bit flip after the magic is caught
     std::string b = good;
     const std::size_t at = 8 + rng() % (b.size() - 8);
     b[at] = static_cast<char>(b[at] ^ (1 << (rng() % 8)));
-    WriteFile(*path, b);
+    testing::WriteFileBytes(*path, b);
     auto r = ReadSnapshotFile(*path);
     ASSERT_FALSE(r.ok()) << "flip at " << at;
     EXPECT_EQ(r.status().code(), core::StatusCode::kDataLoss);
@@ -138,21 +130,21 @@ TEST_F(SnapshotFileTest, CorruptOrTornFilesAreReportedWithPathAndReason) {
   }
   std::string b = good;
   b[100] ^= 1;
-  WriteFile(*path, b);
+  testing::WriteFileBytes(*path, b);
   EXPECT_NE(ReadSnapshotFile(*path).status().message().find("checksum mismatch"),
             std::string::npos);
-  WriteFile(*path, good.substr(0, good.size() - 10));
+  testing::WriteFileBytes(*path, good.substr(0, good.size() - 10));
   EXPECT_NE(ReadSnapshotFile(*path).status().message().find("(torn)"), std::string::npos);
-  WriteFile(*path, good.substr(0, 20));
+  testing::WriteFileBytes(*path, good.substr(0, 20));
   EXPECT_NE(ReadSnapshotFile(*path).status().message().find("less than the 32-byte header"),
             std::string::npos);
   b = good;
   b[0] = 'X';
-  WriteFile(*path, b);
+  testing::WriteFileBytes(*path, b);
   EXPECT_NE(ReadSnapshotFile(*path).status().message().find("bad magic"), std::string::npos);
   b = good;
   b[8] = 9;
-  WriteFile(*path, b);
+  testing::WriteFileBytes(*path, b);
   EXPECT_NE(ReadSnapshotFile(*path).status().message().find("unsupported version 9"),
             std::string::npos);
   EXPECT_EQ(ReadSnapshotFile(dir_ + "/missing.snp").status().code(), core::StatusCode::kNotFound);
@@ -163,7 +155,7 @@ TEST_F(SnapshotFileTest, LoadNewestSkipsCorruptNewerSnapshots) {
   ASSERT_TRUE(WriteSnapshotFile(dir_, 1, "one", {.keep = 3}).ok());
   auto two = WriteSnapshotFile(dir_, 2, "two", {.keep = 3});
   ASSERT_TRUE(two.ok());
-  WriteFile(*two, ReadFile(*two).substr(0, 33));  // torn
+  testing::WriteFileBytes(*two, testing::ReadFileBytes(*two).substr(0, 33));  // torn
   auto loaded = LoadNewestSnapshot(dir_);
   ASSERT_TRUE(loaded.ok());
   EXPECT_EQ(loaded->info.sequence, 1);

@@ -159,14 +159,14 @@ TEST_P(TypedSubscribeTest, NullErrorCallbackDropsErrorsQuietly) {
   EXPECT_FALSE(Subscribe<slamd::odometry_t>(*bus_, "ODO", nullptr, nullptr).ok());
 }
 
-std::unique_ptr<Bus> MakeMemq() {
+std::unique_ptr<Bus> MakeMemqBus() {
   return std::move(LcmBus::Create(LcmBusParams{.url = "memq://"})).value();
 }
 
 INSTANTIATE_TEST_SUITE_P(
     Buses, TypedSubscribeTest,
     ::testing::Values(BusFactory{"InProcessBus", [] { return std::make_unique<InProcessBus>(); }},
-                      BusFactory{"LcmBusMemq", MakeMemq}),
+                      BusFactory{"LcmBusMemq", MakeMemqBus}),
     [](const auto& info) { return info.param.name; });
 
 TEST(DecodeAs, EveryPrefixOfAMessageFailsCleanly) {
