@@ -1,6 +1,8 @@
-// Estimator: turns validated measurements (server/ingest) into factors and initial guesses for
-// core::Isam2, with the stateful checks the stateless validation cannot make. The only owner of
-// the solver; single-threaded (the estimator thread), not thread-safe.
+// Estimator: turns validated measurements into factors and initial guesses for core::Isam2, each
+// by its message spec's Apply (server/messages/<type>.h) over the batch it stages (the
+// GraphBuilder, Estimator::Builder), with the stateful checks the stateless validation cannot
+// make. The only owner of the solver; called on the estimator thread only, not thread-safe (its
+// helpers: BackgroundRebuild's thread, and one that frees a replaced solver).
 //
 // Keys: pose i of robot r = MakeKey('x', i, id(r)), landmark j of robot r = MakeKey('l', j, id(r))
 // (ids from RobotRegistry). Initial guesses: a new pose = estimate(from) ∘ odometry (or

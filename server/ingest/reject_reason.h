@@ -1,6 +1,7 @@
 // RejectReason: why an inbound message was refused. The values are the wire codes of
 // reject_t.REASON_* (static_asserts in reject_reason.cc keep the two in step).
-//   1..31  stateless: found by Validate() from the message alone (validation.h)
+//   1..31  stateless: found by Validate() from the message alone (the message specs,
+//          server/messages/<type>.h)
 //   32..   stateful: found by the server against its graph, queue or history
 #pragma once
 
