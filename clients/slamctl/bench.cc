@@ -1,5 +1,5 @@
 // slamctl bench: runs a core solver on a dataset and reports time, iterations, chi2 and memory.
-// The options live here; the runners are bench_batch.cc and bench_isam2.cc.
+// The options live here; the runners are bench_batch.cc, bench_isam2.cc and bench_ba.cc.
 #include <sys/resource.h>
 
 #include <cstdio>
@@ -84,11 +84,22 @@ void RegisterBench(CLI::App& app) {
   auto opt = std::make_shared<BenchOptions>();
   CLI::App* cmd = app.add_subcommand("bench", "Run a solver offline on a dataset and report time, "
                                               "iterations, chi2 and peak memory");
-  cmd->add_option("dataset", opt->dataset, "Dataset file (g2o 2D/3D, TORO .graph, iSAM .txt)")
+  cmd->add_option("dataset", opt->dataset,
+                  "Dataset: a pose graph (g2o 2D/3D, TORO .graph, iSAM .txt) for batch and isam2; "
+                  "a BAL file or a COLMAP text model (a directory with cameras.txt, images.txt, "
+                  "points3D.txt) for ba")
       ->required()
-      ->check(CLI::ExistingFile);
-  cmd->add_option("--solver", opt->solver, "Solver to run")
-      ->check(CLI::IsMember({"batch", "isam2"}))
+      ->check(CLI::ExistingPath);
+  cmd->add_option("--solver", opt->solver,
+                  "Solver to run: batch, isam2, or ba (bundle adjustment: Levenberg-Marquardt with "
+                  "the points eliminated)")
+      ->check(CLI::IsMember({"batch", "isam2", "ba"}))
+      ->capture_default_str();
+  cmd->add_option("--linear-solver", opt->linear_solver,
+                  "ba: how the reduced camera system is solved: auto (dense for few cameras, "
+                  "sparse Cholesky, conjugate gradients for many), dense-schur, sparse-schur, "
+                  "iterative-schur")
+      ->check(CLI::IsMember({"auto", "dense-schur", "sparse-schur", "iterative-schur"}))
       ->capture_default_str();
   cmd->add_flag("--json", opt->json, "Print one JSON object instead of a human summary");
   cmd->add_option("--algorithm", opt->algorithm, "Batch algorithm: lm (Levenberg-Marquardt) or gn")
@@ -118,14 +129,18 @@ void RegisterBench(CLI::App& app) {
                   "Sigma of the prior that anchors the first pose at its initial value")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  cmd->add_option("-o,--output", opt->output, "Write the optimised graph as a g2o file");
+  cmd->add_option("-o,--output", opt->output,
+                  "Write the result: batch, isam2: the optimised graph as a g2o file; ba: a PLY "
+                  "file (*.ply: points and camera centres), a BAL file (*.bal, *.txt) or a COLMAP "
+                  "text model (any other path: a directory)");
   auto robust_spec = std::make_shared<std::string>("none");
   cmd->add_option("--robust", *robust_spec,
                   "Robust kernel KERNEL[:PARAM] on the loop closures (pose-pose between factors "
                   "that are not odometry, i.e. not |i - j| = 1 on one robot), both solvers. KERNEL: "
                   "none, huber (k, default 3), cauchy (k, default 3), gemanmcclure (k, default 3), "
                   "dcs (Phi, default 9); k is a whitened residual norm, Phi a squared one "
-                  "(core/factors/robust_kernel.h)")
+                  "(core/factors/robust_kernel.h). ba: on every observation, k in pixels "
+                  "(e.g. huber:1)")
       ->capture_default_str();
   cmd->add_option("--ground-truth", opt->ground_truth,
                   "Report the absolute trajectory error (ate_rmse, ate_max in m, after the best "
@@ -133,11 +148,14 @@ void RegisterBench(CLI::App& app) {
                   "lines (slamctl sim's *_groundtruth.g2o) or noise-free measurements composed "
                   "from the first pose (iSAM's *_groundtruth.txt)")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--max-iterations", opt->batch.max_iterations)->capture_default_str();
+  auto max_iterations = cmd->add_option("--max-iterations", opt->batch.max_iterations,
+                                        "Iterations at most (batch; ba: default 50, as Ceres)")
+                            ->capture_default_str();
   cmd->add_option("--relative-tolerance", opt->batch.relative_tolerance)->capture_default_str();
   cmd->add_option("--absolute-tolerance", opt->batch.absolute_tolerance)->capture_default_str();
   cmd->add_option("--initial-lambda", opt->batch.initial_lambda)->capture_default_str();
-  cmd->add_flag("-v,--verbose", opt->batch.verbosity, "Print one line per LM iteration to stderr");
+  cmd->add_flag("-v,--verbose", opt->batch.verbosity,
+                "Print one line per LM iteration to stderr (batch, ba)");
   // isam2 (Isam2Params; defaults as GTSAM's ISAM2).
   auto relin_threshold = std::make_shared<std::optional<double>>();
   cmd->add_option("--relinearize-threshold", *relin_threshold,
@@ -150,10 +168,11 @@ void RegisterBench(CLI::App& app) {
                   "isam2: also relinearise a variable when one of its factors' linearisation "
                   "error at the estimate exceeds this many sigmas (0: off, as GTSAM)")
       ->capture_default_str();
-  cmd->add_option("--threads", opt->isam2.threads,
+  cmd->add_option("--threads", opt->threads,
                   "isam2: threads for the large steps (relinearising factors, eliminating "
                   "independent subtrees) and for a fresh all-marginals pass; results do not "
-                  "depend on it")
+                  "depend on it. ba: threads for the Jacobians, the Schur complement and the "
+                  "implicit products")
       ->capture_default_str();
   cmd->add_option("--relinearize-max", opt->isam2.relinearization.max_variables,
                   "isam2: relinearise at most this many variables per update, most changed first "
@@ -194,10 +213,12 @@ void RegisterBench(CLI::App& app) {
                   "isam2: after the last step, refine for up to this many seconds")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  cmd->callback([opt, relin_threshold, robust_spec] {
+  cmd->callback([opt, relin_threshold, robust_spec, max_iterations] {
     core::Result<core::RobustKernel> robust = ParseRobustSpec(*robust_spec);
     if (!robust.ok()) Fail(kExitUsage, "--robust: " + robust.status().message());
     opt->robust = *robust;
+    opt->isam2.threads = opt->threads;
+    if (max_iterations->count() > 0) opt->ba_max_iterations = opt->batch.max_iterations;
     if (relin_threshold->has_value()) {  // one value for both; Validate() checks it
       opt->isam2.relinearization.rotation_threshold = **relin_threshold;
       opt->isam2.relinearization.translation_threshold = **relin_threshold;
@@ -207,6 +228,8 @@ void RegisterBench(CLI::App& app) {
     }
     if (opt->solver == "isam2") {
       bench::RunIsam2(*opt);
+    } else if (opt->solver == "ba") {
+      bench::RunBundleAdjustment(*opt);
     } else {
       bench::RunBatch(*opt);
     }

@@ -1,4 +1,4 @@
-// Internal to `slamctl bench`: its options and the two runners (batch and isam2).
+// Internal to `slamctl bench`: its options and the runners (batch, isam2, ba).
 #pragma once
 
 #include <string>
@@ -34,13 +34,16 @@ struct BenchOptions {
   double rate_hz = 0.0;    // isam2: model a server fed this many poses per second (0: none)
   std::string marginals = "none";  // isam2: none, latest or all
   int marginals_every = 1;
+  int threads = 2;  // isam2 (Isam2Params::threads) and ba
+  // ba
+  std::string linear_solver = "auto";
+  int ba_max_iterations = 50;
 };
 
 // Peak resident memory of this process so far.
 double PeakRssMb();
 // Prints "slamctl bench: <message>" to stderr and ends the command with `code`.
 [[noreturn]] void Fail(int code, const std::string& message);
-// Reads the dataset as the options say; fails the command on error.
 // Reads the dataset as the options say; fails the command on error. With --robust, its loop
 // closures carry the kernel. *loop_closures (when given) receives their count (robustify.h).
 core::Dataset Load(const BenchOptions& opt, double* read_s, std::size_t* loop_closures = nullptr);
@@ -61,5 +64,6 @@ void PrintAccuracy(const BenchOptions& opt, const AccuracyReport& report);
 
 void RunBatch(const BenchOptions& opt);
 void RunIsam2(const BenchOptions& opt);
+void RunBundleAdjustment(const BenchOptions& opt);
 
 }  // namespace slamd::clients::bench

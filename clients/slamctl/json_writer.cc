@@ -67,4 +67,12 @@ JsonWriter& JsonWriter::Add(std::string_view key, const JsonWriter& object) {
   return *this;
 }
 
+JsonWriter& JsonWriter::Add(std::string_view key, const std::vector<JsonWriter>& objects) {
+  Key(key);
+  body_ += "[";
+  for (size_t k = 0; k < objects.size(); ++k) body_ += (k ? ", " : "") + objects[k].str();
+  body_ += "]";
+  return *this;
+}
+
 }  // namespace slamd::clients

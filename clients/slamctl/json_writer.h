@@ -4,6 +4,7 @@
 
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace slamd::clients {
 
@@ -20,6 +21,8 @@ class JsonWriter {
   JsonWriter& Add(std::string_view key, const char* value) { return Add(key, std::string_view(value)); }
   // Adds a nested object written by another JsonWriter.
   JsonWriter& Add(std::string_view key, const JsonWriter& object);
+  // Adds an array of objects.
+  JsonWriter& Add(std::string_view key, const std::vector<JsonWriter>& objects);
 
   std::string str() const { return "{" + body_ + "}"; }
 

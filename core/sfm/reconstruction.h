@@ -38,7 +38,7 @@ struct SfmIntrinsics {
   Vector2 principal_point = Vector2::Zero();
   // COLMAP's model name as read ("PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV"), written back
   // as is; empty for BAL.
-  std::string model;
+  std::string model = "";
   int width = 0, height = 0;  // image size in pixels; 0 when the file has none (BAL)
   std::uint32_t id = 0;       // COLMAP CAMERA_ID; BAL: the camera's index
 };
@@ -47,7 +47,7 @@ struct SfmIntrinsics {
 struct SfmImage {
   Pose3 pose;          // T_wc
   int intrinsics = 0;  // index into Reconstruction::intrinsics
-  std::string name;    // COLMAP NAME; empty for BAL
+  std::string name = "";  // COLMAP NAME; empty for BAL
   std::uint32_t id = 0;
 };
 

@@ -18,6 +18,15 @@ TEST(JsonWriterTest, WritesTypedFieldsInOrder) {
             "\"nan\": null, \"inner\": {\"p50\": 0.5}}");
 }
 
+TEST(JsonWriterTest, WritesArraysOfObjects) {
+  JsonWriter a, b;
+  a.Add("cost", 2.0);
+  b.Add("cost", 1.0);
+  JsonWriter w;
+  w.Add("empty", std::vector<JsonWriter>{}).Add("iterations", std::vector<JsonWriter>{a, b});
+  EXPECT_EQ(w.str(), "{\"empty\": [], \"iterations\": [{\"cost\": 2}, {\"cost\": 1}]}");
+}
+
 TEST(JsonWriterTest, QuotesControlCharacters) { EXPECT_EQ(JsonQuote("\x01"), "\"\\u0001\""); }
 
 }  // namespace

@@ -1,0 +1,108 @@
+// slamctl bench --solver ba: bundle adjustment of a BAL file or a COLMAP text model.
+#include <cstdio>
+#include <filesystem>
+
+#include "clients/slamctl/bench.h"
+#include "clients/slamctl/json_writer.h"
+#include "core/base/timing.h"
+#include "core/io/sfm_io.h"
+#include "core/sfm/bundle_adjuster.h"
+
+namespace slamd::clients::bench {
+namespace {
+
+core::Result<core::Reconstruction> ReadReconstruction(const std::string& path) {
+  if (std::filesystem::is_directory(path)) return core::ReadColmapText(path);
+  return core::ReadBal(path);
+}
+
+// -o: PLY for *.ply, BAL for *.bal / *.txt, a COLMAP text model (a directory) otherwise.
+core::Status WriteReconstruction(const core::Reconstruction& r, const std::string& path) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (ext == ".ply") return core::WritePly(r, path);
+  if (ext == ".bal" || ext == ".txt") return core::WriteBal(r, path);
+  std::error_code error;
+  std::filesystem::create_directories(path, error);
+  if (error) return core::IoError(path + ": " + error.message());
+  return core::WriteColmapText(r, path);
+}
+
+}  // namespace
+
+void RunBundleAdjustment(const BenchOptions& opt) {
+  core::Stopwatch timer;
+  core::Result<core::Reconstruction> read = ReadReconstruction(opt.dataset);
+  if (!read.ok()) Fail(kExitFailure, read.status().ToString());
+  const double read_s = timer.Seconds();
+  core::Reconstruction reconstruction = std::move(read).value();
+
+  core::BundleAdjusterParams params;
+  core::Result<core::BaLinearSolver> solver = core::ParseBaLinearSolver(opt.linear_solver);
+  if (!solver.ok()) Fail(kExitUsage, "--linear-solver: " + solver.status().message());
+  params.linear_solver = *solver;
+  params.num_threads = opt.threads;
+  params.robust = opt.robust;
+  params.max_iterations = opt.ba_max_iterations;
+  params.verbosity = opt.batch.verbosity;
+  if (const core::Status valid = params.Validate(); !valid.ok()) Fail(kExitUsage, valid.message());
+  core::Result<core::BundleAdjusterSummary> adjusted =
+      core::BundleAdjust(params, &reconstruction);
+  if (!adjusted.ok()) Fail(kExitFailure, adjusted.status().ToString());
+  const core::BundleAdjusterSummary& s = adjusted.value();
+
+  if (opt.json) {
+    std::vector<JsonWriter> iterations;
+    for (const core::BaIteration& it : s.iterations) {
+      JsonWriter one;
+      one.Add("cost", it.cost).Add("elapsed_s", it.elapsed_s).Add("step_taken", it.step_taken);
+      if (s.linear_solver == core::BaLinearSolver::kIterativeSchur) {
+        one.Add("cg_iterations", it.linear_iterations);
+      }
+      iterations.push_back(one);
+    }
+    JsonWriter phases;
+    phases.Add("evaluate", s.evaluate_s)
+        .Add("schur", s.schur_s)
+        .Add("solve", s.solve_s)
+        .Add("update", s.update_s);
+    JsonWriter out;
+    out.Add("dataset", opt.dataset)
+        .Add("solver", "ba")
+        .Add("linear_solver", core::BaLinearSolverName(s.linear_solver))
+        .Add("threads", opt.threads)
+        .Add("robust", RobustSpecString(opt.robust))
+        .Add("cameras", s.num_cameras)
+        .Add("camera_block_dim", s.camera_block_dim)
+        .Add("points", s.num_points)
+        .Add("observations", s.num_observations)
+        .Add("initial_cost", s.initial_cost)
+        .Add("final_cost", s.final_cost)
+        .Add("rms_reprojection_px", s.rms_reprojection_px)
+        .Add("points_behind_cameras", s.points_behind_cameras)
+        .Add("termination", s.termination)
+        .Add("read_s", read_s)
+        .Add("total_s", s.total_s)
+        .Add("phase_s", phases)
+        .Add("iterations", iterations)
+        .Add("peak_rss_mb", PeakRssMb());
+    std::printf("%s\n", out.str().c_str());
+  } else {
+    std::printf("%s: %d cameras (%d unknowns each), %d points, %d observations (read in %.3f s)\n",
+                opt.dataset.c_str(), s.num_cameras, s.camera_block_dim, s.num_points,
+                s.num_observations, read_s);
+    std::printf("ba %s, %d threads: cost %.10g -> %.10g in %zu iterations (%s), %.3f s\n",
+                core::BaLinearSolverName(s.linear_solver), opt.threads, s.initial_cost,
+                s.final_cost, s.iterations.size(), s.termination.c_str(), s.total_s);
+    std::printf("rms reprojection %.4f px, %d observations behind their camera\n",
+                s.rms_reprojection_px, s.points_behind_cameras);
+    std::printf("phases: evaluate %.4f s, schur %.4f s, solve %.4f s, update %.4f s; peak RSS "
+                "%.1f MB\n",
+                s.evaluate_s, s.schur_s, s.solve_s, s.update_s, PeakRssMb());
+  }
+  if (!opt.output.empty()) {
+    const core::Status written = WriteReconstruction(reconstruction, opt.output);
+    if (!written.ok()) Fail(kExitFailure, written.ToString());
+  }
+}
+
+}  // namespace slamd::clients::bench

@@ -1,0 +1,403 @@
+// BaProblem: the bundle adjuster's view of a reconstruction (internal to core/sfm): the
+// observations grouped by point, their linearisation, and the steps of one Levenberg-Marquardt
+// iteration with the points eliminated first.
+//
+// Notation (Triggs et al., "Bundle Adjustment — A Modern Synthesis", §6.1): for observation o of
+// point j by camera i, Jc_o (2 x D) and Jp_o (2 x 3) are the Jacobians of its residual r_o
+// (all three scaled by √ρ'(|r_o|²) for a robust kernel). Then
+//   U_i = Σ Jc_oᵀ Jc_o,  V_j = Σ Jp_oᵀ Jp_o,  W_o = Jc_oᵀ Jp_o,  gc_i = Σ Jc_oᵀ r_o,
+//   gp_j = Σ Jp_oᵀ r_o, and with the Levenberg-Marquardt damping λ·diag (Marquardt's scaling,
+//   the diagonal clamped to [1e-6, 1e32] as Ceres does) added to U and V:
+//   S = U − Σ_j W_j V_j⁻¹ W_jᵀ,  b = −gc + Σ_j W_j V_j⁻¹ gp_j,  S δc = b,
+//   δp_j = V_j⁻¹ (−gp_j − Σ_o W_oᵀ δc_i).
+// Cal: the calibration model; kRefineCal: whether it is part of each camera's unknowns
+// (D = 6 + its dimension) or fixed (D = 6). Pose unknowns are right perturbations T_wc·Exp(ξ).
+//
+// Threads: every pass splits the points (or cameras) into one chunk per thread; a camera's rows of
+// S and b are added to under its row lock. One owner drives the problem.
+#pragma once
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "core/base/worker_pool.h"
+#include "core/factors/robust_kernel.h"
+#include "core/geometry/camera.h"
+#include "core/sfm/reconstruction.h"
+#include "core/sfm/reduced_camera_matrix.h"
+
+namespace slamd::core::internal {
+
+// Marquardt's diagonal: diag(JᵀJ) clamped to [1e-6, 1e32] (no unknown left undamped).
+template <int N>
+Eigen::Matrix<double, N, 1> ClampedDiagonal(const Eigen::Matrix<double, N, N>& m) {
+  return m.diagonal().cwiseMax(1e-6).cwiseMin(1e32);
+}
+
+template <typename Cal, bool kRefineCal>
+class BaProblem {
+ public:
+  static constexpr int kD = 6 + (kRefineCal ? Cal::kDim : 0);
+  using CameraJacobian = Eigen::Matrix<double, 2, kD>;
+  using CameraVector = Eigen::Matrix<double, kD, 1>;
+  using CameraMatrix = Eigen::Matrix<double, kD, kD>;
+  using CameraPoint = Eigen::Matrix<double, kD, 3>;
+
+  // The unknowns.
+  struct State {
+    std::vector<Pose3> poses;  // per image
+    std::vector<Cal> cals;     // per image (a copy of its intrinsics' calibration)
+    std::vector<Point3> points;
+  };
+
+  // `position[i]`: image i's place in the reduced camera system (a permutation).
+  BaProblem(const Reconstruction& r, const RobustKernel& robust, std::vector<int> position,
+            WorkerPool* pool)
+      : robust_(robust), position_(std::move(position)), pool_(pool) {
+    const int num_points = static_cast<int>(r.points.size());
+    const int num_images = static_cast<int>(r.images.size());
+    point_start_.assign(num_points + 1, 0);
+    for (const SfmObservation& o : r.observations) ++point_start_[o.point + 1];
+    for (int j = 0; j < num_points; ++j) point_start_[j + 1] += point_start_[j];
+    const size_t num_obs = r.observations.size();
+    camera_.resize(num_obs);
+    measured_.resize(num_obs);
+    std::vector<int> fill(point_start_.begin(), point_start_.end() - 1);
+    for (const SfmObservation& o : r.observations) {
+      const int at = fill[o.point]++;
+      camera_[at] = o.image;
+      measured_[at] = o.uv;
+    }
+    // Within a point, observations in ascending camera position: a pair (a, c), a before c,
+    // lands in the upper block triangle of S.
+    std::vector<int> order;
+    for (int j = 0; j < num_points; ++j) {
+      const int begin = point_start_[j], end = point_start_[j + 1];
+      order.resize(end - begin);
+      for (int k = 0; k < end - begin; ++k) order[k] = begin + k;
+      std::sort(order.begin(), order.end(),
+                [&](int a, int c) { return position_[camera_[a]] < position_[camera_[c]]; });
+      std::vector<int> cams(end - begin);
+      std::vector<Vector2> uvs(end - begin);
+      for (int k = 0; k < end - begin; ++k) cams[k] = camera_[order[k]], uvs[k] = measured_[order[k]];
+      std::copy(cams.begin(), cams.end(), camera_.begin() + begin);
+      std::copy(uvs.begin(), uvs.end(), measured_.begin() + begin);
+    }
+    camera_obs_start_.assign(num_images + 1, 0);
+    for (int c : camera_) ++camera_obs_start_[c + 1];
+    for (int i = 0; i < num_images; ++i) camera_obs_start_[i + 1] += camera_obs_start_[i];
+    camera_obs_.resize(num_obs);
+    std::vector<int> cam_fill(camera_obs_start_.begin(), camera_obs_start_.end() - 1);
+    for (size_t o = 0; o < num_obs; ++o) camera_obs_[cam_fill[camera_[o]]++] = static_cast<int>(o);
+    // One chunk of points per thread, of about the same number of observations.
+    const int chunks = pool_->helpers() + 1;
+    point_chunk_.assign(1, 0);
+    for (int t = 1; t < chunks; ++t) {
+      const int target = static_cast<int>(num_obs * t / chunks);
+      const int j = static_cast<int>(
+          std::lower_bound(point_start_.begin(), point_start_.end(), target) -
+          point_start_.begin());
+      point_chunk_.push_back(std::max(point_chunk_.back(), std::min(j, num_points)));
+    }
+    point_chunk_.push_back(num_points);
+    jc_.resize(num_obs);
+    jp_.resize(num_obs);
+    r_.resize(num_obs);
+    v_.resize(num_points);
+    v_inv_.resize(num_points);
+    gp_.resize(num_points);
+    u_.resize(num_images);
+    gc_.resize(num_images);
+    row_locks_ = std::make_unique<std::atomic<bool>[]>(num_images);
+    for (int i = 0; i < num_images; ++i) row_locks_[i].store(false);
+  }
+
+  int num_cameras() const { return static_cast<int>(u_.size()); }
+  int num_points() const { return static_cast<int>(v_.size()); }
+  int num_observations() const { return static_cast<int>(camera_.size()); }
+  int position(int camera) const { return position_[camera]; }
+
+  // The camera positions each camera shares a point with, upper triangle (ReducedCameraMatrix).
+  std::vector<std::vector<int>> CoVisibility() const {
+    std::vector<std::vector<int>> rows(num_cameras());
+    for (int i = 0; i < num_cameras(); ++i) rows[i].push_back(i);
+    for (int j = 0; j < num_points(); ++j) {
+      for (int a = point_start_[j]; a < point_start_[j + 1]; ++a) {
+        for (int c = a + 1; c < point_start_[j + 1]; ++c) {
+          rows[position_[camera_[a]]].push_back(position_[camera_[c]]);
+        }
+      }
+    }
+    for (std::vector<int>& row : rows) {
+      std::sort(row.begin(), row.end());
+      row.erase(std::unique(row.begin(), row.end()), row.end());
+    }
+    return rows;
+  }
+
+  // ½ Σ ρ(|r_o|²) at `x`; *squared_error (when set) gets Σ |r_o|² and *behind the number of
+  // observations whose point is at or behind its camera.
+  double Cost(const State& x, double* squared_error = nullptr, int* behind = nullptr) const {
+    std::vector<double> cost(Chunks(), 0.0), sq(Chunks(), 0.0);
+    std::vector<int> back(Chunks(), 0);
+    ForEachPointChunk([&](int t, int j_begin, int j_end) {
+      for (int j = j_begin; j < j_end; ++j) {
+        for (int o = point_start_[j]; o < point_start_[j + 1]; ++o) {
+          const int i = camera_[o];
+          const Projection p = Project(x.poses[i], x.cals[i], x.points[j]);
+          const double s = (p.uv - measured_[o]).squaredNorm();
+          cost[t] += robust_.is_none() ? s : robust_.Cost(s);
+          sq[t] += s;
+          back[t] += !p.in_front();
+        }
+      }
+    });
+    if (squared_error) *squared_error = Sum(sq);
+    if (behind) {
+      *behind = 0;
+      for (int b : back) *behind += b;
+    }
+    return 0.5 * Sum(cost);
+  }
+
+  // Residuals and Jacobians at `x` and the blocks U, V, gc, gp; returns the cost ½ Σ ρ.
+  double Linearize(const State& x) {
+    std::vector<double> cost(Chunks(), 0.0);
+    ForEachPointChunk([&](int t, int j_begin, int j_end) {
+      for (int j = j_begin; j < j_end; ++j) {
+        Matrix3 v = Matrix3::Zero();
+        Vector3 g = Vector3::Zero();
+        for (int o = point_start_[j]; o < point_start_[j + 1]; ++o) {
+          const int i = camera_[o];
+          Matrix26 h_pose;
+          Matrix23 h_point;
+          CalibrationJacobian<Cal> h_cal;
+          const Projection p = Project(x.poses[i], x.cals[i], x.points[j], &h_pose, &h_point,
+                                       kRefineCal ? &h_cal : nullptr);
+          Vector2 r = p.uv - measured_[o];
+          const double s = r.squaredNorm();
+          double scale = 1.0;
+          if (!robust_.is_none()) {
+            cost[t] += robust_.Cost(s);
+            scale = std::sqrt(robust_.Weight(s));
+          } else {
+            cost[t] += s;
+          }
+          r *= scale;
+          jc_[o].template leftCols<6>() = scale * h_pose;
+          if constexpr (kRefineCal) jc_[o].template rightCols<Cal::kDim>() = scale * h_cal;
+          jp_[o] = scale * h_point;
+          r_[o] = r;
+          v.noalias() += jp_[o].transpose() * jp_[o];
+          g.noalias() += jp_[o].transpose() * r;
+        }
+        v_[j] = v;
+        gp_[j] = g;
+      }
+    });
+    ForEachCameraChunk([&](int i_begin, int i_end) {
+      for (int i = i_begin; i < i_end; ++i) {
+        CameraMatrix u = CameraMatrix::Zero();
+        CameraVector g = CameraVector::Zero();
+        for (int k = camera_obs_start_[i]; k < camera_obs_start_[i + 1]; ++k) {
+          const int o = camera_obs_[k];
+          u.noalias() += jc_[o].transpose() * jc_[o];
+          g.noalias() += jc_[o].transpose() * r_[o];
+        }
+        u_[i] = u;
+        gc_[i] = g;
+      }
+    });
+    return 0.5 * Sum(cost);
+  }
+
+  // The largest entry of the gradient Jᵀr (of ½ Σ ρ).
+  double GradientMaxNorm() const {
+    double m = 0.0;
+    for (const CameraVector& g : gc_) m = std::max(m, g.cwiseAbs().maxCoeff());
+    for (const Vector3& g : gp_) m = std::max(m, g.cwiseAbs().maxCoeff());
+    return m;
+  }
+
+  // Eliminates the points with damping λ: S (when `s` is set: every block; otherwise only the
+  // diagonal blocks, into *diagonal) and b (positions order). Keeps V_j⁻¹ for BackSubstitute.
+  void EliminatePoints(double lambda, ReducedCameraMatrix* s, std::vector<CameraMatrix>* diagonal,
+                       Eigen::VectorXd* b) {
+    const int n = num_cameras();
+    b->resize(kD * n);
+    if (s) s->SetZero();
+    if (diagonal) diagonal->resize(n);
+    lambda_ = lambda;
+    ForEachCameraChunk([&](int i_begin, int i_end) {
+      for (int i = i_begin; i < i_end; ++i) {
+        CameraMatrix damped = u_[i];
+        damped.diagonal() += lambda * ClampedDiagonal<kD>(u_[i]);
+        const int p = position_[i];
+        if (s) {
+          Eigen::Map<CameraMatrix>(s->Block(s->RowBegin(p))) = damped;
+        } else {
+          (*diagonal)[p] = damped;
+        }
+        b->template segment<kD>(kD * p) = -gc_[i];
+      }
+    });
+    ForEachPointChunk([&](int, int j_begin, int j_end) {
+      std::vector<CameraPoint> w, y;  // per observation of the point: W_o and W_o V_j⁻¹
+      for (int j = j_begin; j < j_end; ++j) {
+        Matrix3 damped = v_[j];
+        damped.diagonal() += lambda * ClampedDiagonal<3>(v_[j]);
+        const Matrix3 v_inv = damped.inverse();
+        v_inv_[j] = v_inv;
+        const int begin = point_start_[j], m = point_start_[j + 1] - begin;
+        w.resize(m);
+        y.resize(m);
+        for (int a = 0; a < m; ++a) {
+          w[a].noalias() = jc_[begin + a].transpose() * jp_[begin + a];
+          y[a].noalias() = w[a] * v_inv;
+        }
+        const Vector3 g = gp_[j];
+        for (int a = 0; a < m; ++a) {
+          const int i = position_[camera_[begin + a]];
+          LockRow(i);
+          b->template segment<kD>(kD * i).noalias() += y[a] * g;
+          if (s) {
+            for (int c = a; c < m; ++c) {
+              const long blk = s->BlockIndex(i, position_[camera_[begin + c]]);
+              Eigen::Map<CameraMatrix>(s->Block(blk)).noalias() -= y[a] * w[c].transpose();
+            }
+          } else {
+            (*diagonal)[i].noalias() -= y[a] * w[a].transpose();
+          }
+          UnlockRow(i);
+        }
+      }
+    });
+  }
+
+  // y = S x with the damping of the last EliminatePoints, without forming S (positions order).
+  void MultiplyReduced(const Eigen::VectorXd& x, Eigen::VectorXd* y) const {
+    const int n = num_cameras();
+    std::vector<Eigen::VectorXd> partial(Chunks(), Eigen::VectorXd::Zero(kD * n));
+    ForEachPointChunk([&](int t, int j_begin, int j_end) {
+      Eigen::VectorXd& out = partial[t];
+      for (int j = j_begin; j < j_end; ++j) {
+        Vector3 wx = Vector3::Zero();  // W_jᵀ x
+        for (int o = point_start_[j]; o < point_start_[j + 1]; ++o) {
+          const Vector2 jx = jc_[o] * x.template segment<kD>(kD * position_[camera_[o]]);
+          wx.noalias() += jp_[o].transpose() * jx;
+        }
+        const Vector3 z = v_inv_[j] * wx;
+        for (int o = point_start_[j]; o < point_start_[j + 1]; ++o) {
+          const Vector2 jz = jp_[o] * z;
+          out.template segment<kD>(kD * position_[camera_[o]]).noalias() -=
+              jc_[o].transpose() * jz;
+        }
+      }
+    });
+    *y = partial[0];
+    for (int t = 1; t < Chunks(); ++t) *y += partial[t];
+    for (int i = 0; i < n; ++i) {
+      CameraMatrix damped = u_[i];
+      damped.diagonal() += lambda_ * ClampedDiagonal<kD>(u_[i]);
+      const int p = position_[i];
+      y->template segment<kD>(kD * p).noalias() += damped * x.template segment<kD>(kD * p);
+    }
+  }
+
+  // The points' step from the cameras' (positions order), and the model's predicted decrease
+  // of the cost, −(gᵀδ + ½|Jδ|²).
+  double BackSubstitute(const Eigen::VectorXd& dc, std::vector<Vector3>* dp) const {
+    dp->resize(num_points());
+    std::vector<double> model(Chunks(), 0.0);
+    ForEachPointChunk([&](int t, int j_begin, int j_end) {
+      for (int j = j_begin; j < j_end; ++j) {
+        Vector3 rhs = -gp_[j];
+        for (int o = point_start_[j]; o < point_start_[j + 1]; ++o) {
+          const Vector2 jx = jc_[o] * dc.template segment<kD>(kD * position_[camera_[o]]);
+          rhs.noalias() -= jp_[o].transpose() * jx;
+        }
+        const Vector3 d = v_inv_[j] * rhs;
+        (*dp)[j] = d;
+        double m = -gp_[j].dot(d);
+        for (int o = point_start_[j]; o < point_start_[j + 1]; ++o) {
+          const Vector2 jd =
+              jc_[o] * dc.template segment<kD>(kD * position_[camera_[o]]) + jp_[o] * d;
+          m -= 0.5 * jd.squaredNorm();
+        }
+        model[t] += m;
+      }
+    });
+    double m = Sum(model);
+    for (int i = 0; i < num_cameras(); ++i) {
+      m -= gc_[i].dot(dc.template segment<kD>(kD * position_[i]));
+    }
+    return m;
+  }
+
+  // x ⊕ δ: poses by right perturbation, calibrations and points by addition.
+  State Retract(const State& x, const Eigen::VectorXd& dc, const std::vector<Vector3>& dp) const {
+    State y = x;
+    for (int i = 0; i < num_cameras(); ++i) {
+      const CameraVector d = dc.template segment<kD>(kD * position_[i]);
+      y.poses[i] = x.poses[i].Retract(d.template head<6>());
+      if constexpr (kRefineCal) {
+        y.cals[i] = x.cals[i].Retract(d.template tail<Cal::kDim>());
+      }
+    }
+    for (int j = 0; j < num_points(); ++j) y.points[j] = x.points[j] + dp[j];
+    return y;
+  }
+
+  // Runs fn(chunk, first point, end point) on each thread's chunk of points.
+  void ForEachPointChunk(const std::function<void(int, int, int)>& fn) const {
+    pool_->Run(Chunks(), [&](int t) { fn(t, point_chunk_[t], point_chunk_[t + 1]); });
+    pool_->Wait();
+  }
+
+ private:
+  int Chunks() const { return static_cast<int>(point_chunk_.size()) - 1; }
+  void ForEachCameraChunk(const std::function<void(int, int)>& fn) const {
+    const int n = num_cameras(), chunks = Chunks();
+    pool_->Run(chunks, [&](int t) { fn(n * t / chunks, n * (t + 1) / chunks); });
+    pool_->Wait();
+  }
+  // A spin lock per camera row of S and b: threads eliminating different points may add to the
+  // same row; contention is rare (two threads, the row held for one point's blocks).
+  void LockRow(int i) {
+    while (row_locks_[i].exchange(true, std::memory_order_acquire)) {
+    }
+  }
+  void UnlockRow(int i) { row_locks_[i].store(false, std::memory_order_release); }
+  static double Sum(const std::vector<double>& v) {
+    double s = 0.0;
+    for (double x : v) s += x;
+    return s;
+  }
+
+  const RobustKernel robust_;
+  const std::vector<int> position_;
+  WorkerPool* pool_;
+  // Observations, point-major: point j's are [point_start_[j], point_start_[j+1]).
+  std::vector<int> point_start_, camera_;
+  std::vector<Vector2> measured_;
+  std::vector<int> camera_obs_start_, camera_obs_;  // per camera, its observations
+  std::vector<int> point_chunk_;                    // per thread, its first point
+  // The linearisation.
+  std::vector<CameraJacobian> jc_;
+  std::vector<Matrix23> jp_;
+  std::vector<Vector2> r_;
+  std::vector<Matrix3> v_, v_inv_;
+  std::vector<Vector3> gp_;
+  std::vector<CameraMatrix> u_;
+  std::vector<CameraVector> gc_;
+  double lambda_ = 0.0;
+  std::unique_ptr<std::atomic<bool>[]> row_locks_;
+};
+
+}  // namespace slamd::core::internal

@@ -1,0 +1,254 @@
+#include "core/sfm/bundle_adjuster.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numeric>
+#include <variant>
+
+#include "core/base/timing.h"
+#include "core/base/worker_pool.h"
+#include "core/linear/ordering.h"
+#include "core/sfm/ba_problem.h"
+
+namespace slamd::core {
+namespace {
+
+using internal::BaProblem;
+using internal::ReducedCameraMatrix;
+
+BaLinearSolver ChooseSolver(const BundleAdjusterParams& params, int num_cameras, int block_dim) {
+  if (params.linear_solver != BaLinearSolver::kAuto) return params.linear_solver;
+  if (num_cameras * block_dim <= params.dense_max_camera_dim) return BaLinearSolver::kDenseSchur;
+  if (num_cameras <= params.sparse_max_cameras) return BaLinearSolver::kSparseSchur;
+  return BaLinearSolver::kIterativeSchur;
+}
+
+// The cameras' places in the reduced camera system: a fill-reducing order for sparse Cholesky
+// (COLAMD on the point-by-camera incidence, whose AᵀA has S's pattern), else as given.
+Result<std::vector<int>> CameraPositions(const Reconstruction& r, BaLinearSolver solver) {
+  const int n = static_cast<int>(r.images.size());
+  std::vector<int> identity(n);
+  std::iota(identity.begin(), identity.end(), 0);
+  if (solver != BaLinearSolver::kSparseSchur) return identity;
+  std::vector<std::vector<int>> cameras_of(r.points.size());
+  for (const SfmObservation& o : r.observations) cameras_of[o.point].push_back(o.image);
+  FactorIncidence incidence;
+  for (const std::vector<int>& cams : cameras_of) incidence.AddFactor(cams);
+  Result<std::vector<int>> order = ColamdOrdering(n, incidence);
+  if (!order.ok()) return order.status();
+  return InversePermutation(order.value());
+}
+
+// Preconditioned conjugate gradients on S x = b with S applied implicitly and the inverses of
+// its diagonal blocks as preconditioner. Returns the iterations run.
+template <typename Problem>
+int SolveIterative(const Problem& problem, const std::vector<typename Problem::CameraMatrix>& diag,
+                   const Eigen::VectorXd& b, const BundleAdjusterParams& params,
+                   Eigen::VectorXd* x) {
+  constexpr int kD = Problem::kD;
+  const int n = static_cast<int>(diag.size());
+  std::vector<typename Problem::CameraMatrix> inverse(n);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::LLT<typename Problem::CameraMatrix> llt(diag[i]);
+    inverse[i] = llt.solve(Problem::CameraMatrix::Identity());
+  }
+  auto precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd* z) {
+    z->resize(r.size());
+    for (int i = 0; i < n; ++i) {
+      z->template segment<kD>(kD * i).noalias() = inverse[i] * r.template segment<kD>(kD * i);
+    }
+  };
+  x->setZero(b.size());
+  Eigen::VectorXd r = b, z, p, q;
+  precondition(r, &z);
+  p = z;
+  double rz = r.dot(z);
+  const double stop = params.cg_tolerance * b.norm();
+  int k = 0;
+  while (k < params.cg_max_iterations) {
+    problem.MultiplyReduced(p, &q);
+    const double pq = p.dot(q);
+    if (!(pq > 0.0)) break;  // S not positive definite along p: keep what we have
+    const double alpha = rz / pq;
+    *x += alpha * p;
+    r -= alpha * q;
+    ++k;
+    if (r.norm() <= stop) break;
+    precondition(r, &z);
+    const double rz_next = r.dot(z);
+    p = z + (rz_next / rz) * p;
+    rz = rz_next;
+  }
+  return k;
+}
+
+// |x| of the unknowns in their tangent coordinates (pose: translation and rotation vector).
+template <typename State>
+double StateNorm(const State& x) {
+  double s = 0.0;
+  for (const Pose3& pose : x.poses) {
+    s += pose.translation().squaredNorm() + Rot3::Log(pose.rotation()).squaredNorm();
+  }
+  for (const auto& cal : x.cals) s += cal.vector().squaredNorm();
+  for (const Point3& p : x.points) s += p.squaredNorm();
+  return std::sqrt(s);
+}
+
+template <typename Cal, bool kRefineCal>
+Result<BundleAdjusterSummary> Adjust(const BundleAdjusterParams& params, BaLinearSolver solver,
+                                     Reconstruction* rec) {
+  using Problem = BaProblem<Cal, kRefineCal>;
+  constexpr int kD = Problem::kD;
+  const Stopwatch total;
+  BundleAdjusterSummary summary;
+  summary.linear_solver = solver;
+  summary.camera_block_dim = kD;
+  summary.num_cameras = static_cast<int>(rec->images.size());
+  summary.num_points = static_cast<int>(rec->points.size());
+  summary.num_observations = static_cast<int>(rec->observations.size());
+
+  Result<std::vector<int>> positions = CameraPositions(*rec, solver);
+  if (!positions.ok()) return positions.status();
+  WorkerPool pool(params.num_threads - 1);
+  Problem problem(*rec, params.robust, std::move(positions).value(), &pool);
+  typename Problem::State x;
+  for (const SfmImage& image : rec->images) {
+    x.poses.push_back(image.pose);
+    x.cals.push_back(std::get<Cal>(rec->intrinsics[image.intrinsics].calibration));
+  }
+  for (const SfmPoint& p : rec->points) x.points.push_back(p.position);
+
+  std::unique_ptr<ReducedCameraMatrix> s;
+  if (solver != BaLinearSolver::kIterativeSchur) {
+    s = std::make_unique<ReducedCameraMatrix>(kD, problem.CoVisibility());
+  }
+  std::vector<typename Problem::CameraMatrix> diagonal;
+  Eigen::VectorXd b, dc;
+  std::vector<Vector3> dp;
+
+  Stopwatch phase;
+  double cost = problem.Linearize(x);
+  summary.evaluate_s += phase.Lap();
+  summary.initial_cost = cost;
+  double radius = params.initial_trust_region_radius, decrease_factor = 2.0;
+  summary.termination = "max iterations";
+  if (problem.GradientMaxNorm() <= params.gradient_tolerance) summary.termination = "gradient";
+  while (summary.termination == "max iterations" &&
+         static_cast<int>(summary.iterations.size()) < params.max_iterations) {
+    BaIteration it{.cost = cost, .trust_region_radius = radius, .linear_iterations = 1};
+    phase.Restart();
+    problem.EliminatePoints(1.0 / radius, s.get(),
+                            solver == BaLinearSolver::kIterativeSchur ? &diagonal : nullptr, &b);
+    summary.schur_s += phase.Lap();
+    Status solved;
+    if (solver == BaLinearSolver::kDenseSchur) {
+      solved = s->SolveDense(b, &dc);
+    } else if (solver == BaLinearSolver::kSparseSchur) {
+      solved = s->SolveSparse(b, &dc);
+    } else {
+      it.linear_iterations = SolveIterative(problem, diagonal, b, params, &dc);
+    }
+    summary.solve_s += phase.Lap();
+    bool taken = false;
+    if (solved.ok() && dc.allFinite()) {
+      const double model = problem.BackSubstitute(dc, &dp);
+      double step2 = dc.squaredNorm();
+      for (const Vector3& d : dp) step2 += d.squaredNorm();
+      const double x_norm = StateNorm(x);
+      if (std::sqrt(step2) <= params.parameter_tolerance * (x_norm + params.parameter_tolerance)) {
+        summary.termination = "parameter tolerance";
+        summary.update_s += phase.Lap();
+        it.elapsed_s = total.Seconds();
+        summary.iterations.push_back(it);
+        break;
+      }
+      typename Problem::State trial = problem.Retract(x, dc, dp);
+      const double trial_cost = problem.Cost(trial);
+      summary.update_s += phase.Lap();
+      const double rho = model > 0.0 ? (cost - trial_cost) / model : -1.0;
+      if (std::isfinite(trial_cost) && rho > params.min_relative_decrease) {
+        taken = true;
+        const double decrease = cost - trial_cost;
+        x = std::move(trial);
+        radius = std::min(params.max_trust_region_radius,
+                          radius / std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3)));
+        decrease_factor = 2.0;
+        cost = problem.Linearize(x);
+        summary.evaluate_s += phase.Lap();
+        if (decrease <= params.function_tolerance * (cost + decrease)) {
+          summary.termination = "function tolerance";
+        } else if (problem.GradientMaxNorm() <= params.gradient_tolerance) {
+          summary.termination = "gradient tolerance";
+        }
+      }
+    }
+    if (!taken) {
+      radius /= decrease_factor;
+      decrease_factor *= 2.0;
+      if (radius < params.min_trust_region_radius) summary.termination = "trust region too small";
+    }
+    it.step_taken = taken;
+    it.cost = cost;
+    it.elapsed_s = total.Seconds();
+    summary.iterations.push_back(it);
+    if (params.verbosity > 0) {
+      std::fprintf(stderr, "  iter %zu cost %.10g radius %.3g %s cg %d  %.3f s\n",
+                   summary.iterations.size(), cost, radius, taken ? "taken" : "rejected",
+                   it.linear_iterations, it.elapsed_s);
+    }
+  }
+
+  double squared = 0.0;
+  summary.final_cost = problem.Cost(x, &squared, &summary.points_behind_cameras);
+  summary.rms_reprojection_px = std::sqrt(squared / std::max(1, summary.num_observations));
+  for (size_t i = 0; i < rec->images.size(); ++i) {
+    rec->images[i].pose = x.poses[i];
+    if constexpr (kRefineCal) rec->intrinsics[rec->images[i].intrinsics].calibration = x.cals[i];
+  }
+  for (size_t j = 0; j < rec->points.size(); ++j) rec->points[j].position = x.points[j];
+  summary.total_s = total.Seconds();
+  return summary;
+}
+
+template <typename Cal>
+Result<BundleAdjusterSummary> AdjustModel(const BundleAdjusterParams& params,
+                                          Reconstruction* rec) {
+  // Calibrations are refined only when each belongs to one image.
+  std::vector<int> users(rec->intrinsics.size(), 0);
+  for (const SfmImage& image : rec->images) ++users[image.intrinsics];
+  const bool refine =
+      params.refine_intrinsics && std::all_of(users.begin(), users.end(), [](int u) { return u <= 1; });
+  const int n = static_cast<int>(rec->images.size());
+  if (refine) {
+    return Adjust<Cal, true>(params, ChooseSolver(params, n, 6 + Cal::kDim), rec);
+  }
+  return Adjust<Cal, false>(params, ChooseSolver(params, n, 6), rec);
+}
+
+}  // namespace
+
+Result<BundleAdjusterSummary> BundleAdjust(const BundleAdjusterParams& params,
+                                           Reconstruction* reconstruction) {
+  if (Status s = params.Validate(); !s.ok()) return s;
+  if (Status s = reconstruction->Validate(); !s.ok()) return s;
+  if (reconstruction->observations.empty()) {
+    return InvalidArgument("bundle adjustment: the reconstruction has no observation");
+  }
+  const size_t model = reconstruction->intrinsics.front().calibration.index();
+  for (size_t k = 0; k < reconstruction->intrinsics.size(); ++k) {
+    if (reconstruction->intrinsics[k].calibration.index() != model) {
+      return InvalidArgument("bundle adjustment: intrinsics " + std::to_string(k) +
+                             " have another calibration model than intrinsics 0 (one model per "
+                             "reconstruction)");
+    }
+  }
+  return std::visit(
+      [&](const auto& calibration) {
+        using Cal = std::decay_t<decltype(calibration)>;
+        return AdjustModel<Cal>(params, reconstruction);
+      },
+      reconstruction->intrinsics.front().calibration);
+}
+
+}  // namespace slamd::core

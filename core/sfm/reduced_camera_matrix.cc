@@ -1,0 +1,115 @@
+#include "core/sfm/reduced_camera_matrix.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+
+#include "core/base/check.h"
+
+namespace slamd::core::internal {
+
+ReducedCameraMatrix::ReducedCameraMatrix(int block_dim, std::vector<std::vector<int>> neighbours)
+    : d_(block_dim) {
+  const int n = static_cast<int>(neighbours.size());
+  row_start_.assign(n + 1, 0);
+  for (int i = 0; i < n; ++i) {
+    SLAMD_CHECK(!neighbours[i].empty() && neighbours[i].front() == i)
+        << "camera row " << i << " must start with its diagonal block";
+    row_start_[i + 1] = row_start_[i] + static_cast<long>(neighbours[i].size());
+  }
+  col_.reserve(row_start_[n]);
+  for (const std::vector<int>& row : neighbours) col_.insert(col_.end(), row.begin(), row.end());
+  values_.assign(static_cast<size_t>(row_start_[n]) * d_ * d_, 0.0);
+}
+
+void ReducedCameraMatrix::SetZero() { std::fill(values_.begin(), values_.end(), 0.0); }
+
+long ReducedCameraMatrix::BlockIndex(int i, int k) const {
+  const auto begin = col_.begin() + row_start_[i], end = col_.begin() + row_start_[i + 1];
+  const auto it = std::lower_bound(begin, end, k);
+  return it != end && *it == k ? it - col_.begin() : -1;
+}
+
+Eigen::MatrixXd ReducedCameraMatrix::ToDense() const {
+  const int n = num_cameras();
+  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(dim(), dim());
+  for (int i = 0; i < n; ++i) {
+    for (long b = row_start_[i]; b < row_start_[i + 1]; ++b) {
+      const int k = col_[b];
+      const Eigen::Map<const Eigen::MatrixXd> block(Block(b), d_, d_);
+      S.block(d_ * i, d_ * k, d_, d_) = block;
+      if (k != i) S.block(d_ * k, d_ * i, d_, d_) = block.transpose();
+    }
+  }
+  // The solvers read only the upper triangle of the diagonal blocks: mirror it.
+  for (int i = 0; i < n; ++i) {
+    auto diag = S.block(d_ * i, d_ * i, d_, d_);
+    diag = diag.selfadjointView<Eigen::Upper>().toDenseMatrix();
+  }
+  return S;
+}
+
+Status ReducedCameraMatrix::SolveDense(const Eigen::VectorXd& b, Eigen::VectorXd* x) const {
+  const int n = num_cameras();
+  Eigen::MatrixXd S(dim(), dim());
+  for (int i = 0; i < n; ++i) {
+    for (long blk = row_start_[i]; blk < row_start_[i + 1]; ++blk) {
+      S.block(d_ * i, d_ * col_[blk], d_, d_) =
+          Eigen::Map<const Eigen::MatrixXd>(Block(blk), d_, d_);
+    }
+  }
+  const Eigen::LLT<Eigen::MatrixXd, Eigen::Upper> llt(S);
+  if (llt.info() != Eigen::Success) {
+    return NumericalFailure("reduced camera system not positive definite");
+  }
+  *x = llt.solve(b);
+  return Status::Ok();
+}
+
+void ReducedCameraMatrix::BuildCompressedColumns() {
+  const int n = num_cameras();
+  // Block columns: for column position k, the block rows i <= k and their block indices.
+  std::vector<std::vector<std::pair<int, long>>> columns(n);
+  for (int i = 0; i < n; ++i) {
+    for (long blk = row_start_[i]; blk < row_start_[i + 1]; ++blk) {
+      columns[col_[blk]].emplace_back(i, blk);
+    }
+  }
+  col_ptr_.assign(dim() + 1, 0);
+  row_idx_.clear();
+  source_.clear();
+  for (int k = 0; k < n; ++k) {
+    for (int c = 0; c < d_; ++c) {
+      const int column = d_ * k + c;
+      for (const auto& [i, blk] : columns[k]) {
+        const int rows = i == k ? c + 1 : d_;  // the diagonal block: its upper triangle
+        for (int r = 0; r < rows; ++r) {
+          row_idx_.push_back(d_ * i + r);
+          source_.push_back(blk * d_ * d_ + static_cast<long>(c) * d_ + r);
+        }
+      }
+      col_ptr_[column + 1] = static_cast<int>(row_idx_.size());
+    }
+  }
+  csc_values_.resize(source_.size());
+  cholesky_ = SparseCholesky::Create();
+}
+
+Status ReducedCameraMatrix::SolveSparse(const Eigen::VectorXd& b, Eigen::VectorXd* x) {
+  if (!cholesky_) BuildCompressedColumns();
+  for (size_t t = 0; t < source_.size(); ++t) csc_values_[t] = values_[source_[t]];
+  std::string message;
+  int failed_column = -1;
+  const LinearSolverTermination factorized =
+      cholesky_->Factorize(dim(), col_ptr_.data(), row_idx_.data(), csc_values_.data(), &message,
+                           &failed_column);
+  if (factorized != LinearSolverTermination::kSuccess) {
+    return NumericalFailure("reduced camera system: " + message);
+  }
+  x->resize(dim());
+  if (cholesky_->Solve(b.data(), x->data(), &message) != LinearSolverTermination::kSuccess) {
+    return NumericalFailure("reduced camera system: " + message);
+  }
+  return Status::Ok();
+}
+
+}  // namespace slamd::core::internal

@@ -1,0 +1,246 @@
+// Bundle adjustment (core/sfm/bundle_adjuster.h): the Schur step against a dense solve of the
+// full damped normal equations with finite-difference Jacobians, the implicit product against the
+// formed S, convergence of every linear solver to the same optimum, robust kernels, and errors.
+#include "core/sfm/bundle_adjuster.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <random>
+
+#include "core/sfm/ba_problem.h"
+
+namespace slamd::core {
+namespace {
+
+// Cameras on a circle of radius 6 around a cloud of points near the origin, looking at it;
+// pixels from the true values plus Gaussian noise of `pixel_sigma`.
+template <typename Cal>
+Reconstruction BaWorld(const Cal& cal, int num_cameras, int num_points, double pixel_sigma,
+                       unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  std::uniform_real_distribution<double> cube(-1.5, 1.5);
+  Reconstruction r;
+  for (int i = 0; i < num_cameras; ++i) {
+    const double a = 2.0 * kPi * i / num_cameras;
+    const Point3 centre(6.0 * std::cos(a), 6.0 * std::sin(a), 0.5 * std::sin(3.0 * a));
+    // z towards the origin, x tangent, y completing a right-handed frame (pointing down).
+    const Vector3 z = -centre.normalized();
+    const Vector3 x = Vector3(-std::sin(a), std::cos(a), 0.0).normalized();
+    Matrix3 R;
+    R.col(0) = x;
+    R.col(1) = z.cross(x);
+    R.col(2) = z;
+    r.images.push_back({.pose = Pose3(Rot3(R), centre), .intrinsics = i});
+    r.intrinsics.push_back({.calibration = cal});
+  }
+  for (int j = 0; j < num_points; ++j) {
+    r.points.push_back({.position = Point3(cube(rng), cube(rng), cube(rng))});
+  }
+  for (int j = 0; j < num_points; ++j) {
+    for (int i = 0; i < num_cameras; ++i) {
+      if ((i + j) % 3 == 0 && num_cameras > 3) continue;  // not every camera sees every point
+      const Projection p = Project(r.images[i].pose, cal, r.points[j].position);
+      r.observations.push_back(
+          {.image = i, .point = j, .uv = p.uv + pixel_sigma * Vector2(noise(rng), noise(rng))});
+    }
+  }
+  return r;
+}
+
+// Moves every pose, calibration and point away from where it was.
+void BaPerturb(Reconstruction* r, double pose_sigma, double point_sigma, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  for (SfmImage& image : r->images) {
+    Vector6 d;
+    for (int k = 0; k < 6; ++k) d[k] = pose_sigma * noise(rng);
+    image.pose = image.pose.Retract(d);
+  }
+  for (SfmPoint& p : r->points) {
+    p.position += point_sigma * Vector3(noise(rng), noise(rng), noise(rng));
+  }
+}
+
+const Cal3Bundler kBundler(500.0, -0.05, 0.01);
+
+// The Schur complement's step equals the dense solution of the full damped normal equations
+// (JᵀJ + λ·clamp(diag JᵀJ)) δ = −Jᵀr, with J by central differences of the residuals.
+TEST(BundleAdjusterTest, SchurStepEqualsDenseSolveOfTheFullSystem) {
+  Reconstruction r = BaWorld(kBundler, 4, 6, 0.5, 1);
+  BaPerturb(&r, 0.01, 0.05, 2);
+  using Problem = internal::BaProblem<Cal3Bundler, true>;
+  constexpr int kD = Problem::kD;
+  WorkerPool pool(1);
+  Problem problem(r, RobustKernel(), {0, 1, 2, 3}, &pool);
+  Problem::State x;
+  for (const SfmImage& image : r.images) {
+    x.poses.push_back(image.pose);
+    x.cals.push_back(std::get<Cal3Bundler>(r.intrinsics[image.intrinsics].calibration));
+  }
+  for (const SfmPoint& p : r.points) x.points.push_back(p.position);
+  problem.Linearize(x);
+  const double lambda = 1e-3;
+  internal::ReducedCameraMatrix s(kD, problem.CoVisibility());
+  Eigen::VectorXd b, dc(kD * 4);
+  problem.EliminatePoints(lambda, &s, nullptr, &b);
+  ASSERT_TRUE(s.SolveDense(b, &dc).ok());
+  std::vector<Vector3> dp;
+  problem.BackSubstitute(dc, &dp);
+
+  // The residuals as a function of the stacked tangent vector (cameras, then points).
+  const int n = kD * 4 + 3 * 6, m = 2 * static_cast<int>(r.observations.size());
+  auto residuals = [&](const Eigen::VectorXd& d) {
+    Eigen::VectorXd out(m);
+    for (size_t o = 0; o < r.observations.size(); ++o) {
+      const SfmObservation& obs = r.observations[o];
+      const Eigen::Matrix<double, kD, 1> c = d.segment<kD>(kD * obs.image);
+      const Pose3 pose = x.poses[obs.image].Retract(c.head<6>());
+      const Cal3Bundler cal = x.cals[obs.image].Retract(c.tail<3>());
+      const Point3 p = x.points[obs.point] + d.segment<3>(kD * 4 + 3 * obs.point);
+      out.segment<2>(2 * o) = Project(pose, cal, p).uv - obs.uv;
+    }
+    return out;
+  };
+  Eigen::MatrixXd J(m, n);
+  for (int k = 0; k < n; ++k) {
+    Eigen::VectorXd h = Eigen::VectorXd::Zero(n);
+    h[k] = 1e-6;
+    J.col(k) = (residuals(h) - residuals(-h)) / 2e-6;
+  }
+  Eigen::MatrixXd H = J.transpose() * J;
+  const Eigen::VectorXd diag = H.diagonal().cwiseMax(1e-6).cwiseMin(1e32);
+  H.diagonal() += lambda * diag;
+  const Eigen::VectorXd delta = H.ldlt().solve(-J.transpose() * residuals(Eigen::VectorXd::Zero(n)));
+  for (int k = 0; k < kD * 4; ++k) EXPECT_NEAR(dc[k], delta[k], 1e-5 * (1.0 + std::abs(delta[k])));
+  for (int j = 0; j < 6; ++j) {
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_NEAR(dp[j][k], delta[kD * 4 + 3 * j + k], 1e-5 * (1.0 + std::abs(delta[k])));
+    }
+  }
+  // The implicit product is S·x.
+  const Eigen::VectorXd v = Eigen::VectorXd::LinSpaced(kD * 4, -1.0, 2.0);
+  Eigen::VectorXd sv;
+  problem.MultiplyReduced(v, &sv);
+  const Eigen::VectorXd expected = s.ToDense() * v;
+  EXPECT_LT((sv - expected).norm(), 1e-9 * expected.norm());
+}
+
+TEST(BundleAdjusterTest, EveryLinearSolverReachesTheSameOptimum) {
+  const Reconstruction noisy = BaWorld(kBundler, 8, 40, 0.5, 3);
+  Reconstruction start = noisy;
+  BaPerturb(&start, 0.02, 0.1, 4);
+  double truth_cost = 0.0;
+  for (const SfmObservation& o : noisy.observations) {
+    truth_cost += 0.5 * (Project(noisy.images[o.image].pose, kBundler, noisy.points[o.point].position).uv -
+                         o.uv)
+                            .squaredNorm();
+  }
+  std::vector<double> costs;
+  for (BaLinearSolver solver : {BaLinearSolver::kDenseSchur, BaLinearSolver::kSparseSchur,
+                                BaLinearSolver::kIterativeSchur}) {
+    for (int threads : {1, 2}) {
+      Reconstruction r = start;
+      BundleAdjusterParams params{.linear_solver = solver, .num_threads = threads};
+      params.cg_tolerance = 1e-6;
+      params.max_iterations = 100;
+      const Result<BundleAdjusterSummary> s = BundleAdjust(params, &r);
+      ASSERT_TRUE(s.ok()) << s.status().ToString();
+      EXPECT_EQ(s->linear_solver, solver);
+      EXPECT_EQ(s->camera_block_dim, 9);
+      EXPECT_LT(s->final_cost, truth_cost);  // the optimum is below the truth
+      EXPECT_EQ(s->points_behind_cameras, 0);
+      // ~0.5 px noise on each of 2 coordinates: rms about 0.5·√2·(1 − unknowns/residuals)^½.
+      EXPECT_GT(s->rms_reprojection_px, 0.2);
+      EXPECT_LT(s->rms_reprojection_px, 0.8);
+      ASSERT_FALSE(s->iterations.empty());
+      EXPECT_EQ(s->iterations.back().cost, s->final_cost);
+      costs.push_back(s->final_cost);
+    }
+  }
+  for (double c : costs) EXPECT_NEAR(c, costs.front(), 1e-6 * costs.front());
+}
+
+TEST(BundleAdjusterTest, NoiseFreeProblemsConvergeToZeroForEveryModel) {
+  auto converge = [](Reconstruction r, bool refine) {
+    BaPerturb(&r, 0.01, 0.05, 5);
+    BundleAdjusterParams params{.refine_intrinsics = refine, .max_iterations = 100};
+    const Result<BundleAdjusterSummary> s = BundleAdjust(params, &r);
+    EXPECT_TRUE(s.ok()) << s.status().ToString();
+    if (!s.ok()) return -1;
+    EXPECT_LT(s->final_cost, 1e-6) << "initial " << s->initial_cost;  // pixels²
+    return s->camera_block_dim;
+  };
+  const Cal3_S2 pinhole(500.0, 480.0, 0.0, 320.0, 240.0);
+  const Cal3DS2 opencv(pinhole, -0.2, 0.05, 1e-3, -1e-3);
+  EXPECT_EQ(converge(BaWorld(pinhole, 6, 30, 0.0, 6), false), 6);
+  EXPECT_EQ(converge(BaWorld(opencv, 6, 30, 0.0, 7), true), 15);
+  EXPECT_EQ(converge(BaWorld(kBundler, 6, 30, 0.0, 8), true), 9);
+}
+
+TEST(BundleAdjusterTest, SharedIntrinsicsAreHeldFixed) {
+  Reconstruction r = BaWorld(kBundler, 5, 20, 0.0, 9);
+  for (SfmImage& image : r.images) image.intrinsics = 0;
+  r.intrinsics.resize(1);
+  r.intrinsics[0].calibration = Cal3Bundler(510.0, -0.05, 0.01);  // 2% off: the optimum moves
+  BaPerturb(&r, 0.01, 0.05, 10);
+  const Result<BundleAdjusterSummary> s = BundleAdjust({}, &r);
+  ASSERT_TRUE(s.ok()) << s.status().ToString();
+  EXPECT_EQ(s->camera_block_dim, 6);
+  EXPECT_EQ(std::get<Cal3Bundler>(r.intrinsics[0].calibration).f(), 510.0);
+}
+
+TEST(BundleAdjusterTest, HuberKernelResistsOutliers) {
+  const Reconstruction truth = BaWorld(kBundler, 8, 40, 0.0, 11);
+  Reconstruction bad = truth;
+  for (size_t o = 0; o < bad.observations.size(); o += 17) bad.observations[o].uv += Vector2(40, -30);
+  auto point_error = [&](const Reconstruction& r) {
+    // The estimate is defined up to a similarity: compare distances between points instead.
+    double e = 0.0;
+    for (size_t j = 1; j < r.points.size(); ++j) {
+      e += std::abs((r.points[j].position - r.points[0].position).norm() -
+                    (truth.points[j].position - truth.points[0].position).norm());
+    }
+    return e / static_cast<double>(r.points.size());
+  };
+  Reconstruction plain = bad, robust = bad;
+  ASSERT_TRUE(BundleAdjust({.refine_intrinsics = false}, &plain).ok());
+  BundleAdjusterParams params{.refine_intrinsics = false};
+  params.robust = RobustKernel::Create(RobustKernel::Kind::kHuber, 1.0).value();
+  const Result<BundleAdjusterSummary> s = BundleAdjust(params, &robust);
+  ASSERT_TRUE(s.ok());
+  // Ceres's cost: ½ Σ ρ(s), ρ linear beyond 1 px.
+  double expected = 0.0;
+  for (const SfmObservation& o : robust.observations) {
+    const SfmImage& image = robust.images[o.image];
+    const double sq =
+        (Project(image.pose, std::get<Cal3Bundler>(robust.intrinsics[image.intrinsics].calibration),
+                 robust.points[o.point].position)
+             .uv -
+         o.uv)
+            .squaredNorm();
+    expected += 0.5 * (sq <= 1.0 ? sq : 2.0 * std::sqrt(sq) - 1.0);
+  }
+  EXPECT_NEAR(s->final_cost, expected, 1e-9 * expected);
+  EXPECT_LT(point_error(robust), 0.2 * point_error(plain));
+}
+
+TEST(BundleAdjusterTest, RejectsWhatItCannotAdjust) {
+  Reconstruction empty = BaWorld(kBundler, 3, 4, 0.0, 12);
+  empty.observations.clear();
+  EXPECT_EQ(BundleAdjust({}, &empty).status().code(), StatusCode::kInvalidArgument);
+  Reconstruction mixed = BaWorld(kBundler, 3, 4, 0.0, 13);
+  mixed.intrinsics[1].calibration = Cal3_S2(500, 500, 0, 0, 0);
+  const Status s = BundleAdjust({}, &mixed).status();
+  EXPECT_NE(s.message().find("intrinsics 1"), std::string::npos) << s.ToString();
+  Reconstruction bad_index = BaWorld(kBundler, 3, 4, 0.0, 14);
+  bad_index.observations[0].point = 99;
+  EXPECT_EQ(BundleAdjust({}, &bad_index).status().code(), StatusCode::kInvalidArgument);
+  Reconstruction r = BaWorld(kBundler, 3, 4, 0.0, 15);
+  const Status invalid = BundleAdjust({.num_threads = 0}, &r).status();
+  EXPECT_NE(invalid.message().find("num_threads"), std::string::npos) << invalid.ToString();
+}
+
+}  // namespace
+}  // namespace slamd::core
