@@ -1,7 +1,11 @@
-// SourceLine, the noise helpers and the field helpers of reader_internal.h.
+// The files, number formatting, SourceLine, the noise helpers and the field helpers
+// of reader_internal.h.
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 #include "core/base/key.h"
@@ -22,7 +26,63 @@ std::string Quoted(std::string_view text) {
   return out;
 }
 
+Status LineProblem(const std::string& path, int line, std::string_view message) {
+  return DataLoss(path + ":" + std::to_string(line) + ": " + std::string(message));
+}
+
+// A finite double (a leading '+' allowed; overflow is not finite): false when the whole field
+// is not one.
+bool ParseFiniteNumber(std::string_view field, double* out) {
+  // from_chars rejects a leading '+', which some writers emit.
+  if (field.size() > 1 && field[0] == '+' && field[1] != '-') field.remove_prefix(1);
+  const char* end = field.data() + field.size();
+  const auto [ptr, ec] = std::from_chars(field.data(), end, *out);
+  bool ok = ec == std::errc() && ptr == end;
+  if (ec == std::errc::result_out_of_range && ptr == end) {
+    // Overflow or underflow: strtod tells which (underflow to a tiny value or 0 is fine).
+    *out = std::strtod(std::string(field).c_str(), nullptr);
+    ok = true;
+  }
+  return ok && std::isfinite(*out);
+}
+
+// An unsigned integer in [0, max]: false when the whole field is not one.
+bool ParseInteger(std::string_view field, std::uint64_t max, std::uint64_t* out) {
+  const char* end = field.data() + field.size();
+  const auto [ptr, ec] = std::from_chars(field.data(), end, *out);
+  return ec == std::errc() && ptr == end && *out <= max;
+}
+
 }  // namespace
+
+Result<std::string> ReadTextFile(const std::string& path, std::string_view what) {
+  const std::string name = std::string(what) + " '" + path + "'";
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return NotFound(name + " not found");
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return IoError(name + " is not a regular file");
+  }
+  std::ifstream file(path, std::ios::binary);
+  if (!file) return IoError("cannot open " + name);
+  std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  if (file.bad()) return IoError("reading " + name + " failed");
+  return text;
+}
+
+Status WriteTextFile(const std::string& path, std::string_view text, std::string_view writer) {
+  std::ofstream file(path, std::ios::binary | std::ios::trunc);
+  if (!file) return IoError(std::string(writer) + ": cannot open '" + path + "' for writing");
+  file.write(text.data(), static_cast<std::streamsize>(text.size()));
+  file.close();
+  if (!file) return IoError(std::string(writer) + ": writing '" + path + "' failed");
+  return Status::Ok();
+}
+
+void AppendNumber(double x, std::string* out) {
+  char buf[32];
+  const auto result = std::to_chars(buf, buf + sizeof(buf), x);
+  out->append(buf, result.ptr);
+}
 
 SourceLine::SourceLine(const std::string& path, int number, std::string_view text)
     : path_(&path), number_(number), text_(text) {
@@ -38,7 +98,7 @@ SourceLine::SourceLine(const std::string& path, int number, std::string_view tex
 }
 
 Status SourceLine::Problem(std::string_view message) const {
-  return DataLoss(*path_ + ":" + std::to_string(number_) + ": " + std::string(message));
+  return LineProblem(*path_, number_, message);
 }
 
 Status SourceLine::Error(std::string_view expected) const {
@@ -60,18 +120,7 @@ Status SourceLine::ExpectValues(int count_a, int count_b, std::string_view layou
 
 Status SourceLine::Number(int i, double* out) const {
   SLAMD_CHECK(i >= 0 && i < num_values()) << "reader bug: value " << i << " of " << num_values();
-  std::string_view field = fields_[i + 1];
-  // from_chars rejects a leading '+', which some writers emit.
-  if (field.size() > 1 && field[0] == '+' && field[1] != '-') field.remove_prefix(1);
-  const char* end = field.data() + field.size();
-  const auto [ptr, ec] = std::from_chars(field.data(), end, *out);
-  bool ok = ec == std::errc() && ptr == end;
-  if (ec == std::errc::result_out_of_range && ptr == end) {
-    // Overflow or underflow: strtod tells which (underflow to a tiny value or 0 is fine).
-    *out = std::strtod(std::string(field).c_str(), nullptr);
-    ok = true;
-  }
-  if (ok && std::isfinite(*out)) return Status::Ok();
+  if (ParseFiniteNumber(fields_[i + 1], out)) return Status::Ok();
   return Problem("expected a finite number as value " + std::to_string(i + 1) + " of " +
                  std::string(tag()) + ", got " + Quoted(fields_[i + 1]));
 }
@@ -79,9 +128,7 @@ Status SourceLine::Number(int i, double* out) const {
 Status SourceLine::Id(int i, std::uint64_t* out) const {
   SLAMD_CHECK(i >= 0 && i < num_values()) << "reader bug: value " << i << " of " << num_values();
   const std::string_view field = fields_[i + 1];
-  const char* end = field.data() + field.size();
-  const auto [ptr, ec] = std::from_chars(field.data(), end, *out);
-  if (ec == std::errc() && ptr == end && *out <= kMaxKeyIndex) return Status::Ok();
+  if (ParseInteger(field, kMaxKeyIndex, out)) return Status::Ok();
   return Problem("expected an id (an integer in 0..2^48-1) as value " + std::to_string(i + 1) +
                  " of " + std::string(tag()) + ", got " + Quoted(field));
 }
@@ -89,6 +136,18 @@ Status SourceLine::Id(int i, std::uint64_t* out) const {
 Status SourceLine::Numbers(int first, int count, double* out) const {
   for (int k = 0; k < count; ++k) SLAMD_RETURN_IF_ERROR(Number(first + k, out + k));
   return Status::Ok();
+}
+
+std::vector<SourceLine> SplitLines(const std::string& path, std::string_view text) {
+  std::vector<SourceLine> lines;
+  int number = 0;
+  for (std::size_t start = 0; start < text.size();) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string_view::npos) end = text.size();
+    lines.emplace_back(path, ++number, text.substr(start, end - start));
+    start = end + 1;
+  }
+  return lines;
 }
 
 Eigen::MatrixXd SymmetricFromUpperRowMajor(const double* values, int n) {

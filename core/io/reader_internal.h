@@ -1,7 +1,10 @@
-// Internal to core/io: what the format readers share. Not part of the public API.
+// Internal to core/io: what the format readers and writers share. Not part of the public API.
 //
-//  * SourceLine: one non-blank, non-comment line split into fields, with helpers that parse the
-//    numeric fields and turn every problem into a "FILE:LINE: expected ..., got '...'" status.
+//  * Files: ReadTextFile / WriteTextFile (whole files, kNotFound / kIoError statuses), and
+//    AppendNumber, the shortest text that reads back to the same double.
+//  * SourceLine: one line split into fields, with helpers that parse the numeric fields and turn
+//    every problem into a "FILE:LINE: expected ..., got '...'" status; SplitLines cuts a text
+//    into them.
 //  * Noise helpers: symmetric matrices from the upper triangles the formats store.
 //  * DatasetBuilder: collects vertices and measurements from any reader, then builds the
 //    Dataset (keys, factor graph, initial guess by composition along the edges).
@@ -10,6 +13,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstddef>
 #include <cstdint>
 #include <map>
 #include <string>
@@ -23,6 +27,16 @@
 
 namespace slamd::core::internal {
 
+// The whole file at `path`. kNotFound "<what> '<path>' not found" when it does not exist,
+// kIoError when it is not a regular file or cannot be read.
+Result<std::string> ReadTextFile(const std::string& path, std::string_view what);
+// Replaces the file at `path` with `text`; kIoError "<writer>: cannot open ... / writing ...
+// failed" otherwise. Writers format everything first, so invalid input leaves no partial file.
+Status WriteTextFile(const std::string& path, std::string_view text, std::string_view writer);
+// Appends `x` in the shortest form that reads back to the same double (std::to_chars).
+void AppendNumber(double x, std::string* out);
+
+// One line of a text file, split into fields at blanks (spaces, tabs, '\r').
 class SourceLine {
  public:
   SourceLine(const std::string& path, int number, std::string_view text);
@@ -30,6 +44,8 @@ class SourceLine {
   const std::string& path() const { return *path_; }
   int number() const { return number_; }
   std::string_view text() const { return text_; }
+  // Not blank and not a comment (first field starting with '#').
+  bool IsRecord() const { return !fields_.empty() && fields_[0][0] != '#'; }
   // The first field (the record type).
   std::string_view tag() const { return fields_.empty() ? std::string_view() : fields_[0]; }
   // Fields after the tag.
@@ -57,6 +73,11 @@ class SourceLine {
   std::string_view text_;
   std::vector<std::string_view> fields_;
 };
+
+// Every line of `text` (blank lines and comments included), numbered from 1; the lines refer to
+// `path` and `text`, which must outlive them. A final line without '\n' counts; nothing after a
+// final '\n' does.
+std::vector<SourceLine> SplitLines(const std::string& path, std::string_view text);
 
 // The symmetric n x n matrix whose upper triangle, row by row, is values[0..n(n+1)/2).
 Eigen::MatrixXd SymmetricFromUpperRowMajor(const double* values, int n);
@@ -133,8 +154,7 @@ class DatasetBuilder {
 Status ReadVertexFields(const SourceLine& line, std::string_view layout, bool is_3d, int count,
                         DatasetBuilder* builder, std::uint64_t* id, double* numbers);
 Status ReadEdgeFields(const SourceLine& line, std::string_view layout, bool is_3d, int count,
-                      DatasetBuilder* builder, std::uint64_t* i, std::uint64_t* j,
-                      double* numbers);
+                      DatasetBuilder* builder, std::uint64_t* i, std::uint64_t* j, double* numbers);
 // Steps 2 and 3 of ReadEdgeFields, for readers with their own count check (iSAM EDGE3, whose
 // count is one of two). Checks (a reader bug otherwise) that count == line.num_values() - 2.
 Status ParseEdgeFields(const SourceLine& line, bool is_3d, int count, DatasetBuilder* builder,
