@@ -119,8 +119,7 @@ class LineWriter {
     return *this;
   }
   LineWriter& Num(double x) {
-    out_->push_back(' ');
-    internal::AppendNumber(x, out_);
+    internal::AppendNumbers({x}, out_);
     return *this;
   }
   LineWriter& UpperTriangle(const Eigen::MatrixXd& m) {

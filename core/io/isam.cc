@@ -116,12 +116,6 @@ Status ReadIsamLine(const SourceLine& line, IsamNoise noise, DatasetBuilder* bui
 namespace slamd::core {
 namespace {
 
-// " <x>" in the shortest exact form.
-void AppendIsamNumber(double x, std::string* out) {
-  out->push_back(' ');
-  internal::AppendNumber(x, out);
-}
-
 Status CheckIsamKey(Key key, unsigned char symbol, std::size_t index) {
   if (KeySymbol(key) == symbol && KeyRobot(key) == 0) return Status::Ok();
   return InvalidArgument("WriteIsam: factor " + std::to_string(index) + " has key " +
@@ -147,13 +141,14 @@ Status WriteIsamFactor(const Factor& factor, std::size_t index, std::string* out
   }
   // iSAM writes a Pose2 as x y θ and a Point2 as x y (the kinds its format has).
   if (const Pose2* p = std::get_if<Pose2>(&*measured)) {
-    for (double x : {p->x(), p->y(), p->theta()}) AppendIsamNumber(x, &line);
+    internal::AppendNumbers({p->x(), p->y(), p->theta()}, &line);
   } else {
-    for (double x : std::get<Point2>(*measured)) AppendIsamNumber(x, &line);
+    const Point2& q = std::get<Point2>(*measured);
+    internal::AppendNumbers({q.x(), q.y()}, &line);
   }
   const NoiseModel::Matrix& R = factor.noise_model().sqrt_information();
   for (int r = 0; r < R.rows(); ++r) {
-    for (int c = r; c < R.cols(); ++c) AppendIsamNumber(R(r, c), &line);
+    for (int c = r; c < R.cols(); ++c) internal::AppendNumbers({R(r, c)}, &line);
   }
   out->append(line).append("\n");
   return Status::Ok();

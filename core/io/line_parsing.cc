@@ -1,4 +1,4 @@
-// The files, number formatting, SourceLine, the noise helpers and the field helpers
+// The files, number formatting, SourceLine, TokenStream, the noise helpers and the field helpers
 // of reader_internal.h.
 #include <charconv>
 #include <cmath>
@@ -26,8 +26,12 @@ std::string Quoted(std::string_view text) {
   return out;
 }
 
-Status LineProblem(const std::string& path, int line, std::string_view message) {
-  return DataLoss(path + ":" + std::to_string(line) + ": " + std::string(message));
+std::string ToString(const FieldName& name) {
+  std::string out(name.field);
+  if (name.index >= 0) {
+    out.append(" of ").append(name.record).append(" ").append(std::to_string(name.index));
+  }
+  return out;
 }
 
 // A finite double (a leading '+' allowed; overflow is not finite): false when the whole field
@@ -54,6 +58,10 @@ bool ParseInteger(std::string_view field, std::uint64_t max, std::uint64_t* out)
 }
 
 }  // namespace
+
+Status ProblemAt(const std::string& path, int line, std::string_view message) {
+  return DataLoss(path + ":" + std::to_string(line) + ": " + std::string(message));
+}
 
 Result<std::string> ReadTextFile(const std::string& path, std::string_view what) {
   const std::string name = std::string(what) + " '" + path + "'";
@@ -84,6 +92,13 @@ void AppendNumber(double x, std::string* out) {
   out->append(buf, result.ptr);
 }
 
+void AppendNumbers(std::initializer_list<double> values, std::string* out) {
+  for (const double x : values) {
+    out->push_back(' ');
+    AppendNumber(x, out);
+  }
+}
+
 SourceLine::SourceLine(const std::string& path, int number, std::string_view text)
     : path_(&path), number_(number), text_(text) {
   std::size_t i = 0;
@@ -98,7 +113,7 @@ SourceLine::SourceLine(const std::string& path, int number, std::string_view tex
 }
 
 Status SourceLine::Problem(std::string_view message) const {
-  return LineProblem(*path_, number_, message);
+  return ProblemAt(*path_, number_, message);
 }
 
 Status SourceLine::Error(std::string_view expected) const {
@@ -148,6 +163,51 @@ std::vector<SourceLine> SplitLines(const std::string& path, std::string_view tex
     start = end + 1;
   }
   return lines;
+}
+
+TokenStream::TokenStream(const std::string& path, std::string_view text)
+    : path_(&path), text_(text) {}
+
+bool TokenStream::Next(std::string_view* token) {
+  while (pos_ < text_.size() && (IsBlank(text_[pos_]) || text_[pos_] == '\n')) {
+    if (text_[pos_] == '\n') ++line_;
+    ++pos_;
+  }
+  if (pos_ == text_.size()) return false;
+  const std::size_t start = pos_;
+  while (pos_ < text_.size() && !IsBlank(text_[pos_]) && text_[pos_] != '\n') ++pos_;
+  *token = text_.substr(start, pos_ - start);
+  token_line_ = line_;
+  return true;
+}
+
+Status TokenStream::Expected(const FieldName& name, std::string_view kind, bool at_end,
+                             std::string_view token) const {
+  std::string message = "expected " + ToString(name) + " (" + std::string(kind) + "), got ";
+  message += at_end ? std::string("the end of the file") : Quoted(token);
+  return ProblemAt(*path_, token_line_, message);
+}
+
+Status TokenStream::Number(const FieldName& name, double* out) {
+  std::string_view token;
+  const bool found = Next(&token);
+  if (found && ParseFiniteNumber(token, out)) return Status::Ok();
+  return Expected(name, "a finite number", !found, token);
+}
+
+Status TokenStream::Index(const FieldName& name, std::uint64_t limit, std::uint64_t* out) {
+  std::string_view token;
+  const bool found = Next(&token);
+  if (found && limit > 0 && ParseInteger(token, limit - 1, out)) return Status::Ok();
+  return Expected(name, "an integer in [0, " + std::to_string(limit) + ")", !found, token);
+}
+
+Status TokenStream::End(std::string_view after) {
+  std::string_view token;
+  if (!Next(&token)) return Status::Ok();
+  return ProblemAt(
+      *path_, token_line_,
+      "expected the end of the file after " + std::string(after) + ", got " + Quoted(token));
 }
 
 Eigen::MatrixXd SymmetricFromUpperRowMajor(const double* values, int n) {

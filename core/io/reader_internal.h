@@ -5,6 +5,7 @@
 //  * SourceLine: one line split into fields, with helpers that parse the numeric fields and turn
 //    every problem into a "FILE:LINE: expected ..., got '...'" status; SplitLines cuts a text
 //    into them.
+//  * TokenStream: the same for formats whose numbers may spread over lines arbitrarily (BAL).
 //  * Noise helpers: symmetric matrices from the upper triangles the formats store.
 //  * DatasetBuilder: collects vertices and measurements from any reader, then builds the
 //    Dataset (keys, factor graph, initial guess by composition along the edges).
@@ -15,6 +16,7 @@
 #include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
+#include <initializer_list>
 #include <map>
 #include <string>
 #include <string_view>
@@ -35,6 +37,19 @@ Result<std::string> ReadTextFile(const std::string& path, std::string_view what)
 Status WriteTextFile(const std::string& path, std::string_view text, std::string_view writer);
 // Appends `x` in the shortest form that reads back to the same double (std::to_chars).
 void AppendNumber(double x, std::string* out);
+// Appends each of `values` as " <x>", in that form.
+void AppendNumbers(std::initializer_list<double> values, std::string* out);
+
+// "FILE:LINE: <message>" as kDataLoss.
+Status ProblemAt(const std::string& path, int line, std::string_view message);
+
+// What a field is, for messages: "<field>", or "<field> of <record> <index>" when index >= 0.
+// Put into words only on error, so that naming every field of a large file costs nothing.
+struct FieldName {
+  std::string_view field;
+  std::string_view record = {};
+  std::int64_t index = -1;
+};
 
 // One line of a text file, split into fields at blanks (spaces, tabs, '\r').
 class SourceLine {
@@ -78,6 +93,38 @@ class SourceLine {
 // `path` and `text`, which must outlive them. A final line without '\n' counts; nothing after a
 // final '\n' does.
 std::vector<SourceLine> SplitLines(const std::string& path, std::string_view text);
+
+// The blank-separated tokens of a text, one after the other across lines (BAL lets its numbers
+// spread over lines arbitrarily), each parsed with the line it is on, so that problems are still
+// reported as "FILE:LINE: expected <name> (...), got '<token>'" or "..., got the end of the
+// file".
+class TokenStream {
+ public:
+  // `path` and `text` must outlive the stream.
+  TokenStream(const std::string& path, std::string_view text);
+
+  // The next token as a finite double / an integer in [0, limit) (note: exclusive, so that a count
+  // of 0 admits nothing).
+  Status Number(const FieldName& name, double* out);
+  Status Index(const FieldName& name, std::uint64_t limit, std::uint64_t* out);
+  // Ok when no token is left; otherwise "FILE:LINE: expected the end of the file after <after>,
+  // got '<token>'".
+  Status End(std::string_view after);
+
+ private:
+  // The next token (its line in token_line_); false at the end of the text.
+  bool Next(std::string_view* token);
+  // "FILE:LINE: expected <name> (<kind>), got '<token>'" or "..., got the end of the file", at
+  // the line of the token (of the last token at the end of the file).
+  Status Expected(const FieldName& name, std::string_view kind, bool at_end,
+                  std::string_view token) const;
+
+  const std::string* path_;
+  std::string_view text_;
+  std::size_t pos_ = 0;  // where the next token search starts
+  int line_ = 1;         // the line at pos_
+  int token_line_ = 1;   // the line of the last token returned
+};
 
 // The symmetric n x n matrix whose upper triangle, row by row, is values[0..n(n+1)/2).
 Eigen::MatrixXd SymmetricFromUpperRowMajor(const double* values, int n);
