@@ -14,12 +14,7 @@ namespace {
 
 // Rotation from a g2o quaternion, stored x y z w (w LAST).
 Status ReadQuaternion(const SourceLine& line, const double* xyzw, Rot3* R) {
-  const double norm = Eigen::Vector4d(xyzw[0], xyzw[1], xyzw[2], xyzw[3]).norm();
-  if (!(norm > 1e-6) || !std::isfinite(norm)) {
-    return line.Error("a quaternion qx qy qz qw of finite, non-zero norm");
-  }
-  *R = Rot3::FromQuaternion(xyzw[3], xyzw[0], xyzw[1], xyzw[2]);
-  return Status::Ok();
+  return RotationFromQuaternion(line, "qx qy qz qw", xyzw[3], xyzw[0], xyzw[1], xyzw[2], R);
 }
 
 Status ReadEdgeSe2(const SourceLine& line, DatasetBuilder* builder) {

@@ -1,5 +1,5 @@
-// The files, number formatting, SourceLine, TokenStream, the noise helpers and the field helpers
-// of reader_internal.h.
+// The files, number formatting, SourceLine, TokenStream, the quaternion and noise helpers and the
+// field helpers of reader_internal.h.
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
@@ -153,6 +153,20 @@ Status SourceLine::Numbers(int first, int count, double* out) const {
   return Status::Ok();
 }
 
+Status SourceLine::FieldNumber(int k, const FieldName& name, double* out) const {
+  SLAMD_CHECK(k >= 0 && k < num_fields()) << "reader bug: field " << k << " of " << num_fields();
+  if (ParseFiniteNumber(fields_[k], out)) return Status::Ok();
+  return Problem("expected " + ToString(name) + " (a finite number), got " + Quoted(fields_[k]));
+}
+
+Status SourceLine::FieldInteger(int k, const FieldName& name, std::uint64_t max,
+                                std::uint64_t* out) const {
+  SLAMD_CHECK(k >= 0 && k < num_fields()) << "reader bug: field " << k << " of " << num_fields();
+  if (ParseInteger(fields_[k], max, out)) return Status::Ok();
+  return Problem("expected " + ToString(name) + " (an integer in [0, " + std::to_string(max) +
+                 "]), got " + Quoted(fields_[k]));
+}
+
 std::vector<SourceLine> SplitLines(const std::string& path, std::string_view text) {
   std::vector<SourceLine> lines;
   int number = 0;
@@ -208,6 +222,16 @@ Status TokenStream::End(std::string_view after) {
   return ProblemAt(
       *path_, token_line_,
       "expected the end of the file after " + std::string(after) + ", got " + Quoted(token));
+}
+
+Status RotationFromQuaternion(const SourceLine& line, std::string_view layout, double w, double x,
+                              double y, double z, Rot3* R) {
+  const double norm = Eigen::Vector4d(w, x, y, z).norm();
+  if (!(norm > 1e-6) || !std::isfinite(norm)) {
+    return line.Error("a quaternion " + std::string(layout) + " of finite, non-zero norm");
+  }
+  *R = Rot3::FromQuaternion(w, x, y, z);
+  return Status::Ok();
 }
 
 Eigen::MatrixXd SymmetricFromUpperRowMajor(const double* values, int n) {

@@ -6,6 +6,7 @@
 //    every problem into a "FILE:LINE: expected ..., got '...'" status; SplitLines cuts a text
 //    into them.
 //  * TokenStream: the same for formats whose numbers may spread over lines arbitrarily (BAL).
+//  * RotationFromQuaternion: a quaternion field group as a rotation (g2o, COLMAP).
 //  * Noise helpers: symmetric matrices from the upper triangles the formats store.
 //  * DatasetBuilder: collects vertices and measurements from any reader, then builds the
 //    Dataset (keys, factor graph, initial guess by composition along the edges).
@@ -61,6 +62,8 @@ class SourceLine {
   std::string_view text() const { return text_; }
   // Not blank and not a comment (first field starting with '#').
   bool IsRecord() const { return !fields_.empty() && fields_[0][0] != '#'; }
+  int num_fields() const { return static_cast<int>(fields_.size()); }
+  std::string_view field(int k) const { return fields_[k]; }
   // The first field (the record type).
   std::string_view tag() const { return fields_.empty() ? std::string_view() : fields_[0]; }
   // Fields after the tag.
@@ -81,6 +84,12 @@ class SourceLine {
   Status Id(int i, std::uint64_t* out) const;
   // Fields first .. first+count-1 as finite doubles.
   Status Numbers(int first, int count, double* out) const;
+
+  // Field k, counting the tag as field 0, for formats without a tag (COLMAP): a finite double /
+  // an integer in [0, max]; otherwise "expected <name> (a finite number), got '<field>'" /
+  // "expected <name> (an integer in [0, <max>]), got '<field>'".
+  Status FieldNumber(int k, const FieldName& name, double* out) const;
+  Status FieldInteger(int k, const FieldName& name, std::uint64_t max, std::uint64_t* out) const;
 
  private:
   const std::string* path_;
@@ -125,6 +134,11 @@ class TokenStream {
   int line_ = 1;         // the line at pos_
   int token_line_ = 1;   // the line of the last token returned
 };
+
+// The rotation of quaternion (w, x, y, z), normalised; "FILE:LINE: expected a quaternion
+// <layout> of finite, non-zero norm, got '<line>'" when its norm is not.
+Status RotationFromQuaternion(const SourceLine& line, std::string_view layout, double w, double x,
+                              double y, double z, Rot3* R);
 
 // The symmetric n x n matrix whose upper triangle, row by row, is values[0..n(n+1)/2).
 Eigen::MatrixXd SymmetricFromUpperRowMajor(const double* values, int n);
