@@ -1,5 +1,5 @@
 // Reconstructions (core/sfm/reconstruction.h) read from and written to the common structure-
-// from-motion formats: BAL problems and COLMAP's text model.
+// from-motion formats: BAL problems, COLMAP's text model, and PLY point clouds for viewing.
 // Every reader converts to the Reconstruction's conventions (poses T_wc, camera looking down +z
 // with y down, pixels in the calibration's frame) and every writer converts back.
 //
@@ -95,5 +95,14 @@ Result<Reconstruction> ReadColmapText(const std::string& dir);
 // a duplicate id. The three files are written one after the other: an I/O failure may leave some of
 // them written.
 Status WriteColmapText(const Reconstruction& r, const std::string& dir);
+
+// ReadColmapText for a directory, ReadBal for anything else (kNotFound when nothing is there).
+Result<Reconstruction> ReadReconstruction(const std::string& path);
+
+// Writes an ASCII PLY point cloud (MeshLab, Open3D, CloudCompare): one vertex per point, in its
+// colour, then one per image at its camera centre (the translation of T_wc), in red (255, 0, 0).
+// Vertex properties: double x, y, z; uchar red, green, blue. Observations and intrinsics are not
+// written. kInvalidArgument when r.Validate() fails.
+Status WritePly(const Reconstruction& r, const std::string& path);
 
 }  // namespace slamd::core
