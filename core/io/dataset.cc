@@ -1,9 +1,8 @@
 // ReadDataset: reads the file, detects its format and runs that format's line reader.
 #include "core/io/dataset.h"
 
-#include <filesystem>
-#include <fstream>
-#include <iterator>
+#include <string>
+#include <vector>
 
 #include "core/io/reader_internal.h"
 
@@ -79,27 +78,12 @@ const char* DatasetFormatName(DatasetFormat format) {
 
 Result<Dataset> ReadDataset(const std::string& path, const ReadOptions& options) {
   // 1. The file's text (the largest development file is 1.3 MB: read it whole).
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) return NotFound("dataset file '" + path + "' not found");
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    return IoError("dataset path '" + path + "' is not a regular file");
-  }
-  std::ifstream file(path, std::ios::binary);
-  if (!file) return IoError("cannot open dataset file '" + path + "'");
-  const std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
-  if (file.bad()) return IoError("reading dataset file '" + path + "' failed");
+  Result<std::string> text = internal::ReadTextFile(path, "dataset file");
+  if (!text.ok()) return text.status();
 
   // 2. Lines that carry records (not blank, not '#' comments), with their 1-based numbers.
-  std::vector<SourceLine> lines;
-  int number = 0;
-  for (std::size_t start = 0; start < text.size();) {
-    std::size_t end = text.find('\n', start);
-    if (end == std::string::npos) end = text.size();
-    ++number;
-    SourceLine line(path, number, std::string_view(text).substr(start, end - start));
-    if (line.num_values() >= 0 && line.tag()[0] != '#') lines.push_back(std::move(line));
-    start = end + 1;
-  }
+  std::vector<SourceLine> lines = internal::SplitLines(path, *text);
+  std::erase_if(lines, [](const SourceLine& line) { return !line.IsRecord(); });
 
   // 3. Format, then one reader call per line.
   DatasetFormat format = options.format;

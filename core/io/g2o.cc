@@ -1,9 +1,7 @@
 // The g2o format: reading one line (ReadG2oLine) and writing a whole Dataset (WriteG2o).
 // Layouts and conventions: dataset.h.
 #include <algorithm>
-#include <charconv>
 #include <cmath>
-#include <fstream>
 #include <string>
 
 #include "core/factors/factor.h"
@@ -16,12 +14,7 @@ namespace {
 
 // Rotation from a g2o quaternion, stored x y z w (w LAST).
 Status ReadQuaternion(const SourceLine& line, const double* xyzw, Rot3* R) {
-  const double norm = Eigen::Vector4d(xyzw[0], xyzw[1], xyzw[2], xyzw[3]).norm();
-  if (!(norm > 1e-6) || !std::isfinite(norm)) {
-    return line.Error("a quaternion qx qy qz qw of finite, non-zero norm");
-  }
-  *R = Rot3::FromQuaternion(xyzw[3], xyzw[0], xyzw[1], xyzw[2]);
-  return Status::Ok();
+  return RotationFromQuaternion(line, "qx qy qz qw", xyzw[3], xyzw[0], xyzw[1], xyzw[2], R);
 }
 
 Status ReadEdgeSe2(const SourceLine& line, DatasetBuilder* builder) {
@@ -108,7 +101,7 @@ Status ReadG2oLine(const SourceLine& line, DatasetBuilder* builder) {
 
 namespace {
 
-// Appends numbers in their shortest exact form (to_chars round-trips every double).
+// Appends the fields of one line, numbers in their shortest exact form.
 class LineWriter {
  public:
   explicit LineWriter(std::string* out) : out_(out) {}
@@ -121,9 +114,7 @@ class LineWriter {
     return *this;
   }
   LineWriter& Num(double x) {
-    char buf[32];
-    const auto result = std::to_chars(buf, buf + sizeof(buf), x);
-    out_->append(" ").append(buf, result.ptr);
+    internal::AppendNumbers({x}, out_);
     return *this;
   }
   LineWriter& UpperTriangle(const Eigen::MatrixXd& m) {
@@ -228,12 +219,7 @@ Status WriteG2o(const Dataset& dataset, const std::string& path) {
   for (std::size_t i = 0; i < dataset.graph.size(); ++i) {
     SLAMD_RETURN_IF_ERROR(WriteFactor(*dataset.graph[i], i, &out));
   }
-  std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  if (!file) return IoError("WriteG2o: cannot open '" + path + "' for writing");
-  file.write(out.data(), static_cast<std::streamsize>(out.size()));
-  file.close();
-  if (!file) return IoError("WriteG2o: writing '" + path + "' failed");
-  return Status::Ok();
+  return internal::WriteTextFile(path, out, "WriteG2o");
 }
 
 }  // namespace slamd::core

@@ -1,9 +1,7 @@
 // The iSAM text format (Kaess' iSAM data/*.txt): ODOMETRY / EDGE2, LANDMARK, EDGE3: reading one
 // line (ReadIsamLine) and writing a 2D Dataset (WriteIsam). Layouts and conventions: dataset.h.
 #include <algorithm>
-#include <charconv>
 #include <cmath>
-#include <fstream>
 #include <string>
 
 #include "core/factors/factor.h"
@@ -118,12 +116,6 @@ Status ReadIsamLine(const SourceLine& line, IsamNoise noise, DatasetBuilder* bui
 namespace slamd::core {
 namespace {
 
-void AppendNumber(double x, std::string* out) {
-  char buf[32];
-  const auto result = std::to_chars(buf, buf + sizeof(buf), x);  // shortest exact form
-  out->append(" ").append(buf, result.ptr);
-}
-
 Status CheckIsamKey(Key key, unsigned char symbol, std::size_t index) {
   if (KeySymbol(key) == symbol && KeyRobot(key) == 0) return Status::Ok();
   return InvalidArgument("WriteIsam: factor " + std::to_string(index) + " has key " +
@@ -149,13 +141,14 @@ Status WriteIsamFactor(const Factor& factor, std::size_t index, std::string* out
   }
   // iSAM writes a Pose2 as x y θ and a Point2 as x y (the kinds its format has).
   if (const Pose2* p = std::get_if<Pose2>(&*measured)) {
-    for (double x : {p->x(), p->y(), p->theta()}) AppendNumber(x, &line);
+    internal::AppendNumbers({p->x(), p->y(), p->theta()}, &line);
   } else {
-    for (double x : std::get<Point2>(*measured)) AppendNumber(x, &line);
+    const Point2& q = std::get<Point2>(*measured);
+    internal::AppendNumbers({q.x(), q.y()}, &line);
   }
   const NoiseModel::Matrix& R = factor.noise_model().sqrt_information();
   for (int r = 0; r < R.rows(); ++r) {
-    for (int c = r; c < R.cols(); ++c) AppendNumber(R(r, c), &line);
+    for (int c = r; c < R.cols(); ++c) internal::AppendNumbers({R(r, c)}, &line);
   }
   out->append(line).append("\n");
   return Status::Ok();
@@ -169,12 +162,7 @@ Status WriteIsam(const Dataset& dataset, const std::string& path) {
   for (std::size_t i = 0; i < dataset.graph.size(); ++i) {
     SLAMD_RETURN_IF_ERROR(WriteIsamFactor(*dataset.graph[i], i, &out));
   }
-  std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  if (!file) return IoError("WriteIsam: cannot open '" + path + "' for writing");
-  file.write(out.data(), static_cast<std::streamsize>(out.size()));
-  file.close();
-  if (!file) return IoError("WriteIsam: writing '" + path + "' failed");
-  return Status::Ok();
+  return internal::WriteTextFile(path, out, "WriteIsam");
 }
 
 }  // namespace slamd::core

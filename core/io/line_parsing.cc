@@ -1,7 +1,11 @@
-// SourceLine, the noise helpers and the field helpers of reader_internal.h.
+// The files, number formatting, SourceLine, TokenStream, the quaternion and noise helpers and the
+// field helpers of reader_internal.h.
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 #include "core/base/key.h"
@@ -22,7 +26,78 @@ std::string Quoted(std::string_view text) {
   return out;
 }
 
+std::string ToString(const FieldName& name) {
+  std::string out(name.field);
+  if (name.index >= 0) {
+    out.append(" of ").append(name.record).append(" ").append(std::to_string(name.index));
+  }
+  return out;
+}
+
+// A finite double (a leading '+' allowed; overflow is not finite): false when the whole field
+// is not one.
+bool ParseFiniteNumber(std::string_view field, double* out) {
+  // from_chars rejects a leading '+', which some writers emit.
+  if (field.size() > 1 && field[0] == '+' && field[1] != '-') field.remove_prefix(1);
+  const char* end = field.data() + field.size();
+  const auto [ptr, ec] = std::from_chars(field.data(), end, *out);
+  bool ok = ec == std::errc() && ptr == end;
+  if (ec == std::errc::result_out_of_range && ptr == end) {
+    // Overflow or underflow: strtod tells which (underflow to a tiny value or 0 is fine).
+    *out = std::strtod(std::string(field).c_str(), nullptr);
+    ok = true;
+  }
+  return ok && std::isfinite(*out);
+}
+
+// An unsigned integer in [0, max]: false when the whole field is not one.
+bool ParseInteger(std::string_view field, std::uint64_t max, std::uint64_t* out) {
+  const char* end = field.data() + field.size();
+  const auto [ptr, ec] = std::from_chars(field.data(), end, *out);
+  return ec == std::errc() && ptr == end && *out <= max;
+}
+
 }  // namespace
+
+Status ProblemAt(const std::string& path, int line, std::string_view message) {
+  return DataLoss(path + ":" + std::to_string(line) + ": " + std::string(message));
+}
+
+Result<std::string> ReadTextFile(const std::string& path, std::string_view what) {
+  const std::string name = std::string(what) + " '" + path + "'";
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return NotFound(name + " not found");
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return IoError(name + " is not a regular file");
+  }
+  std::ifstream file(path, std::ios::binary);
+  if (!file) return IoError("cannot open " + name);
+  std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  if (file.bad()) return IoError("reading " + name + " failed");
+  return text;
+}
+
+Status WriteTextFile(const std::string& path, std::string_view text, std::string_view writer) {
+  std::ofstream file(path, std::ios::binary | std::ios::trunc);
+  if (!file) return IoError(std::string(writer) + ": cannot open '" + path + "' for writing");
+  file.write(text.data(), static_cast<std::streamsize>(text.size()));
+  file.close();
+  if (!file) return IoError(std::string(writer) + ": writing '" + path + "' failed");
+  return Status::Ok();
+}
+
+void AppendNumber(double x, std::string* out) {
+  char buf[32];
+  const auto result = std::to_chars(buf, buf + sizeof(buf), x);
+  out->append(buf, result.ptr);
+}
+
+void AppendNumbers(std::initializer_list<double> values, std::string* out) {
+  for (const double x : values) {
+    out->push_back(' ');
+    AppendNumber(x, out);
+  }
+}
 
 SourceLine::SourceLine(const std::string& path, int number, std::string_view text)
     : path_(&path), number_(number), text_(text) {
@@ -38,7 +113,7 @@ SourceLine::SourceLine(const std::string& path, int number, std::string_view tex
 }
 
 Status SourceLine::Problem(std::string_view message) const {
-  return DataLoss(*path_ + ":" + std::to_string(number_) + ": " + std::string(message));
+  return ProblemAt(*path_, number_, message);
 }
 
 Status SourceLine::Error(std::string_view expected) const {
@@ -60,18 +135,7 @@ Status SourceLine::ExpectValues(int count_a, int count_b, std::string_view layou
 
 Status SourceLine::Number(int i, double* out) const {
   SLAMD_CHECK(i >= 0 && i < num_values()) << "reader bug: value " << i << " of " << num_values();
-  std::string_view field = fields_[i + 1];
-  // from_chars rejects a leading '+', which some writers emit.
-  if (field.size() > 1 && field[0] == '+' && field[1] != '-') field.remove_prefix(1);
-  const char* end = field.data() + field.size();
-  const auto [ptr, ec] = std::from_chars(field.data(), end, *out);
-  bool ok = ec == std::errc() && ptr == end;
-  if (ec == std::errc::result_out_of_range && ptr == end) {
-    // Overflow or underflow: strtod tells which (underflow to a tiny value or 0 is fine).
-    *out = std::strtod(std::string(field).c_str(), nullptr);
-    ok = true;
-  }
-  if (ok && std::isfinite(*out)) return Status::Ok();
+  if (ParseFiniteNumber(fields_[i + 1], out)) return Status::Ok();
   return Problem("expected a finite number as value " + std::to_string(i + 1) + " of " +
                  std::string(tag()) + ", got " + Quoted(fields_[i + 1]));
 }
@@ -79,15 +143,94 @@ Status SourceLine::Number(int i, double* out) const {
 Status SourceLine::Id(int i, std::uint64_t* out) const {
   SLAMD_CHECK(i >= 0 && i < num_values()) << "reader bug: value " << i << " of " << num_values();
   const std::string_view field = fields_[i + 1];
-  const char* end = field.data() + field.size();
-  const auto [ptr, ec] = std::from_chars(field.data(), end, *out);
-  if (ec == std::errc() && ptr == end && *out <= kMaxKeyIndex) return Status::Ok();
+  if (ParseInteger(field, kMaxKeyIndex, out)) return Status::Ok();
   return Problem("expected an id (an integer in 0..2^48-1) as value " + std::to_string(i + 1) +
                  " of " + std::string(tag()) + ", got " + Quoted(field));
 }
 
 Status SourceLine::Numbers(int first, int count, double* out) const {
   for (int k = 0; k < count; ++k) SLAMD_RETURN_IF_ERROR(Number(first + k, out + k));
+  return Status::Ok();
+}
+
+Status SourceLine::FieldNumber(int k, const FieldName& name, double* out) const {
+  SLAMD_CHECK(k >= 0 && k < num_fields()) << "reader bug: field " << k << " of " << num_fields();
+  if (ParseFiniteNumber(fields_[k], out)) return Status::Ok();
+  return Problem("expected " + ToString(name) + " (a finite number), got " + Quoted(fields_[k]));
+}
+
+Status SourceLine::FieldInteger(int k, const FieldName& name, std::uint64_t max,
+                                std::uint64_t* out) const {
+  SLAMD_CHECK(k >= 0 && k < num_fields()) << "reader bug: field " << k << " of " << num_fields();
+  if (ParseInteger(fields_[k], max, out)) return Status::Ok();
+  return Problem("expected " + ToString(name) + " (an integer in [0, " + std::to_string(max) +
+                 "]), got " + Quoted(fields_[k]));
+}
+
+std::vector<SourceLine> SplitLines(const std::string& path, std::string_view text) {
+  std::vector<SourceLine> lines;
+  int number = 0;
+  for (std::size_t start = 0; start < text.size();) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string_view::npos) end = text.size();
+    lines.emplace_back(path, ++number, text.substr(start, end - start));
+    start = end + 1;
+  }
+  return lines;
+}
+
+TokenStream::TokenStream(const std::string& path, std::string_view text)
+    : path_(&path), text_(text) {}
+
+bool TokenStream::Next(std::string_view* token) {
+  while (pos_ < text_.size() && (IsBlank(text_[pos_]) || text_[pos_] == '\n')) {
+    if (text_[pos_] == '\n') ++line_;
+    ++pos_;
+  }
+  if (pos_ == text_.size()) return false;
+  const std::size_t start = pos_;
+  while (pos_ < text_.size() && !IsBlank(text_[pos_]) && text_[pos_] != '\n') ++pos_;
+  *token = text_.substr(start, pos_ - start);
+  token_line_ = line_;
+  return true;
+}
+
+Status TokenStream::Expected(const FieldName& name, std::string_view kind, bool at_end,
+                             std::string_view token) const {
+  std::string message = "expected " + ToString(name) + " (" + std::string(kind) + "), got ";
+  message += at_end ? std::string("the end of the file") : Quoted(token);
+  return ProblemAt(*path_, token_line_, message);
+}
+
+Status TokenStream::Number(const FieldName& name, double* out) {
+  std::string_view token;
+  const bool found = Next(&token);
+  if (found && ParseFiniteNumber(token, out)) return Status::Ok();
+  return Expected(name, "a finite number", !found, token);
+}
+
+Status TokenStream::Index(const FieldName& name, std::uint64_t limit, std::uint64_t* out) {
+  std::string_view token;
+  const bool found = Next(&token);
+  if (found && limit > 0 && ParseInteger(token, limit - 1, out)) return Status::Ok();
+  return Expected(name, "an integer in [0, " + std::to_string(limit) + ")", !found, token);
+}
+
+Status TokenStream::End(std::string_view after) {
+  std::string_view token;
+  if (!Next(&token)) return Status::Ok();
+  return ProblemAt(
+      *path_, token_line_,
+      "expected the end of the file after " + std::string(after) + ", got " + Quoted(token));
+}
+
+Status RotationFromQuaternion(const SourceLine& line, std::string_view layout, double w, double x,
+                              double y, double z, Rot3* R) {
+  const double norm = Eigen::Vector4d(w, x, y, z).norm();
+  if (!(norm > 1e-6) || !std::isfinite(norm)) {
+    return line.Error("a quaternion " + std::string(layout) + " of finite, non-zero norm");
+  }
+  *R = Rot3::FromQuaternion(w, x, y, z);
   return Status::Ok();
 }
 

@@ -1,7 +1,12 @@
-// Internal to core/io: what the format readers share. Not part of the public API.
+// Internal to core/io: what the format readers and writers share. Not part of the public API.
 //
-//  * SourceLine: one non-blank, non-comment line split into fields, with helpers that parse the
-//    numeric fields and turn every problem into a "FILE:LINE: expected ..., got '...'" status.
+//  * Files: ReadTextFile / WriteTextFile (whole files, kNotFound / kIoError statuses), and
+//    AppendNumber, the shortest text that reads back to the same double.
+//  * SourceLine: one line split into fields, with helpers that parse the numeric fields and turn
+//    every problem into a "FILE:LINE: expected ..., got '...'" status; SplitLines cuts a text
+//    into them.
+//  * TokenStream: the same for formats whose numbers may spread over lines arbitrarily (BAL).
+//  * RotationFromQuaternion: a quaternion field group as a rotation (g2o, COLMAP).
 //  * Noise helpers: symmetric matrices from the upper triangles the formats store.
 //  * DatasetBuilder: collects vertices and measurements from any reader, then builds the
 //    Dataset (keys, factor graph, initial guess by composition along the edges).
@@ -10,7 +15,9 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstddef>
 #include <cstdint>
+#include <initializer_list>
 #include <map>
 #include <string>
 #include <string_view>
@@ -23,6 +30,29 @@
 
 namespace slamd::core::internal {
 
+// The whole file at `path`. kNotFound "<what> '<path>' not found" when it does not exist,
+// kIoError when it is not a regular file or cannot be read.
+Result<std::string> ReadTextFile(const std::string& path, std::string_view what);
+// Replaces the file at `path` with `text`; kIoError "<writer>: cannot open ... / writing ...
+// failed" otherwise. Writers format everything first, so invalid input leaves no partial file.
+Status WriteTextFile(const std::string& path, std::string_view text, std::string_view writer);
+// Appends `x` in the shortest form that reads back to the same double (std::to_chars).
+void AppendNumber(double x, std::string* out);
+// Appends each of `values` as " <x>", in that form.
+void AppendNumbers(std::initializer_list<double> values, std::string* out);
+
+// "FILE:LINE: <message>" as kDataLoss.
+Status ProblemAt(const std::string& path, int line, std::string_view message);
+
+// What a field is, for messages: "<field>", or "<field> of <record> <index>" when index >= 0.
+// Put into words only on error, so that naming every field of a large file costs nothing.
+struct FieldName {
+  std::string_view field;
+  std::string_view record = {};
+  std::int64_t index = -1;
+};
+
+// One line of a text file, split into fields at blanks (spaces, tabs, '\r').
 class SourceLine {
  public:
   SourceLine(const std::string& path, int number, std::string_view text);
@@ -30,6 +60,10 @@ class SourceLine {
   const std::string& path() const { return *path_; }
   int number() const { return number_; }
   std::string_view text() const { return text_; }
+  // Not blank and not a comment (first field starting with '#').
+  bool IsRecord() const { return !fields_.empty() && fields_[0][0] != '#'; }
+  int num_fields() const { return static_cast<int>(fields_.size()); }
+  std::string_view field(int k) const { return fields_[k]; }
   // The first field (the record type).
   std::string_view tag() const { return fields_.empty() ? std::string_view() : fields_[0]; }
   // Fields after the tag.
@@ -51,12 +85,60 @@ class SourceLine {
   // Fields first .. first+count-1 as finite doubles.
   Status Numbers(int first, int count, double* out) const;
 
+  // Field k, counting the tag as field 0, for formats without a tag (COLMAP): a finite double /
+  // an integer in [0, max]; otherwise "expected <name> (a finite number), got '<field>'" /
+  // "expected <name> (an integer in [0, <max>]), got '<field>'".
+  Status FieldNumber(int k, const FieldName& name, double* out) const;
+  Status FieldInteger(int k, const FieldName& name, std::uint64_t max, std::uint64_t* out) const;
+
  private:
   const std::string* path_;
   int number_;
   std::string_view text_;
   std::vector<std::string_view> fields_;
 };
+
+// Every line of `text` (blank lines and comments included), numbered from 1; the lines refer to
+// `path` and `text`, which must outlive them. A final line without '\n' counts; nothing after a
+// final '\n' does.
+std::vector<SourceLine> SplitLines(const std::string& path, std::string_view text);
+
+// The blank-separated tokens of a text, one after the other across lines (BAL lets its numbers
+// spread over lines arbitrarily), each parsed with the line it is on, so that problems are still
+// reported as "FILE:LINE: expected <name> (...), got '<token>'" or "..., got the end of the
+// file".
+class TokenStream {
+ public:
+  // `path` and `text` must outlive the stream.
+  TokenStream(const std::string& path, std::string_view text);
+
+  // The next token as a finite double / an integer in [0, limit) (note: exclusive, so that a count
+  // of 0 admits nothing).
+  Status Number(const FieldName& name, double* out);
+  Status Index(const FieldName& name, std::uint64_t limit, std::uint64_t* out);
+  // Ok when no token is left; otherwise "FILE:LINE: expected the end of the file after <after>,
+  // got '<token>'".
+  Status End(std::string_view after);
+
+ private:
+  // The next token (its line in token_line_); false at the end of the text.
+  bool Next(std::string_view* token);
+  // "FILE:LINE: expected <name> (<kind>), got '<token>'" or "..., got the end of the file", at
+  // the line of the token (of the last token at the end of the file).
+  Status Expected(const FieldName& name, std::string_view kind, bool at_end,
+                  std::string_view token) const;
+
+  const std::string* path_;
+  std::string_view text_;
+  std::size_t pos_ = 0;  // where the next token search starts
+  int line_ = 1;         // the line at pos_
+  int token_line_ = 1;   // the line of the last token returned
+};
+
+// The rotation of quaternion (w, x, y, z), normalised; "FILE:LINE: expected a quaternion
+// <layout> of finite, non-zero norm, got '<line>'" when its norm is not.
+Status RotationFromQuaternion(const SourceLine& line, std::string_view layout, double w, double x,
+                              double y, double z, Rot3* R);
 
 // The symmetric n x n matrix whose upper triangle, row by row, is values[0..n(n+1)/2).
 Eigen::MatrixXd SymmetricFromUpperRowMajor(const double* values, int n);
@@ -133,8 +215,7 @@ class DatasetBuilder {
 Status ReadVertexFields(const SourceLine& line, std::string_view layout, bool is_3d, int count,
                         DatasetBuilder* builder, std::uint64_t* id, double* numbers);
 Status ReadEdgeFields(const SourceLine& line, std::string_view layout, bool is_3d, int count,
-                      DatasetBuilder* builder, std::uint64_t* i, std::uint64_t* j,
-                      double* numbers);
+                      DatasetBuilder* builder, std::uint64_t* i, std::uint64_t* j, double* numbers);
 // Steps 2 and 3 of ReadEdgeFields, for readers with their own count check (iSAM EDGE3, whose
 // count is one of two). Checks (a reader bug otherwise) that count == line.num_values() - 2.
 Status ParseEdgeFields(const SourceLine& line, bool is_3d, int count, DatasetBuilder* builder,
