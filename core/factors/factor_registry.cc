@@ -9,7 +9,9 @@
 #include "core/factors/linear_container_factor.h"
 #include "core/factors/position_prior_factor.h"
 #include "core/factors/prior_factor.h"
+#include "core/factors/projection_factor.h"
 #include "core/factors/relative_point_factor.h"
+#include "core/factors/stereo_projection_factor.h"
 
 namespace slamd::core {
 namespace {
@@ -47,6 +49,13 @@ const std::vector<FactorType>& Registry() {
     r.push_back(Entry<RelativePointFactor<Pose2, Point2>>());
     r.push_back(Entry<RelativePointFactor<Pose3, Point3>>());
     r.push_back(Entry<LinearContainerFactor>());
+    r.push_back(Entry<ProjectionFactor<Cal3_S2>>());
+    r.push_back(Entry<ProjectionFactor<Cal3DS2>>());
+    r.push_back(Entry<ProjectionFactor<Cal3Bundler>>());
+    r.push_back(Entry<SelfCalibratingProjectionFactor<Cal3_S2>>());
+    r.push_back(Entry<SelfCalibratingProjectionFactor<Cal3DS2>>());
+    r.push_back(Entry<SelfCalibratingProjectionFactor<Cal3Bundler>>());
+    r.push_back(Entry<StereoProjectionFactor>());
     return r;
   }();
   return registry;

@@ -15,7 +15,10 @@
 #include "core/factors/linear_container_factor.h"
 #include "core/factors/position_prior_factor.h"
 #include "core/factors/prior_factor.h"
+#include "core/factors/projection_factor.h"
 #include "core/factors/relative_point_factor.h"
+#include "core/factors/stereo_projection_factor.h"
+#include "tests/testing/camera_examples.h"
 #include "tests/testing/factor_testing.h"
 #include "tests/testing/random_values.h"
 
@@ -54,6 +57,41 @@ core::Values TwoValues(std::mt19937& rng, core::Key ka, core::Key kb) {
   EXPECT_TRUE(v.Insert(ka, RandomValue<A>(rng)).ok());
   EXPECT_TRUE(v.Insert(kb, RandomValue<B>(rng)).ok());
   return v;
+}
+
+// The camera factors' values: a body pose x0 with a camera mounted at `mount`, and a landmark
+// l0 ahead of that camera.
+inline core::Values CameraValues(std::mt19937& rng, const core::Pose3& mount) {
+  core::Values v;
+  const core::Pose3 pose = RandomPose3(rng);
+  EXPECT_TRUE(v.Insert(core::MakeKey('x', 0), pose).ok());
+  EXPECT_TRUE(
+      v.Insert(core::MakeKey('l', 0), (pose * mount).TransformFrom(RandomPointAhead(rng))).ok());
+  return v;
+}
+
+// A pixel near the centre of a 640 x 480 image.
+inline core::Vector2 RandomPixel(std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-100.0, 100.0);
+  return core::Vector2(320.0 + u(rng), 240.0 + u(rng));
+}
+
+// ProjectionFactor<Cal> and SelfCalibratingProjectionFactor<Cal>, on a mounted camera.
+template <typename Cal>
+void AddProjectionExamples(std::mt19937& rng, std::vector<FactorExample>* out) {
+  const core::Key x0 = core::MakeKey('x', 0), l0 = core::MakeKey('l', 0);
+  const core::Key c0 = core::MakeKey('c', 0);
+  const core::Pose3 mount = RandomPose3(rng);
+  out->push_back({std::make_shared<const core::ProjectionFactor<Cal>>(
+                      x0, l0, RandomPixel(rng), RandomCalibration<Cal>(rng), RandomNoise(rng, 2),
+                      core::RobustKernel(), mount),
+                  CameraValues(rng, mount)});
+  FactorExample self{
+      std::make_shared<const core::SelfCalibratingProjectionFactor<Cal>>(
+          x0, l0, c0, RandomPixel(rng), RandomNoise(rng, 2), core::RobustKernel(), mount),
+      CameraValues(rng, mount)};
+  EXPECT_TRUE(self.values.Insert(c0, RandomCalibration<Cal>(rng)).ok());
+  out->push_back(self);
 }
 
 }  // namespace internal
@@ -116,6 +154,18 @@ inline std::vector<FactorExample> EveryFactorTypeExample(unsigned seed) {
     for (int i = 0; i < b.size(); ++i) b[i] = n01(rng);
     e.factor = LinearContainerFactor::Create({x0, l0, c0}, x, A, b).value();
     out.push_back(e);
+  }
+  internal::AddProjectionExamples<Cal3_S2>(rng, &out);
+  internal::AddProjectionExamples<Cal3DS2>(rng, &out);
+  internal::AddProjectionExamples<Cal3Bundler>(rng, &out);
+  {
+    const Pose3 mount = RandomPose3(rng);
+    const Vector2 left = internal::RandomPixel(rng);
+    out.push_back({std::make_shared<const StereoProjectionFactor>(
+                       x0, l0, Vector3(left.x(), left.x() - 20.0, left.y()),
+                       Cal3_S2Stereo(RandomCalibration<Cal3_S2>(rng), 0.12), RandomNoise(rng, 3),
+                       RobustKernel(), mount),
+                   internal::CameraValues(rng, mount)});
   }
   return out;
 }

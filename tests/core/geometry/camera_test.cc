@@ -5,6 +5,7 @@
 #include <cmath>
 #include <random>
 
+#include "tests/testing/camera_examples.h"
 #include "tests/testing/numerical_derivative.h"
 
 namespace slamd::core {
@@ -13,45 +14,12 @@ namespace {
 using testing::MaxRelDiff;
 using testing::NumericalJacobian;
 using testing::NumericalJacobianRight;
+using testing::RandomCalibration;
+using testing::RandomCameraPose;
+using testing::RandomPointAhead;
 
 // Central differences with h = 1e-6 on pixels of a few hundred: ~1e-9 relative error.
 constexpr double kCameraTol = 1e-6;
-
-// Realistic calibrations: focal lengths near 500 px, a principal point near the centre of a
-// 640 x 480 image, barrel distortion (k1 ~ -0.2), small tangential terms.
-template <typename Cal>
-Cal RandomCalibration(std::mt19937& rng);
-template <>
-Cal3_S2 RandomCalibration<Cal3_S2>(std::mt19937& rng) {
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  const double fx = 500.0 + 80.0 * u(rng);
-  return Cal3_S2(fx, fx * (1.0 + 0.05 * u(rng)), u(rng), 320.0 + 20.0 * u(rng),
-                 240.0 + 20.0 * u(rng));
-}
-template <>
-Cal3DS2 RandomCalibration<Cal3DS2>(std::mt19937& rng) {
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  const Cal3_S2 pinhole = RandomCalibration<Cal3_S2>(rng);
-  return Cal3DS2(pinhole, -0.2 + 0.05 * u(rng), 0.05 + 0.03 * u(rng), 1e-3 * u(rng), 1e-3 * u(rng));
-}
-template <>
-Cal3Bundler RandomCalibration<Cal3Bundler>(std::mt19937& rng) {
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  return Cal3Bundler(500.0 + 80.0 * u(rng), -0.2 + 0.05 * u(rng), 0.05 + 0.03 * u(rng));
-}
-
-Pose3 RandomCameraPose(std::mt19937& rng) {
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  return Pose3(Rot3::Exp(2.0 * Vector3(u(rng), u(rng), u(rng))),
-               Point3(5.0 * u(rng), 5.0 * u(rng), 5.0 * u(rng)));
-}
-
-// A camera-frame point 1-10 m ahead, inside a ~90° field of view.
-Point3 RandomPointAhead(std::mt19937& rng) {
-  std::uniform_real_distribution<double> depth(1.0, 10.0), u(-0.5, 0.5);
-  const double z = depth(rng);
-  return Point3(u(rng) * z, u(rng) * z, z);
-}
 
 // ∂f/∂c for f a function of a calibration's parameter vector (the calibration moves by addition).
 template <typename Cal, typename F>
