@@ -9,7 +9,9 @@
 //   gp_j = Σ Jp_oᵀ r_o, and with the Levenberg-Marquardt damping λ·diag (Marquardt's scaling,
 //   the diagonal clamped to [1e-6, 1e32] as Ceres does) added to U and V:
 //   S = U − Σ_j W_j V_j⁻¹ W_jᵀ,  b = −gc + Σ_j W_j V_j⁻¹ gp_j,  S δc = b,
-//   δp_j = V_j⁻¹ (−gp_j − Σ_o W_oᵀ δc_i).
+//   δp_j = V_j⁻¹ (−gp_j − Σ_o W_oᵀ δc_i),
+// with V_j⁻¹ applied through a triangular factor R_j of the damped V_j computed from the rows of
+// Jp (EliminatePoints says why).
 // Cal: the calibration model; kRefineCal: whether it is part of each camera's unknowns
 // (D = 6 + its dimension) or fixed (D = 6). Pose unknowns are right perturbations T_wc·Exp(ξ).
 //
@@ -35,9 +37,9 @@
 namespace slamd::core::internal {
 
 // Marquardt's diagonal: diag(JᵀJ) clamped to [1e-6, 1e32] (no unknown left undamped).
-template <int N>
-Eigen::Matrix<double, N, 1> ClampedDiagonal(const Eigen::Matrix<double, N, N>& m) {
-  return m.diagonal().cwiseMax(1e-6).cwiseMin(1e32);
+template <typename Diagonal>
+auto ClampedDiagonal(const Diagonal& d) {
+  return d.cwiseMax(1e-6).cwiseMin(1e32).eval();
 }
 
 template <typename Cal, bool kRefineCal>
@@ -109,8 +111,8 @@ class BaProblem {
     jc_.resize(num_obs);
     jp_.resize(num_obs);
     r_.resize(num_obs);
-    v_.resize(num_points);
-    v_inv_.resize(num_points);
+    v_diagonal_.resize(num_points);
+    r_factor_.resize(num_points);
     gp_.resize(num_points);
     u_.resize(num_images);
     gc_.resize(num_images);
@@ -119,7 +121,7 @@ class BaProblem {
   }
 
   int num_cameras() const { return static_cast<int>(u_.size()); }
-  int num_points() const { return static_cast<int>(v_.size()); }
+  int num_points() const { return static_cast<int>(v_diagonal_.size()); }
   int num_observations() const { return static_cast<int>(camera_.size()); }
   int position(int camera) const { return position_[camera]; }
 
@@ -171,7 +173,7 @@ class BaProblem {
     std::vector<double> cost(Chunks(), 0.0);
     ForEachPointChunk([&](int t, int j_begin, int j_end) {
       for (int j = j_begin; j < j_end; ++j) {
-        Matrix3 v = Matrix3::Zero();
+        Vector3 v = Vector3::Zero();  // diag(V_j)
         Vector3 g = Vector3::Zero();
         for (int o = point_start_[j]; o < point_start_[j + 1]; ++o) {
           const int i = camera_[o];
@@ -194,10 +196,10 @@ class BaProblem {
           if constexpr (kRefineCal) jc_[o].template rightCols<Cal::kDim>() = scale * h_cal;
           jp_[o] = scale * h_point;
           r_[o] = r;
-          v.noalias() += jp_[o].transpose() * jp_[o];
+          v += jp_[o].colwise().squaredNorm().transpose();
           g.noalias() += jp_[o].transpose() * r;
         }
-        v_[j] = v;
+        v_diagonal_[j] = v;
         gp_[j] = g;
       }
     });
@@ -237,7 +239,7 @@ class BaProblem {
     ForEachCameraChunk([&](int i_begin, int i_end) {
       for (int i = i_begin; i < i_end; ++i) {
         CameraMatrix damped = u_[i];
-        damped.diagonal() += lambda * ClampedDiagonal<kD>(u_[i]);
+        damped.diagonal() += lambda * ClampedDiagonal(u_[i].diagonal());
         const int p = position_[i];
         if (s) {
           Eigen::Map<CameraMatrix>(s->Block(s->RowBegin(p))) = damped;
@@ -248,31 +250,38 @@ class BaProblem {
       }
     });
     ForEachPointChunk([&](int, int j_begin, int j_end) {
-      std::vector<CameraPoint> w, y;  // per observation of the point: W_o and W_o V_j⁻¹
+      std::vector<CameraPoint> a;  // per observation of the point: A_o = Jc_oᵀ Jp_o R_j⁻¹
       for (int j = j_begin; j < j_end; ++j) {
-        Matrix3 damped = v_[j];
-        damped.diagonal() += lambda * ClampedDiagonal<3>(v_[j]);
-        const Matrix3 v_inv = damped.inverse();
-        v_inv_[j] = v_inv;
+        // R_j: the triangular factor of V_j + λ·D_j by Givens rotations of the rows of Jp (not
+        // Cholesky of the formed V_j, which squares its condition: a point a few millimetres
+        // in front of a camera gives V_j a condition of 1e10 and S indefinite through the
+        // cancellation in U − W V⁻¹ Wᵀ).
+        Matrix3 R = Matrix3::Zero();
+        R.diagonal() = (lambda * ClampedDiagonal(v_diagonal_[j])).cwiseSqrt();
         const int begin = point_start_[j], m = point_start_[j + 1] - begin;
-        w.resize(m);
-        y.resize(m);
-        for (int a = 0; a < m; ++a) {
-          w[a].noalias() = jc_[begin + a].transpose() * jp_[begin + a];
-          y[a].noalias() = w[a] * v_inv;
+        for (int o = begin; o < begin + m; ++o) {
+          for (int row = 0; row < 2; ++row) AppendRow(jp_[o].row(row), &R);
         }
-        const Vector3 g = gp_[j];
-        for (int a = 0; a < m; ++a) {
-          const int i = position_[camera_[begin + a]];
+        r_factor_[j] = R;
+        a.resize(m);
+        for (int k = 0; k < m; ++k) {
+          // Z = Jp R⁻¹, so that W V⁻¹ Wᵀ = Σ (Jcᵀ Z)(Jcᵀ Z)ᵀ.
+          const Matrix32 zt = R.transpose().triangularView<Eigen::Lower>().solve(
+              jp_[begin + k].transpose());
+          a[k].noalias() = jc_[begin + k].transpose() * zt.transpose();
+        }
+        const Vector3 q = R.transpose().triangularView<Eigen::Lower>().solve(gp_[j]);
+        for (int k = 0; k < m; ++k) {
+          const int i = position_[camera_[begin + k]];
           LockRow(i);
-          b->template segment<kD>(kD * i).noalias() += y[a] * g;
+          b->template segment<kD>(kD * i).noalias() += a[k] * q;
           if (s) {
-            for (int c = a; c < m; ++c) {
+            for (int c = k; c < m; ++c) {
               const long blk = s->BlockIndex(i, position_[camera_[begin + c]]);
-              Eigen::Map<CameraMatrix>(s->Block(blk)).noalias() -= y[a] * w[c].transpose();
+              Eigen::Map<CameraMatrix>(s->Block(blk)).noalias() -= a[k] * a[c].transpose();
             }
           } else {
-            (*diagonal)[i].noalias() -= y[a] * w[a].transpose();
+            (*diagonal)[i].noalias() -= a[k] * a[k].transpose();
           }
           UnlockRow(i);
         }
@@ -292,7 +301,7 @@ class BaProblem {
           const Vector2 jx = jc_[o] * x.template segment<kD>(kD * position_[camera_[o]]);
           wx.noalias() += jp_[o].transpose() * jx;
         }
-        const Vector3 z = v_inv_[j] * wx;
+        const Vector3 z = SolveDampedV(j, wx);
         for (int o = point_start_[j]; o < point_start_[j + 1]; ++o) {
           const Vector2 jz = jp_[o] * z;
           out.template segment<kD>(kD * position_[camera_[o]]).noalias() -=
@@ -304,7 +313,7 @@ class BaProblem {
     for (int t = 1; t < Chunks(); ++t) *y += partial[t];
     for (int i = 0; i < n; ++i) {
       CameraMatrix damped = u_[i];
-      damped.diagonal() += lambda_ * ClampedDiagonal<kD>(u_[i]);
+      damped.diagonal() += lambda_ * ClampedDiagonal(u_[i].diagonal());
       const int p = position_[i];
       y->template segment<kD>(kD * p).noalias() += damped * x.template segment<kD>(kD * p);
     }
@@ -322,7 +331,7 @@ class BaProblem {
           const Vector2 jx = jc_[o] * dc.template segment<kD>(kD * position_[camera_[o]]);
           rhs.noalias() -= jp_[o].transpose() * jx;
         }
-        const Vector3 d = v_inv_[j] * rhs;
+        const Vector3 d = SolveDampedV(j, rhs);
         (*dp)[j] = d;
         double m = -gp_[j].dot(d);
         for (int o = point_start_[j]; o < point_start_[j + 1]; ++o) {
@@ -367,6 +376,24 @@ class BaProblem {
     pool_->Run(chunks, [&](int t) { fn(n * t / chunks, n * (t + 1) / chunks); });
     pool_->Wait();
   }
+  // (V_j + λ·D_j)⁻¹ x with the factor of the last EliminatePoints.
+  Vector3 SolveDampedV(int j, const Vector3& x) const {
+    const Matrix3& R = r_factor_[j];
+    return R.triangularView<Eigen::Upper>().solve(R.transpose().triangularView<Eigen::Lower>().solve(x));
+  }
+  // Rotates `row` into the upper-triangular R (Givens): RᵀR gains rowᵀrow.
+  static void AppendRow(Eigen::Matrix<double, 1, 3> row, Matrix3* R) {
+    for (int k = 0; k < 3; ++k) {
+      if (row[k] == 0.0) continue;
+      const double h = std::hypot((*R)(k, k), row[k]);
+      const double c = (*R)(k, k) / h, s = row[k] / h;
+      for (int l = k; l < 3; ++l) {
+        const double rkl = (*R)(k, l);
+        (*R)(k, l) = c * rkl + s * row[l];
+        row[l] = -s * rkl + c * row[l];
+      }
+    }
+  }
   // A spin lock per camera row of S and b: threads eliminating different points may add to the
   // same row; contention is rare (two threads, the row held for one point's blocks).
   void LockRow(int i) {
@@ -392,7 +419,8 @@ class BaProblem {
   std::vector<CameraJacobian> jc_;
   std::vector<Matrix23> jp_;
   std::vector<Vector2> r_;
-  std::vector<Matrix3> v_, v_inv_;
+  std::vector<Vector3> v_diagonal_;  // diag(V_j)
+  std::vector<Matrix3> r_factor_;    // R_j of the last EliminatePoints: RᵀR = V_j + λ·D_j
   std::vector<Vector3> gp_;
   std::vector<CameraMatrix> u_;
   std::vector<CameraVector> gc_;

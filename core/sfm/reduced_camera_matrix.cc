@@ -50,7 +50,7 @@ Eigen::MatrixXd ReducedCameraMatrix::ToDense() const {
 
 Status ReducedCameraMatrix::SolveDense(const Eigen::VectorXd& b, Eigen::VectorXd* x) const {
   const int n = num_cameras();
-  Eigen::MatrixXd S(dim(), dim());
+  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(dim(), dim());  // pairs that share no point: 0
   for (int i = 0; i < n; ++i) {
     for (long blk = row_start_[i]; blk < row_start_[i + 1]; ++blk) {
       S.block(d_ * i, d_ * col_[blk], d_, d_) =
