@@ -28,6 +28,7 @@
 #include <memory>
 #include <vector>
 
+#include "core/base/check.h"
 #include "core/base/worker_pool.h"
 #include "core/factors/robust_kernel.h"
 #include "core/geometry/camera.h"
@@ -148,17 +149,22 @@ class BaProblem {
   double Cost(const State& x, double* squared_error = nullptr, int* behind = nullptr) const {
     std::vector<double> cost(Chunks(), 0.0), sq(Chunks(), 0.0);
     std::vector<int> back(Chunks(), 0);
+    // Sums kept in locals and stored once: neighbouring entries of cost, sq, back share a cache
+    // line, and writing them in the loop made two threads slower than one.
     ForEachPointChunk([&](int t, int j_begin, int j_end) {
+      double c = 0.0, q = 0.0;
+      int n = 0;
       for (int j = j_begin; j < j_end; ++j) {
         for (int o = point_start_[j]; o < point_start_[j + 1]; ++o) {
           const int i = camera_[o];
           const Projection p = Project(x.poses[i], x.cals[i], x.points[j]);
           const double s = (p.uv - measured_[o]).squaredNorm();
-          cost[t] += robust_.is_none() ? s : robust_.Cost(s);
-          sq[t] += s;
-          back[t] += !p.in_front();
+          c += robust_.is_none() ? s : robust_.Cost(s);
+          q += s;
+          n += !p.in_front();
         }
       }
+      cost[t] = c, sq[t] = q, back[t] = n;
     });
     if (squared_error) *squared_error = Sum(sq);
     if (behind) {
@@ -172,6 +178,7 @@ class BaProblem {
   double Linearize(const State& x) {
     std::vector<double> cost(Chunks(), 0.0);
     ForEachPointChunk([&](int t, int j_begin, int j_end) {
+      double chunk_cost = 0.0;  // stored once (see Cost)
       for (int j = j_begin; j < j_end; ++j) {
         Vector3 v = Vector3::Zero();  // diag(V_j)
         Vector3 g = Vector3::Zero();
@@ -186,10 +193,10 @@ class BaProblem {
           const double s = r.squaredNorm();
           double scale = 1.0;
           if (!robust_.is_none()) {
-            cost[t] += robust_.Cost(s);
+            chunk_cost += robust_.Cost(s);
             scale = std::sqrt(robust_.Weight(s));
           } else {
-            cost[t] += s;
+            chunk_cost += s;
           }
           r *= scale;
           jc_[o].template leftCols<6>() = scale * h_pose;
@@ -202,6 +209,7 @@ class BaProblem {
         v_diagonal_[j] = v;
         gp_[j] = g;
       }
+      cost[t] = chunk_cost;
     });
     ForEachCameraChunk([&](int i_begin, int i_end) {
       for (int i = i_begin; i < i_end; ++i) {
@@ -209,7 +217,7 @@ class BaProblem {
         CameraVector g = CameraVector::Zero();
         for (int k = camera_obs_start_[i]; k < camera_obs_start_[i + 1]; ++k) {
           const int o = camera_obs_[k];
-          u.noalias() += jc_[o].transpose() * jc_[o];
+          u.noalias() += jc_[o].transpose().lazyProduct(jc_[o]);
           g.noalias() += jc_[o].transpose() * r_[o];
         }
         u_[i] = u;
@@ -228,11 +236,13 @@ class BaProblem {
   }
 
   // Eliminates the points with damping λ: S (when `s` is set: every block; otherwise only the
-  // diagonal blocks, into *diagonal) and b (positions order). Keeps V_j⁻¹ for BackSubstitute.
+  // diagonal blocks, into *diagonal) and b (positions order). Keeps V_j's factor for
+  // BackSubstitute. `s` must have the pattern of CoVisibility(), and be the same every call.
   void EliminatePoints(double lambda, ReducedCameraMatrix* s, std::vector<CameraMatrix>* diagonal,
                        Eigen::VectorXd* b) {
     const int n = num_cameras();
     b->resize(kD * n);
+    if (s && pair_start_.empty()) IndexBlocks(*s);
     if (s) s->SetZero();
     if (diagonal) diagonal->resize(n);
     lambda_ = lambda;
@@ -266,22 +276,22 @@ class BaProblem {
         a.resize(m);
         for (int k = 0; k < m; ++k) {
           // Z = Jp R⁻¹, so that W V⁻¹ Wᵀ = Σ (Jcᵀ Z)(Jcᵀ Z)ᵀ.
-          const Matrix32 zt = R.transpose().triangularView<Eigen::Lower>().solve(
-              jp_[begin + k].transpose());
-          a[k].noalias() = jc_[begin + k].transpose() * zt.transpose();
+          const Matrix32 zt = SolveTransposed(R, Matrix32(jp_[begin + k].transpose()));
+          a[k].noalias() = jc_[begin + k].transpose().lazyProduct(zt.transpose());
         }
-        const Vector3 q = R.transpose().triangularView<Eigen::Lower>().solve(gp_[j]);
+        const Vector3 q = SolveTransposed(R, gp_[j]);
+        long pair = s ? pair_start_[j] : 0;
         for (int k = 0; k < m; ++k) {
           const int i = position_[camera_[begin + k]];
           LockRow(i);
           b->template segment<kD>(kD * i).noalias() += a[k] * q;
           if (s) {
             for (int c = k; c < m; ++c) {
-              const long blk = s->BlockIndex(i, position_[camera_[begin + c]]);
-              Eigen::Map<CameraMatrix>(s->Block(blk)).noalias() -= a[k] * a[c].transpose();
+              Eigen::Map<CameraMatrix>(s->Block(pair_block_[pair++])).noalias() -=
+                  a[k].lazyProduct(a[c].transpose());
             }
           } else {
-            (*diagonal)[i].noalias() -= a[k] * a[k].transpose();
+            (*diagonal)[i].noalias() -= a[k].lazyProduct(a[k].transpose());
           }
           UnlockRow(i);
         }
@@ -325,6 +335,7 @@ class BaProblem {
     dp->resize(num_points());
     std::vector<double> model(Chunks(), 0.0);
     ForEachPointChunk([&](int t, int j_begin, int j_end) {
+      double chunk_model = 0.0;  // stored once (see Cost)
       for (int j = j_begin; j < j_end; ++j) {
         Vector3 rhs = -gp_[j];
         for (int o = point_start_[j]; o < point_start_[j + 1]; ++o) {
@@ -339,8 +350,9 @@ class BaProblem {
               jc_[o] * dc.template segment<kD>(kD * position_[camera_[o]]) + jp_[o] * d;
           m -= 0.5 * jd.squaredNorm();
         }
-        model[t] += m;
+        chunk_model += m;
       }
+      model[t] = chunk_model;
     });
     double m = Sum(model);
     for (int i = 0; i < num_cameras(); ++i) {
@@ -376,16 +388,50 @@ class BaProblem {
     pool_->Run(chunks, [&](int t) { fn(n * t / chunks, n * (t + 1) / chunks); });
     pool_->Wait();
   }
+  // For each point, the index in S of each of its pairs of observations (a, c), a <= c.
+  void IndexBlocks(const ReducedCameraMatrix& s) {
+    pair_start_.assign(num_points() + 1, 0);
+    pair_block_.clear();
+    for (int j = 0; j < num_points(); ++j) {
+      for (int a = point_start_[j]; a < point_start_[j + 1]; ++a) {
+        for (int c = a; c < point_start_[j + 1]; ++c) {
+          const long blk = s.BlockIndex(position_[camera_[a]], position_[camera_[c]]);
+          SLAMD_CHECK(blk >= 0) << "S lacks the block of cameras " << camera_[a] << ", "
+                                << camera_[c];
+          pair_block_.push_back(blk);
+        }
+      }
+      pair_start_[j + 1] = static_cast<long>(pair_block_.size());
+    }
+  }
   // (V_j + λ·D_j)⁻¹ x with the factor of the last EliminatePoints.
   Vector3 SolveDampedV(int j, const Vector3& x) const {
     const Matrix3& R = r_factor_[j];
-    return R.triangularView<Eigen::Upper>().solve(R.transpose().triangularView<Eigen::Lower>().solve(x));
+    return Solve(R, SolveTransposed(R, x));
+  }
+  // Rᵀ X = B and R X = B for an upper-triangular 3x3 R, by substitution (Eigen's triangular
+  // solvers take a dynamic-size path for these tiny systems).
+  template <typename B>
+  static B SolveTransposed(const Matrix3& R, const B& b) {
+    B x;
+    x.row(0) = b.row(0) / R(0, 0);
+    x.row(1) = (b.row(1) - R(0, 1) * x.row(0)) / R(1, 1);
+    x.row(2) = (b.row(2) - R(0, 2) * x.row(0) - R(1, 2) * x.row(1)) / R(2, 2);
+    return x;
+  }
+  template <typename B>
+  static B Solve(const Matrix3& R, const B& b) {
+    B x;
+    x.row(2) = b.row(2) / R(2, 2);
+    x.row(1) = (b.row(1) - R(1, 2) * x.row(2)) / R(1, 1);
+    x.row(0) = (b.row(0) - R(0, 1) * x.row(1) - R(0, 2) * x.row(2)) / R(0, 0);
+    return x;
   }
   // Rotates `row` into the upper-triangular R (Givens): RᵀR gains rowᵀrow.
   static void AppendRow(Eigen::Matrix<double, 1, 3> row, Matrix3* R) {
     for (int k = 0; k < 3; ++k) {
       if (row[k] == 0.0) continue;
-      const double h = std::hypot((*R)(k, k), row[k]);
+      const double h = std::sqrt((*R)(k, k) * (*R)(k, k) + row[k] * row[k]);
       const double c = (*R)(k, k) / h, s = row[k] / h;
       for (int l = k; l < 3; ++l) {
         const double rkl = (*R)(k, l);
@@ -415,6 +461,7 @@ class BaProblem {
   std::vector<Vector2> measured_;
   std::vector<int> camera_obs_start_, camera_obs_;  // per camera, its observations
   std::vector<int> point_chunk_;                    // per thread, its first point
+  std::vector<long> pair_start_, pair_block_;       // IndexBlocks
   // The linearisation.
   std::vector<CameraJacobian> jc_;
   std::vector<Matrix23> jp_;

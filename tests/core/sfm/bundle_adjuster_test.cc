@@ -162,6 +162,35 @@ TEST(BundleAdjusterTest, EveryLinearSolverReachesTheSameOptimum) {
   for (double c : costs) EXPECT_NEAR(c, costs.front(), 1e-6 * costs.front());
 }
 
+// Cameras that share no point leave blocks of S empty: every solver agrees with the dense S of
+// a reconstruction where two groups of cameras are linked by a few points only.
+TEST(BundleAdjusterTest, SolversAgreeWhereCamerasShareNoPoint) {
+  Reconstruction r = BaWorld(kBundler, 8, 40, 0.5, 16);
+  std::vector<SfmObservation> kept;
+  for (const SfmObservation& o : r.observations) {
+    const int group = o.image < 4 ? 0 : 1;  // cameras 0-3 see points 0-19, 4-7 see 20-39,
+    if (group == (o.point < 20 ? 0 : 1) || o.point % 10 == 0) kept.push_back(o);  // a few both
+  }
+  r.observations = kept;
+  BaPerturb(&r, 0.01, 0.05, 17);
+  std::vector<Reconstruction> results;
+  for (BaLinearSolver solver : {BaLinearSolver::kDenseSchur, BaLinearSolver::kSparseSchur,
+                                BaLinearSolver::kIterativeSchur}) {
+    Reconstruction out = r;
+    BundleAdjusterParams params{.linear_solver = solver, .max_iterations = 100};
+    params.cg_tolerance = 1e-8;
+    params.function_tolerance = 1e-12;
+    ASSERT_TRUE(BundleAdjust(params, &out).ok());
+    results.push_back(out);
+  }
+  for (size_t j = 0; j < r.points.size(); ++j) {
+    for (size_t k = 1; k < results.size(); ++k) {
+      EXPECT_LT((results[k].points[j].position - results[0].points[j].position).norm(), 1e-6)
+          << "point " << j << ", solver " << k;
+    }
+  }
+}
+
 TEST(BundleAdjusterTest, NoiseFreeProblemsConvergeToZeroForEveryModel) {
   auto converge = [](Reconstruction r, bool refine) {
     BaPerturb(&r, 0.01, 0.05, 5);
