@@ -1,5 +1,7 @@
 // slamctl bench: runs a core solver on a dataset and reports time, iterations, chi2 and memory.
 // The options live here; the runners are bench_batch.cc, bench_isam2.cc and bench_ba.cc.
+#include "clients/slamctl/bench.h"
+
 #include <sys/resource.h>
 
 #include <cstdio>
@@ -7,7 +9,6 @@
 #include <optional>
 #include <string>
 
-#include "clients/slamctl/bench.h"
 #include "clients/slamctl/robustify.h"
 #include "clients/slamctl/trajectory_error.h"
 #include "core/base/timing.h"
@@ -50,7 +51,8 @@ void Ate(const BenchOptions& opt, const core::Values& estimate, AccuracyReport* 
   core::Result<core::Values> truth = ReadGroundTruth(opt.ground_truth);
   if (!truth.ok()) Fail(kExitFailure, "ground truth: " + truth.status().ToString());
   core::Result<TrajectoryError> ate = AbsoluteTrajectoryError(estimate, *truth);
-  if (!ate.ok()) Fail(kExitFailure, "ground truth " + opt.ground_truth + ": " + ate.status().ToString());
+  if (!ate.ok())
+    Fail(kExitFailure, "ground truth " + opt.ground_truth + ": " + ate.status().ToString());
   report->has_ate = true;
   report->ate_rmse = ate->rmse;
   report->ate_max = ate->max;
@@ -60,7 +62,9 @@ void Ate(const BenchOptions& opt, const core::Values& estimate, AccuracyReport* 
 void AddAccuracy(const BenchOptions& opt, const AccuracyReport& report, JsonWriter* out) {
   out->Add("robust", RobustSpecString(opt.robust)).Add("loop_closures", report.loop_closures);
   if (report.has_ate) {
-    out->Add("ate_rmse", report.ate_rmse).Add("ate_max", report.ate_max).Add("ate_poses", report.ate_poses);
+    out->Add("ate_rmse", report.ate_rmse)
+        .Add("ate_max", report.ate_max)
+        .Add("ate_poses", report.ate_poses);
   }
 }
 
@@ -82,8 +86,9 @@ using bench::Fail;
 
 void RegisterBench(CLI::App& app) {
   auto opt = std::make_shared<BenchOptions>();
-  CLI::App* cmd = app.add_subcommand("bench", "Run a solver offline on a dataset and report time, "
-                                              "iterations, chi2 and peak memory");
+  CLI::App* cmd = app.add_subcommand("bench",
+                                     "Run a solver offline on a dataset and report time, "
+                                     "iterations, chi2 and peak memory");
   cmd->add_option("dataset", opt->dataset,
                   "Dataset: a pose graph (g2o 2D/3D, TORO .graph, iSAM .txt) for batch and isam2; "
                   "a BAL file or a COLMAP text model (a directory with cameras.txt, images.txt, "
@@ -105,7 +110,8 @@ void RegisterBench(CLI::App& app) {
   cmd->add_option("--algorithm", opt->algorithm, "Batch algorithm: lm (Levenberg-Marquardt) or gn")
       ->check(CLI::IsMember({"lm", "gn"}))
       ->capture_default_str();
-  cmd->add_option("--damping", opt->damping, "LM damping: identity (H + λI) or diagonal (H + λ·diag H)")
+  cmd->add_option("--damping", opt->damping,
+                  "LM damping: identity (H + λI) or diagonal (H + λ·diag H)")
       ->check(CLI::IsMember({"identity", "diagonal"}))
       ->capture_default_str();
   cmd->add_option("--init", opt->init,
@@ -134,19 +140,21 @@ void RegisterBench(CLI::App& app) {
                   "file (*.ply: points and camera centres), a BAL file (*.bal, *.txt) or a COLMAP "
                   "text model (any other path: a directory)");
   auto robust_spec = std::make_shared<std::string>("none");
-  cmd->add_option("--robust", *robust_spec,
-                  "Robust kernel KERNEL[:PARAM] on the loop closures (pose-pose between factors "
-                  "that are not odometry, i.e. not |i - j| = 1 on one robot), both solvers. KERNEL: "
-                  "none, huber (k, default 3), cauchy (k, default 3), gemanmcclure (k, default 3), "
-                  "dcs (Phi, default 9); k is a whitened residual norm, Phi a squared one "
-                  "(core/factors/robust_kernel.h). ba: on every observation, k in pixels "
-                  "(e.g. huber:1)")
+  cmd->add_option(
+         "--robust", *robust_spec,
+         "Robust kernel KERNEL[:PARAM] on the loop closures (pose-pose between factors "
+         "that are not odometry, i.e. not |i - j| = 1 on one robot), both solvers. KERNEL: "
+         "none, huber (k, default 3), cauchy (k, default 3), gemanmcclure (k, default 3), "
+         "dcs (Phi, default 9); k is a whitened residual norm, Phi a squared one "
+         "(core/factors/robust_kernel.h). ba: on every observation, k in pixels "
+         "(e.g. huber:1)")
       ->capture_default_str();
-  cmd->add_option("--ground-truth", opt->ground_truth,
-                  "Report the absolute trajectory error (ate_rmse, ate_max in m, after the best "
-                  "rigid alignment) of the final estimate against this file: a g2o file with VERTEX "
-                  "lines (slamctl sim's *_groundtruth.g2o) or noise-free measurements composed "
-                  "from the first pose (iSAM's *_groundtruth.txt)")
+  cmd->add_option(
+         "--ground-truth", opt->ground_truth,
+         "Report the absolute trajectory error (ate_rmse, ate_max in m, after the best "
+         "rigid alignment) of the final estimate against this file: a g2o file with VERTEX "
+         "lines (slamctl sim's *_groundtruth.g2o) or noise-free measurements composed "
+         "from the first pose (iSAM's *_groundtruth.txt)")
       ->check(CLI::ExistingFile);
   auto max_iterations = cmd->add_option("--max-iterations", opt->batch.max_iterations,
                                         "Iterations at most (batch; ba: default 50, as Ceres)")
@@ -182,8 +190,9 @@ void RegisterBench(CLI::App& app) {
                   "isam2: a pivot must exceed this times the information that flowed into it, "
                   "or the system is reported indeterminate")
       ->capture_default_str();
-  cmd->add_option("--wildfire", opt->isam2.wildfire_threshold,
-                  "isam2: partial back-substitution threshold (0: solve every clique below a change)")
+  cmd->add_option(
+         "--wildfire", opt->isam2.wildfire_threshold,
+         "isam2: partial back-substitution threshold (0: solve every clique below a change)")
       ->capture_default_str();
   cmd->add_option("--batch-every", opt->isam2.batch_every,
                   "isam2: relinearise and re-eliminate everything every N updates (0: never)")

@@ -30,8 +30,8 @@ struct BenchOptions {
   core::Isam2Params isam2;
   bool compare_batch = false;
   double settle_s = 0.0;
-  std::string step_times;  // CSV of per-step times (isam2)
-  double rate_hz = 0.0;    // isam2: model a server fed this many poses per second (0: none)
+  std::string step_times;          // CSV of per-step times (isam2)
+  double rate_hz = 0.0;            // isam2: model a server fed this many poses per second (0: none)
   std::string marginals = "none";  // isam2: none, latest or all
   int marginals_every = 1;
   int threads = 2;  // isam2 (Isam2Params::threads) and ba
@@ -57,8 +57,8 @@ struct AccuracyReport {
   std::size_t ate_poses = 0;
 };
 void Ate(const BenchOptions& opt, const core::Values& estimate, AccuracyReport* report);
-// Adds "robust" (KERNEL:PARAM or none), "loop_closures" and (with a ground truth) "ate_rmse", "ate_max",
-// "ate_poses" to `out`; PrintAccuracy prints the same as one or two human lines.
+// Adds "robust" (KERNEL:PARAM or none), "loop_closures" and (with a ground truth) "ate_rmse",
+// "ate_max", "ate_poses" to `out`; PrintAccuracy prints the same as one or two human lines.
 void AddAccuracy(const BenchOptions& opt, const AccuracyReport& report, JsonWriter* out);
 void PrintAccuracy(const BenchOptions& opt, const AccuracyReport& report);
 

@@ -45,8 +45,7 @@ void RunBundleAdjustment(const BenchOptions& opt) {
   params.max_iterations = opt.ba_max_iterations;
   params.verbosity = opt.batch.verbosity;
   if (const core::Status valid = params.Validate(); !valid.ok()) Fail(kExitUsage, valid.message());
-  core::Result<core::BundleAdjusterSummary> adjusted =
-      core::BundleAdjust(params, &reconstruction);
+  core::Result<core::BundleAdjusterSummary> adjusted = core::BundleAdjust(params, &reconstruction);
   if (!adjusted.ok()) Fail(kExitFailure, adjusted.status().ToString());
   const core::BundleAdjusterSummary& s = adjusted.value();
 
@@ -95,9 +94,10 @@ void RunBundleAdjustment(const BenchOptions& opt) {
                 s.final_cost, s.iterations.size(), s.termination.c_str(), s.total_s);
     std::printf("rms reprojection %.4f px, %d observations behind their camera\n",
                 s.rms_reprojection_px, s.points_behind_cameras);
-    std::printf("phases: evaluate %.4f s, schur %.4f s, solve %.4f s, update %.4f s; peak RSS "
-                "%.1f MB\n",
-                s.evaluate_s, s.schur_s, s.solve_s, s.update_s, PeakRssMb());
+    std::printf(
+        "phases: evaluate %.4f s, schur %.4f s, solve %.4f s, update %.4f s; peak RSS "
+        "%.1f MB\n",
+        s.evaluate_s, s.schur_s, s.solve_s, s.update_s, PeakRssMb());
   }
   if (!opt.output.empty()) {
     const core::Status written = WriteReconstruction(reconstruction, opt.output);

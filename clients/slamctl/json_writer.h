@@ -12,13 +12,17 @@ class JsonWriter {
  public:
   JsonWriter& Add(std::string_view key, double value);
   JsonWriter& Add(std::string_view key, long long value);
-  JsonWriter& Add(std::string_view key, int value) { return Add(key, static_cast<long long>(value)); }
+  JsonWriter& Add(std::string_view key, int value) {
+    return Add(key, static_cast<long long>(value));
+  }
   JsonWriter& Add(std::string_view key, std::size_t value) {
     return Add(key, static_cast<long long>(value));
   }
   JsonWriter& Add(std::string_view key, bool value);
   JsonWriter& Add(std::string_view key, std::string_view value);
-  JsonWriter& Add(std::string_view key, const char* value) { return Add(key, std::string_view(value)); }
+  JsonWriter& Add(std::string_view key, const char* value) {
+    return Add(key, std::string_view(value));
+  }
   // Adds a nested object written by another JsonWriter.
   JsonWriter& Add(std::string_view key, const JsonWriter& object);
   // Adds an array of objects.

@@ -88,7 +88,8 @@ class BaProblem {
                 [&](int a, int c) { return position_[camera_[a]] < position_[camera_[c]]; });
       std::vector<int> cams(end - begin);
       std::vector<Vector2> uvs(end - begin);
-      for (int k = 0; k < end - begin; ++k) cams[k] = camera_[order[k]], uvs[k] = measured_[order[k]];
+      for (int k = 0; k < end - begin; ++k)
+        cams[k] = camera_[order[k]], uvs[k] = measured_[order[k]];
       std::copy(cams.begin(), cams.end(), camera_.begin() + begin);
       std::copy(uvs.begin(), uvs.end(), measured_.begin() + begin);
     }
@@ -103,9 +104,9 @@ class BaProblem {
     point_chunk_.assign(1, 0);
     for (int t = 1; t < chunks; ++t) {
       const int target = static_cast<int>(num_obs * t / chunks);
-      const int j = static_cast<int>(
-          std::lower_bound(point_start_.begin(), point_start_.end(), target) -
-          point_start_.begin());
+      const int j =
+          static_cast<int>(std::lower_bound(point_start_.begin(), point_start_.end(), target) -
+                           point_start_.begin());
       point_chunk_.push_back(std::max(point_chunk_.back(), std::min(j, num_points)));
     }
     point_chunk_.push_back(num_points);
@@ -119,6 +120,24 @@ class BaProblem {
     gc_.resize(num_images);
     row_locks_ = std::make_unique<std::atomic<bool>[]>(num_images);
     for (int i = 0; i < num_images; ++i) row_locks_[i].store(false);
+  }
+
+  // The unknowns as `r` has them, and back.
+  static State StateOf(const Reconstruction& r) {
+    State x;
+    for (const SfmImage& image : r.images) {
+      x.poses.push_back(image.pose);
+      x.cals.push_back(std::get<Cal>(r.intrinsics[image.intrinsics].calibration));
+    }
+    for (const SfmPoint& p : r.points) x.points.push_back(p.position);
+    return x;
+  }
+  static void WriteBack(const State& x, Reconstruction* r) {
+    for (size_t i = 0; i < r->images.size(); ++i) {
+      r->images[i].pose = x.poses[i];
+      if constexpr (kRefineCal) r->intrinsics[r->images[i].intrinsics].calibration = x.cals[i];
+    }
+    for (size_t j = 0; j < r->points.size(); ++j) r->points[j].position = x.points[j];
   }
 
   int num_cameras() const { return static_cast<int>(u_.size()); }
@@ -240,6 +259,11 @@ class BaProblem {
   // BackSubstitute. `s` must have the pattern of CoVisibility(), and be the same every call.
   void EliminatePoints(double lambda, ReducedCameraMatrix* s, std::vector<CameraMatrix>* diagonal,
                        Eigen::VectorXd* b) {
+    EliminatePoints(lambda, lambda, s, diagonal, b);
+  }
+  // The same with the points damped by point_lambda instead (covariances: cameras undamped).
+  void EliminatePoints(double lambda, double point_lambda, ReducedCameraMatrix* s,
+                       std::vector<CameraMatrix>* diagonal, Eigen::VectorXd* b) {
     const int n = num_cameras();
     b->resize(kD * n);
     if (s && pair_start_.empty()) IndexBlocks(*s);
@@ -267,7 +291,7 @@ class BaProblem {
         // in front of a camera gives V_j a condition of 1e10 and S indefinite through the
         // cancellation in U − W V⁻¹ Wᵀ).
         Matrix3 R = Matrix3::Zero();
-        R.diagonal() = (lambda * ClampedDiagonal(v_diagonal_[j])).cwiseSqrt();
+        R.diagonal() = (point_lambda * ClampedDiagonal(v_diagonal_[j])).cwiseSqrt();
         const int begin = point_start_[j], m = point_start_[j + 1] - begin;
         for (int o = begin; o < begin + m; ++o) {
           for (int row = 0; row < 2; ++row) AppendRow(jp_[o].row(row), &R);
@@ -314,8 +338,7 @@ class BaProblem {
         const Vector3 z = SolveDampedV(j, wx);
         for (int o = point_start_[j]; o < point_start_[j + 1]; ++o) {
           const Vector2 jz = jp_[o] * z;
-          out.template segment<kD>(kD * position_[camera_[o]]).noalias() -=
-              jc_[o].transpose() * jz;
+          out.template segment<kD>(kD * position_[camera_[o]]).noalias() -= jc_[o].transpose() * jz;
         }
       }
     });

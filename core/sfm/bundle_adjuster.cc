@@ -10,6 +10,7 @@
 #include "core/base/worker_pool.h"
 #include "core/linear/ordering.h"
 #include "core/sfm/ba_problem.h"
+#include "core/sfm/problem_dispatch.h"
 
 namespace slamd::core {
 namespace {
@@ -112,12 +113,7 @@ Result<BundleAdjusterSummary> Adjust(const BundleAdjusterParams& params, BaLinea
   if (!positions.ok()) return positions.status();
   WorkerPool pool(params.num_threads - 1);
   Problem problem(*rec, params.robust, std::move(positions).value(), &pool);
-  typename Problem::State x;
-  for (const SfmImage& image : rec->images) {
-    x.poses.push_back(image.pose);
-    x.cals.push_back(std::get<Cal>(rec->intrinsics[image.intrinsics].calibration));
-  }
-  for (const SfmPoint& p : rec->points) x.points.push_back(p.position);
+  typename Problem::State x = Problem::StateOf(*rec);
 
   std::unique_ptr<ReducedCameraMatrix> s;
   if (solver != BaLinearSolver::kIterativeSchur) {
@@ -202,28 +198,9 @@ Result<BundleAdjusterSummary> Adjust(const BundleAdjusterParams& params, BaLinea
   double squared = 0.0;
   summary.final_cost = problem.Cost(x, &squared, &summary.points_behind_cameras);
   summary.rms_reprojection_px = std::sqrt(squared / std::max(1, summary.num_observations));
-  for (size_t i = 0; i < rec->images.size(); ++i) {
-    rec->images[i].pose = x.poses[i];
-    if constexpr (kRefineCal) rec->intrinsics[rec->images[i].intrinsics].calibration = x.cals[i];
-  }
-  for (size_t j = 0; j < rec->points.size(); ++j) rec->points[j].position = x.points[j];
+  Problem::WriteBack(x, rec);
   summary.total_s = total.Seconds();
   return summary;
-}
-
-template <typename Cal>
-Result<BundleAdjusterSummary> AdjustModel(const BundleAdjusterParams& params,
-                                          Reconstruction* rec) {
-  // Calibrations are refined only when each belongs to one image.
-  std::vector<int> users(rec->intrinsics.size(), 0);
-  for (const SfmImage& image : rec->images) ++users[image.intrinsics];
-  const bool refine =
-      params.refine_intrinsics && std::all_of(users.begin(), users.end(), [](int u) { return u <= 1; });
-  const int n = static_cast<int>(rec->images.size());
-  if (refine) {
-    return Adjust<Cal, true>(params, ChooseSolver(params, n, 6 + Cal::kDim), rec);
-  }
-  return Adjust<Cal, false>(params, ChooseSolver(params, n, 6), rec);
 }
 
 }  // namespace
@@ -231,24 +208,14 @@ Result<BundleAdjusterSummary> AdjustModel(const BundleAdjusterParams& params,
 Result<BundleAdjusterSummary> BundleAdjust(const BundleAdjusterParams& params,
                                            Reconstruction* reconstruction) {
   if (Status s = params.Validate(); !s.ok()) return s;
-  if (Status s = reconstruction->Validate(); !s.ok()) return s;
-  if (reconstruction->observations.empty()) {
-    return InvalidArgument("bundle adjustment: the reconstruction has no observation");
+  if (Status s = internal::CheckAdjustable(*reconstruction, "bundle adjustment"); !s.ok()) {
+    return s;
   }
-  const size_t model = reconstruction->intrinsics.front().calibration.index();
-  for (size_t k = 0; k < reconstruction->intrinsics.size(); ++k) {
-    if (reconstruction->intrinsics[k].calibration.index() != model) {
-      return InvalidArgument("bundle adjustment: intrinsics " + std::to_string(k) +
-                             " have another calibration model than intrinsics 0 (one model per "
-                             "reconstruction)");
-    }
-  }
-  return std::visit(
-      [&](const auto& calibration) {
-        using Cal = std::decay_t<decltype(calibration)>;
-        return AdjustModel<Cal>(params, reconstruction);
-      },
-      reconstruction->intrinsics.front().calibration);
+  const int n = static_cast<int>(reconstruction->images.size());
+  return internal::WithProblemType(params, *reconstruction, [&]<typename Cal, bool kRefineCal>() {
+    const int block_dim = BaProblem<Cal, kRefineCal>::kD;
+    return Adjust<Cal, kRefineCal>(params, ChooseSolver(params, n, block_dim), reconstruction);
+  });
 }
 
 }  // namespace slamd::core

@@ -37,10 +37,8 @@ Status BundleAdjusterParams::Validate() const {
   SLAMD_PARAM_CHECK(BundleAdjusterParams, parameter_tolerance, >=, 0.0);
   SLAMD_PARAM_CHECK(BundleAdjusterParams, initial_trust_region_radius, >, 0.0);
   SLAMD_PARAM_CHECK(BundleAdjusterParams, min_trust_region_radius, >, 0.0);
-  SLAMD_PARAM_CHECK(BundleAdjusterParams, max_trust_region_radius, >=,
-                    initial_trust_region_radius);
-  SLAMD_PARAM_CHECK(BundleAdjusterParams, initial_trust_region_radius, >=,
-                    min_trust_region_radius);
+  SLAMD_PARAM_CHECK(BundleAdjusterParams, max_trust_region_radius, >=, initial_trust_region_radius);
+  SLAMD_PARAM_CHECK(BundleAdjusterParams, initial_trust_region_radius, >=, min_trust_region_radius);
   SLAMD_PARAM_CHECK(BundleAdjusterParams, min_relative_decrease, >, 0.0);
   SLAMD_PARAM_CHECK(BundleAdjusterParams, min_relative_decrease, <, 1.0);
   SLAMD_PARAM_CHECK(BundleAdjusterParams, cg_tolerance, >, 0.0);

@@ -80,7 +80,7 @@ struct BaIteration {
 
 struct BundleAdjusterSummary {
   BaLinearSolver linear_solver = BaLinearSolver::kAuto;  // the one used (never kAuto)
-  int num_cameras = 0;       // images whose pose was refined
+  int num_cameras = 0;                                   // images whose pose was refined
   int camera_block_dim = 0;  // unknowns per camera (6, + the calibration's when refined)
   int num_points = 0;
   int num_observations = 0;

@@ -45,8 +45,8 @@ struct SfmIntrinsics {
 
 // One image: where its camera was.
 struct SfmImage {
-  Pose3 pose;          // T_wc
-  int intrinsics = 0;  // index into Reconstruction::intrinsics
+  Pose3 pose;             // T_wc
+  int intrinsics = 0;     // index into Reconstruction::intrinsics
   std::string name = "";  // COLMAP NAME; empty for BAL
   std::uint32_t id = 0;
 };
@@ -54,13 +54,13 @@ struct SfmImage {
 struct SfmPoint {
   Point3 position = Point3::Zero();
   std::array<std::uint8_t, 3> color = {128, 128, 128};  // RGB (COLMAP, PLY)
-  double error = -1.0;  // COLMAP's mean reprojection error in pixels; -1 when unknown
+  double error = -1.0;   // COLMAP's mean reprojection error in pixels; -1 when unknown
   std::uint64_t id = 0;  // COLMAP POINT3D_ID; BAL: the point's index
 };
 
 struct SfmObservation {
-  int image = 0;  // index into Reconstruction::images
-  int point = 0;  // index into Reconstruction::points
+  int image = 0;                 // index into Reconstruction::images
+  int point = 0;                 // index into Reconstruction::points
   Vector2 uv = Vector2::Zero();  // pixel, in the calibration's pixel frame (file comment)
 };
 

@@ -99,9 +99,8 @@ Status ReducedCameraMatrix::SolveSparse(const Eigen::VectorXd& b, Eigen::VectorX
   for (size_t t = 0; t < source_.size(); ++t) csc_values_[t] = values_[source_[t]];
   std::string message;
   int failed_column = -1;
-  const LinearSolverTermination factorized =
-      cholesky_->Factorize(dim(), col_ptr_.data(), row_idx_.data(), csc_values_.data(), &message,
-                           &failed_column);
+  const LinearSolverTermination factorized = cholesky_->Factorize(
+      dim(), col_ptr_.data(), row_idx_.data(), csc_values_.data(), &message, &failed_column);
   if (factorized != LinearSolverTermination::kSuccess) {
     return NumericalFailure("reduced camera system: " + message);
   }

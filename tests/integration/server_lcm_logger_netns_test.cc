@@ -77,8 +77,7 @@ TEST(ServerLcmLoggerTest, LoggerRecordsTheSessionAndEveryEventDecodes) {
     bool status = false;
     lcm.subscribeFunction(
         "SLAMD_STATUS",
-        +[](const lcm::ReceiveBuffer*, const std::string&, bool* seen) { *seen = true; },
-        &status);
+        +[](const lcm::ReceiveBuffer*, const std::string&, bool* seen) { *seen = true; }, &status);
     for (int waited_ms = 0; waited_ms < 10000 && !(status && std::filesystem::exists(log));
          waited_ms += 50) {
       lcm.handleTimeout(50);

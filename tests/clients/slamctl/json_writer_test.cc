@@ -11,7 +11,11 @@ TEST(JsonWriterTest, WritesTypedFieldsInOrder) {
   JsonWriter inner;
   inner.Add("p50", 0.5);
   JsonWriter w;
-  w.Add("name", "a\"b\\c\n").Add("n", 3).Add("ok", true).Add("x", 0.1).Add("nan", std::nan(""))
+  w.Add("name", "a\"b\\c\n")
+      .Add("n", 3)
+      .Add("ok", true)
+      .Add("x", 0.1)
+      .Add("nan", std::nan(""))
       .Add("inner", inner);
   EXPECT_EQ(w.str(),
             "{\"name\": \"a\\\"b\\\\c\\n\", \"n\": 3, \"ok\": true, \"x\": 0.10000000000000001, "

@@ -9,59 +9,13 @@
 #include <random>
 
 #include "core/sfm/ba_problem.h"
+#include "tests/testing/ba_worlds.h"
 
 namespace slamd::core {
 namespace {
 
-// Cameras on a circle of radius 6 around a cloud of points near the origin, looking at it;
-// pixels from the true values plus Gaussian noise of `pixel_sigma`.
-template <typename Cal>
-Reconstruction BaWorld(const Cal& cal, int num_cameras, int num_points, double pixel_sigma,
-                       unsigned seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> noise(0.0, 1.0);
-  std::uniform_real_distribution<double> cube(-1.5, 1.5);
-  Reconstruction r;
-  for (int i = 0; i < num_cameras; ++i) {
-    const double a = 2.0 * kPi * i / num_cameras;
-    const Point3 centre(6.0 * std::cos(a), 6.0 * std::sin(a), 0.5 * std::sin(3.0 * a));
-    // z towards the origin, x tangent, y completing a right-handed frame (pointing down).
-    const Vector3 z = -centre.normalized();
-    const Vector3 x = Vector3(-std::sin(a), std::cos(a), 0.0).normalized();
-    Matrix3 R;
-    R.col(0) = x;
-    R.col(1) = z.cross(x);
-    R.col(2) = z;
-    r.images.push_back({.pose = Pose3(Rot3(R), centre), .intrinsics = i});
-    r.intrinsics.push_back({.calibration = cal});
-  }
-  for (int j = 0; j < num_points; ++j) {
-    r.points.push_back({.position = Point3(cube(rng), cube(rng), cube(rng))});
-  }
-  for (int j = 0; j < num_points; ++j) {
-    for (int i = 0; i < num_cameras; ++i) {
-      if ((i + j) % 3 == 0 && num_cameras > 3) continue;  // not every camera sees every point
-      const Projection p = Project(r.images[i].pose, cal, r.points[j].position);
-      r.observations.push_back(
-          {.image = i, .point = j, .uv = p.uv + pixel_sigma * Vector2(noise(rng), noise(rng))});
-    }
-  }
-  return r;
-}
-
-// Moves every pose, calibration and point away from where it was.
-void BaPerturb(Reconstruction* r, double pose_sigma, double point_sigma, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> noise(0.0, 1.0);
-  for (SfmImage& image : r->images) {
-    Vector6 d;
-    for (int k = 0; k < 6; ++k) d[k] = pose_sigma * noise(rng);
-    image.pose = image.pose.Retract(d);
-  }
-  for (SfmPoint& p : r->points) {
-    p.position += point_sigma * Vector3(noise(rng), noise(rng), noise(rng));
-  }
-}
+using testing::BaPerturb;
+using testing::BaWorld;
 
 const Cal3Bundler kBundler(500.0, -0.05, 0.01);
 
@@ -112,7 +66,8 @@ TEST(BundleAdjusterTest, SchurStepEqualsDenseSolveOfTheFullSystem) {
   Eigen::MatrixXd H = J.transpose() * J;
   const Eigen::VectorXd diag = H.diagonal().cwiseMax(1e-6).cwiseMin(1e32);
   H.diagonal() += lambda * diag;
-  const Eigen::VectorXd delta = H.ldlt().solve(-J.transpose() * residuals(Eigen::VectorXd::Zero(n)));
+  const Eigen::VectorXd delta =
+      H.ldlt().solve(-J.transpose() * residuals(Eigen::VectorXd::Zero(n)));
   for (int k = 0; k < kD * 4; ++k) EXPECT_NEAR(dc[k], delta[k], 1e-5 * (1.0 + std::abs(delta[k])));
   for (int j = 0; j < 6; ++j) {
     for (int k = 0; k < 3; ++k) {
@@ -133,9 +88,10 @@ TEST(BundleAdjusterTest, EveryLinearSolverReachesTheSameOptimum) {
   BaPerturb(&start, 0.02, 0.1, 4);
   double truth_cost = 0.0;
   for (const SfmObservation& o : noisy.observations) {
-    truth_cost += 0.5 * (Project(noisy.images[o.image].pose, kBundler, noisy.points[o.point].position).uv -
-                         o.uv)
-                            .squaredNorm();
+    truth_cost +=
+        0.5 *
+        (Project(noisy.images[o.image].pose, kBundler, noisy.points[o.point].position).uv - o.uv)
+            .squaredNorm();
   }
   std::vector<double> costs;
   for (BaLinearSolver solver : {BaLinearSolver::kDenseSchur, BaLinearSolver::kSparseSchur,
@@ -223,7 +179,8 @@ TEST(BundleAdjusterTest, SharedIntrinsicsAreHeldFixed) {
 TEST(BundleAdjusterTest, HuberKernelResistsOutliers) {
   const Reconstruction truth = BaWorld(kBundler, 8, 40, 0.0, 11);
   Reconstruction bad = truth;
-  for (size_t o = 0; o < bad.observations.size(); o += 17) bad.observations[o].uv += Vector2(40, -30);
+  for (size_t o = 0; o < bad.observations.size(); o += 17)
+    bad.observations[o].uv += Vector2(40, -30);
   auto point_error = [&](const Reconstruction& r) {
     // The estimate is defined up to a similarity: compare distances between points instead.
     double e = 0.0;
