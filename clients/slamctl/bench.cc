@@ -115,12 +115,14 @@ void RegisterBench(CLI::App& app) {
       ->check(CLI::IsMember({"identity", "diagonal"}))
       ->capture_default_str();
   cmd->add_option("--init", opt->init,
-                  "Initial guess: file (vertices in the file, odometry where missing) or "
-                  "odometry (compose along odometry in file order, ignoring vertices), "
-                  "spanning-tree (compose along the most certain edges) or lago (linear "
-                  "orientation then position estimate; 2D) or incremental (re-optimise "
-                  "while adding poses in order; 2D)")
-      ->check(CLI::IsMember({"file", "odometry", "spanning-tree", "lago", "incremental"}))
+                  "Initial guess: auto (solve from the file's guess and from a spanning tree, "
+                  "and from the incremental guess when both leave chi2 above 5 per residual "
+                  "dimension; keep the lowest; 2D, else file), file (vertices in the file, "
+                  "odometry where missing) or odometry (compose along odometry in file order, "
+                  "ignoring vertices), spanning-tree (compose along the most certain edges) or "
+                  "lago (linear orientation then position estimate; 2D) or incremental "
+                  "(re-optimise while adding poses in order; 2D)")
+      ->check(CLI::IsMember({"auto", "file", "odometry", "spanning-tree", "lago", "incremental"}))
       ->capture_default_str();
   cmd->add_option("--isam-noise", opt->isam_noise,
                   "How iSAM-format noise columns are read: sqrt-information or covariance "

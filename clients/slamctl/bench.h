@@ -18,7 +18,7 @@ struct BenchOptions {
   bool json = false;
   std::string algorithm = "lm";
   std::string damping = "identity";
-  std::string init = "file";
+  std::string init = "auto";
   std::string isam_noise = "sqrt-information";
   double anchor_sigma = 1e-3;
   int init_chunk = 100;

@@ -14,9 +14,9 @@ namespace {
 
 // One planar pose-pose measurement in slot numbering.
 struct Edge {
-  int i, j;        // x_j ≈ x_i ∘ z
+  int i, j;  // x_j ≈ x_i ∘ z
   Pose2 z;
-  Matrix3 info;    // information of the (x, y, θ) error
+  Matrix3 info;  // information of the (x, y, θ) error
 };
 
 // One relative-point observation: landmark l ≈ x_i ∘ z.
@@ -65,7 +65,8 @@ PlanarGraph Collect(const FactorGraph& graph, const Values& values) {
 }
 
 // Prim's algorithm from `root`: parent edge of every reached pose (-1 for the root and unreached).
-std::vector<int> SpanningTreeParents(const PlanarGraph& g, int n, int root, std::vector<int>* order) {
+std::vector<int> SpanningTreeParents(const PlanarGraph& g, int n, int root,
+                                     std::vector<int>* order) {
   std::vector<int> parent(n, -1);
   std::vector<char> done(n, 0);
   using Item = std::pair<double, int>;  // (edge cost, edge index)
@@ -92,8 +93,8 @@ std::vector<int> SpanningTreeParents(const PlanarGraph& g, int n, int root, std:
 }
 
 // Composes poses along the tree (in the order they were reached).
-void ComposeTree(const PlanarGraph& g, const std::vector<int>& parent, const std::vector<int>& order,
-                 Values* values) {
+void ComposeTree(const PlanarGraph& g, const std::vector<int>& parent,
+                 const std::vector<int>& order, Values* values) {
   for (int v : order) {
     if (parent[v] < 0) continue;
     const Edge& e = g.edges[parent[v]];
@@ -137,8 +138,8 @@ void PlaceLandmarksFromFirstObservation(const FactorGraph& graph, std::vector<ch
 
 // Solves the SPD system assembled from triplets; unknowns of `fixed` rows were eliminated by the
 // caller. Returns false when the system is singular.
-bool SolveSparse(int n, const std::vector<Eigen::Triplet<double>>& triplets, const Eigen::VectorXd& b,
-                 Eigen::VectorXd* x) {
+bool SolveSparse(int n, const std::vector<Eigen::Triplet<double>>& triplets,
+                 const Eigen::VectorXd& b, Eigen::VectorXd* x) {
   Eigen::SparseMatrix<double> A(n, n);
   A.setFromTriplets(triplets.begin(), triplets.end());
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(A);
@@ -157,7 +158,8 @@ Result<Values> InitializeSpanningTree(const FactorGraph& graph, const Values& in
   Values values = initial;
   const PlanarGraph g = Collect(graph, values);
   std::vector<int> order;
-  const std::vector<int> parent = SpanningTreeParents(g, static_cast<int>(values.size()), r, &order);
+  const std::vector<int> parent =
+      SpanningTreeParents(g, static_cast<int>(values.size()), r, &order);
   SLAMD_RETURN_IF_ERROR(CheckReached(values, parent, r));
   ComposeTree(g, parent, order, &values);
   PlaceLandmarksFromFirstObservation(graph, std::vector<char>(values.size(), 0), &values);
@@ -292,7 +294,8 @@ namespace slamd::core {
 
 Result<Values> InitializeIncremental(const FactorGraph& graph, const Values& initial,
                                      const std::vector<Key>& poses, int chunk) {
-  if (chunk < 1) return InvalidArgument("incremental initialisation chunk " + std::to_string(chunk) + " < 1");
+  if (chunk < 1)
+    return InvalidArgument("incremental initialisation chunk " + std::to_string(chunk) + " < 1");
   if (poses.empty()) return initial;
   const int n = static_cast<int>(initial.size());
   // Step at which each variable becomes active: poses by their position in `poses`, landmarks
@@ -318,7 +321,9 @@ Result<Values> InitializeIncremental(const FactorGraph& graph, const Values& ini
       if (step_of[s] == -1 || pose_step < -2 - step_of[s]) step_of[s] = -2 - pose_step;
     }
   }
-  auto active_at = [&](int slot) { return step_of[slot] >= 0 ? step_of[slot] : -2 - step_of[slot]; };
+  auto active_at = [&](int slot) {
+    return step_of[slot] >= 0 ? step_of[slot] : -2 - step_of[slot];
+  };
 
   Values estimate = initial;
   std::vector<char> placed(n, 0);
@@ -329,8 +334,10 @@ Result<Values> InitializeIncremental(const FactorGraph& graph, const Values& ini
                    [&](std::size_t a, std::size_t b) { return factor_step[a] < factor_step[b]; });
   std::size_t next_factor = 0;
   FactorGraph active;
-  BatchParams gn{.algorithm = BatchParams::Algorithm::kLevenbergMarquardt, .max_iterations = 10,
-                 .relative_tolerance = 1e-6, .absolute_tolerance = 1e-6};
+  BatchParams gn{.algorithm = BatchParams::Algorithm::kLevenbergMarquardt,
+                 .max_iterations = 10,
+                 .relative_tolerance = 1e-6,
+                 .absolute_tolerance = 1e-6};
   const int num_poses = static_cast<int>(poses.size());
   for (int begin = 0; begin < num_poses; begin += chunk) {
     const int end = std::min(num_poses, begin + chunk);
@@ -352,13 +359,16 @@ Result<Values> InitializeIncremental(const FactorGraph& graph, const Values& ini
     // Optimise the active part: the variables of active factors.
     Values sub;
     for (int s = 0; s < n; ++s) {
-      if (active_at(s) < end && step_of[s] != -1) (void)sub.Insert(estimate.KeyAt(s), estimate.VariableAt(s));
+      if (active_at(s) < end && step_of[s] != -1)
+        (void)sub.Insert(estimate.KeyAt(s), estimate.VariableAt(s));
     }
     FactorGraph anchored = active;
-    anchored.Emplace<PriorFactor<Pose2>>(poses[0], initial.At<Pose2>(poses[0]), *NoiseModel::Isotropic(3, 1e-3));
+    anchored.Emplace<PriorFactor<Pose2>>(poses[0], initial.At<Pose2>(poses[0]),
+                                         *NoiseModel::Isotropic(3, 1e-3));
     const BatchResult r = Optimize(anchored, sub, gn);
     if (!r.status.ok()) return r.status;
-    for (Key key : r.values.keys()) estimate.MutableVariableAt(estimate.SlotOf(key)) = r.values.Get(key);
+    for (Key key : r.values.keys())
+      estimate.MutableVariableAt(estimate.SlotOf(key)) = r.values.Get(key);
   }
   return estimate;
 }
@@ -376,8 +386,22 @@ Result<InitialGuess> ParseInitialGuess(std::string_view name) {
                          "' (expected file, spanning-tree, lago or incremental)");
 }
 
-Result<Values> MakeInitialGuess(InitialGuess method, const FactorGraph& graph, const Values& initial,
-                                const std::vector<Key>& poses, int chunk) {
+const char* InitialGuessName(InitialGuess method) {
+  switch (method) {
+    case InitialGuess::kAsGiven:
+      return "file";
+    case InitialGuess::kSpanningTree:
+      return "spanning-tree";
+    case InitialGuess::kLago:
+      return "lago";
+    case InitialGuess::kIncremental:
+      return "incremental";
+  }
+  return "?";
+}
+
+Result<Values> MakeInitialGuess(InitialGuess method, const FactorGraph& graph,
+                                const Values& initial, const std::vector<Key>& poses, int chunk) {
   if (method == InitialGuess::kAsGiven) return initial;
   if (poses.empty()) return InvalidArgument("an initial guess needs at least one pose");
   for (Key key : poses) {
@@ -387,10 +411,14 @@ Result<Values> MakeInitialGuess(InitialGuess method, const FactorGraph& graph, c
     }
   }
   switch (method) {
-    case InitialGuess::kSpanningTree: return InitializeSpanningTree(graph, initial, poses.front());
-    case InitialGuess::kLago: return InitializeLago(graph, initial, poses.front());
-    case InitialGuess::kIncremental: return InitializeIncremental(graph, initial, poses, chunk);
-    case InitialGuess::kAsGiven: break;
+    case InitialGuess::kSpanningTree:
+      return InitializeSpanningTree(graph, initial, poses.front());
+    case InitialGuess::kLago:
+      return InitializeLago(graph, initial, poses.front());
+    case InitialGuess::kIncremental:
+      return InitializeIncremental(graph, initial, poses, chunk);
+    case InitialGuess::kAsGiven:
+      break;
   }
   return initial;
 }

@@ -37,11 +37,14 @@ namespace slamd::core {
 enum class InitialGuess { kAsGiven, kSpanningTree, kLago, kIncremental };
 // "file" (as given), "spanning-tree", "lago", "incremental".
 Result<InitialGuess> ParseInitialGuess(std::string_view name);
+// The name ParseInitialGuess reads.
+const char* InitialGuessName(InitialGuess method);
 
 // Dispatches to the functions below. `poses` lists the pose keys in order (poses[0] is the root
 // whose value fixes the gauge); `chunk` is used by kIncremental only.
-Result<Values> MakeInitialGuess(InitialGuess method, const FactorGraph& graph, const Values& initial,
-                                const std::vector<Key>& poses, int chunk = 100);
+Result<Values> MakeInitialGuess(InitialGuess method, const FactorGraph& graph,
+                                const Values& initial, const std::vector<Key>& poses,
+                                int chunk = 100);
 
 Result<Values> InitializeSpanningTree(const FactorGraph& graph, const Values& initial, Key root);
 Result<Values> InitializeLago(const FactorGraph& graph, const Values& initial, Key root);

@@ -23,12 +23,16 @@ using testing::SlamctlRun;
 TEST(BenchTest, JsonHasTheDocumentedFields) {
   const SlamctlRun r = RunSlamctl("bench " + testing::TestDataPath("small_slam2d.g2o") + " --json");
   ASSERT_EQ(r.exit_code, 0) << r.out;
-  for (const char* field : {"\"dataset\"", "\"poses\"", "\"landmarks\"", "\"factors\"", "\"solver\": \"batch\"",
-                            "\"iterations\"", "\"initial_chi2\"", "\"final_chi2\"", "\"total_s\"",
-                            "\"peak_rss_mb\"", "\"termination\": \"converged\""}) {
+  for (const char* field :
+       {"\"dataset\"", "\"poses\"", "\"landmarks\"", "\"factors\"", "\"solver\": \"batch\"",
+        "\"iterations\"", "\"initial_chi2\"", "\"final_chi2\"", "\"total_s\"", "\"peak_rss_mb\"",
+        "\"termination\": \"converged\""}) {
     EXPECT_NE(r.out.find(field), std::string::npos) << field << " missing from " << r.out;
   }
   EXPECT_EQ(r.out.front(), '{');
+  // The default start is chosen among those tried.
+  EXPECT_NE(r.out.find("\"init\": \"auto:"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("\"init_tried\": [{\"init\": \"file\""), std::string::npos) << r.out;
 }
 
 // A number field of the JSON object printed by `slamctl bench --json`: the first `"name": `
@@ -69,8 +73,10 @@ TEST(BenchTest, Isam2JsonHasStepPercentilesAndSettles) {
     std::vector<double> ms;
     std::istringstream fields(line);
     for (std::string field; std::getline(fields, field, ',');) {
-      if (ms.size() != 1) ms.push_back(std::stod(field));
-      else ms.push_back(0.0);  // the pose name
+      if (ms.size() != 1)
+        ms.push_back(std::stod(field));
+      else
+        ms.push_back(0.0);  // the pose name
     }
     ASSERT_EQ(ms.size(), 12u) << line;
     double phases = 0.0;
@@ -148,7 +154,8 @@ TEST(BenchTest, Isam2MarginalsAreTimed) {
     const SlamctlRun r = RunSlamctl("bench " + testing::TestDataPath("small_slam2d.g2o") +
                                     " --solver isam2 --json --marginals " + mode);
     ASSERT_EQ(r.exit_code, 0) << r.out;
-    EXPECT_NE(r.out.find(std::string("\"marginals\": \"") + mode + "\""), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find(std::string("\"marginals\": \"") + mode + "\""), std::string::npos)
+        << r.out;
     EXPECT_NE(r.out.find("\"marginal_ms\": {\"p50\""), std::string::npos) << r.out;
     EXPECT_NE(r.out.find("\"marginals_final_all_ms\""), std::string::npos) << r.out;
   }
@@ -182,7 +189,8 @@ TEST(BenchTest, ArgumentErrorsExitTwoWithAMessage) {
 }
 
 TEST(BenchTest, CorruptDatasetFailsWithFileAndLine) {
-  const std::string bad = testing::WriteTempFile("bad.g2o", "VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 oops\n");
+  const std::string bad =
+      testing::WriteTempFile("bad.g2o", "VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 oops\n");
   const SlamctlRun r = RunSlamctl("bench " + bad);
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_NE(r.out.find(":2:"), std::string::npos) << r.out;
@@ -192,10 +200,12 @@ TEST(BenchTest, CorruptDatasetFailsWithFileAndLine) {
 // closures the kernel brings the ATE back; both solvers report it; bad arguments exit 2.
 TEST(BenchTest, RobustKernelAndGroundTruthAte) {
   const std::string dir = (std::filesystem::temp_directory_path() /
-                           ("slamctl_bench_robust_" + std::to_string(getpid()))).string();
+                           ("slamctl_bench_robust_" + std::to_string(getpid())))
+                              .string();
   SlamctlRun r = RunSlamctl("sim manhattan --seed 3 --steps 300 --outliers 0.3 -o " + dir);
   ASSERT_EQ(r.exit_code, 0) << r.out;
-  const std::string world = dir + "/world.g2o", truth = " --ground-truth " + dir + "/world_groundtruth.g2o";
+  const std::string world = dir + "/world.g2o",
+                    truth = " --ground-truth " + dir + "/world_groundtruth.g2o";
   double ate_none[2], ate_cauchy[2];
   const char* solvers[] = {"batch", "isam2"};
   for (int s = 0; s < 2; ++s) {
@@ -222,7 +232,8 @@ TEST(BenchTest, RobustKernelAndGroundTruthAte) {
   ASSERT_EQ(r.exit_code, 0) << r.out;
   EXPECT_NE(r.out.find("robust kernel dcs:9 on the "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("ATE vs "), std::string::npos) << r.out;
-  for (const char* bad : {"--robust tukey", "--robust huber:-1", "--robust none:2", "--ground-truth /no/such/truth.g2o"}) {
+  for (const char* bad : {"--robust tukey", "--robust huber:-1", "--robust none:2",
+                          "--ground-truth /no/such/truth.g2o"}) {
     r = RunSlamctl("bench " + world + " " + bad);
     EXPECT_EQ(r.exit_code, 2) << bad << ": " << r.out;
   }
@@ -233,6 +244,32 @@ TEST(BenchTest, RobustKernelAndGroundTruthAte) {
   EXPECT_NE(r.out.find("share no pose"), std::string::npos) << r.out;
   std::error_code ec;
   std::filesystem::remove_all(dir, ec);
+}
+
+// Bundle adjustment of a BAL file: the JSON line has the cost as Ceres defines it, one entry per
+// iteration, the time per phase, and -o writes the result.
+TEST(BenchTest, BundleAdjustmentJsonAndOutput) {
+  const std::string bal = std::string(SLAMD_SHARED_DATASETS) + "/bal/dubrovnik-3-7-pre.txt";
+  if (!std::filesystem::exists(bal)) GTEST_SKIP() << bal << " not found";
+  const std::string ply =
+      ::testing::TempDir() + "slamd_bench_ba_" + std::to_string(getpid()) + ".ply";
+  for (const char* solver : {"dense-schur", "sparse-schur", "iterative-schur"}) {
+    const SlamctlRun r =
+        RunSlamctl("bench " + bal + " --solver ba --json --linear-solver " + solver + " -o " + ply);
+    ASSERT_EQ(r.exit_code, 0) << r.out;
+    EXPECT_NE(r.out.find(std::string("\"linear_solver\": \"") + solver), std::string::npos)
+        << r.out;
+    for (const char* field : {"\"initial_cost\"", "\"final_cost\"", "\"total_s\"",
+                              "\"iterations\": [{\"cost\"", "\"elapsed_s\"", "\"phase_s\"",
+                              "\"schur\"", "\"rms_reprojection_px\"", "\"peak_rss_mb\""}) {
+      EXPECT_NE(r.out.find(field), std::string::npos) << field << " missing from " << r.out;
+    }
+    EXPECT_LT(JsonNumber(r.out, "final_cost"), JsonNumber(r.out, "initial_cost"));
+    EXPECT_TRUE(std::filesystem::exists(ply));
+    std::filesystem::remove(ply);
+  }
+  const SlamctlRun bad = RunSlamctl("bench " + bal + " --solver ba --linear-solver qr");
+  EXPECT_NE(bad.exit_code, 0);
 }
 
 }  // namespace
