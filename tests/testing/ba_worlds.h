@@ -4,10 +4,16 @@
 //    (camera + point) % 3 == 0 (with more than 3 cameras); pixels from the true values plus
 //    Gaussian noise. One intrinsics per image.
 //  * BaPerturb(r, pose_sigma, point_sigma, seed): every pose and point moved at random.
+//  * BaNumericalJacobian(r, refine, &residuals): the Jacobian of every observation's pixel error
+//    (Cal3Bundler intrinsics) by central differences over the stacked unknowns: each image's
+//    pose (right perturbation) and, when `refine`, calibration, then every point — the
+//    independent reference for the adjuster's Schur step and covariances.
 #pragma once
 
+#include <Eigen/Core>
 #include <cmath>
 #include <random>
+#include <variant>
 
 #include "core/geometry/camera.h"
 #include "core/sfm/reconstruction.h"
@@ -61,6 +67,36 @@ inline void BaPerturb(core::Reconstruction* r, double pose_sigma, double point_s
   for (core::SfmPoint& p : r->points) {
     p.position += point_sigma * core::Vector3(noise(rng), noise(rng), noise(rng));
   }
+}
+
+inline Eigen::MatrixXd BaNumericalJacobian(const core::Reconstruction& r, bool refine,
+                                           Eigen::VectorXd* residuals_at_r = nullptr) {
+  const int kD = refine ? 9 : 6;
+  const int n = static_cast<int>(r.images.size());
+  const int dim = kD * n + 3 * static_cast<int>(r.points.size());
+  const int m = 2 * static_cast<int>(r.observations.size());
+  auto residuals = [&](const Eigen::VectorXd& d) {
+    Eigen::VectorXd out(m);
+    for (size_t o = 0; o < r.observations.size(); ++o) {
+      const core::SfmObservation& obs = r.observations[o];
+      const core::SfmImage& image = r.images[obs.image];
+      const core::Pose3 pose = image.pose.Retract(d.segment<6>(kD * obs.image));
+      core::Cal3Bundler cal =
+          std::get<core::Cal3Bundler>(r.intrinsics[image.intrinsics].calibration);
+      if (refine) cal = cal.Retract(d.segment<3>(kD * obs.image + 6));
+      const core::Point3 x = r.points[obs.point].position + d.segment<3>(kD * n + 3 * obs.point);
+      out.segment<2>(2 * o) = core::Project(pose, cal, x).uv - obs.uv;
+    }
+    return out;
+  };
+  Eigen::MatrixXd J(m, dim);
+  for (int k = 0; k < dim; ++k) {
+    Eigen::VectorXd h = Eigen::VectorXd::Zero(dim);
+    h[k] = 1e-6;
+    J.col(k) = (residuals(h) - residuals(-h)) / 2e-6;
+  }
+  if (residuals_at_r) *residuals_at_r = residuals(Eigen::VectorXd::Zero(dim));
+  return J;
 }
 
 }  // namespace slamd::testing

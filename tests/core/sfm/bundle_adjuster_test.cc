@@ -28,12 +28,7 @@ TEST(BundleAdjusterTest, SchurStepEqualsDenseSolveOfTheFullSystem) {
   constexpr int kD = Problem::kD;
   WorkerPool pool(1);
   Problem problem(r, RobustKernel(), {0, 1, 2, 3}, &pool);
-  Problem::State x;
-  for (const SfmImage& image : r.images) {
-    x.poses.push_back(image.pose);
-    x.cals.push_back(std::get<Cal3Bundler>(r.intrinsics[image.intrinsics].calibration));
-  }
-  for (const SfmPoint& p : r.points) x.points.push_back(p.position);
+  const Problem::State x = Problem::StateOf(r);
   problem.Linearize(x);
   const double lambda = 1e-3;
   internal::ReducedCameraMatrix s(kD, problem.CoVisibility());
@@ -43,31 +38,12 @@ TEST(BundleAdjusterTest, SchurStepEqualsDenseSolveOfTheFullSystem) {
   std::vector<Vector3> dp;
   problem.BackSubstitute(dc, &dp);
 
-  // The residuals as a function of the stacked tangent vector (cameras, then points).
-  const int n = kD * 4 + 3 * 6, m = 2 * static_cast<int>(r.observations.size());
-  auto residuals = [&](const Eigen::VectorXd& d) {
-    Eigen::VectorXd out(m);
-    for (size_t o = 0; o < r.observations.size(); ++o) {
-      const SfmObservation& obs = r.observations[o];
-      const Eigen::Matrix<double, kD, 1> c = d.segment<kD>(kD * obs.image);
-      const Pose3 pose = x.poses[obs.image].Retract(c.head<6>());
-      const Cal3Bundler cal = x.cals[obs.image].Retract(c.tail<3>());
-      const Point3 p = x.points[obs.point] + d.segment<3>(kD * 4 + 3 * obs.point);
-      out.segment<2>(2 * o) = Project(pose, cal, p).uv - obs.uv;
-    }
-    return out;
-  };
-  Eigen::MatrixXd J(m, n);
-  for (int k = 0; k < n; ++k) {
-    Eigen::VectorXd h = Eigen::VectorXd::Zero(n);
-    h[k] = 1e-6;
-    J.col(k) = (residuals(h) - residuals(-h)) / 2e-6;
-  }
+  Eigen::VectorXd residuals;
+  const Eigen::MatrixXd J = testing::BaNumericalJacobian(r, true, &residuals);
   Eigen::MatrixXd H = J.transpose() * J;
   const Eigen::VectorXd diag = H.diagonal().cwiseMax(1e-6).cwiseMin(1e32);
   H.diagonal() += lambda * diag;
-  const Eigen::VectorXd delta =
-      H.ldlt().solve(-J.transpose() * residuals(Eigen::VectorXd::Zero(n)));
+  const Eigen::VectorXd delta = H.ldlt().solve(-J.transpose() * residuals);
   for (int k = 0; k < kD * 4; ++k) EXPECT_NEAR(dc[k], delta[k], 1e-5 * (1.0 + std::abs(delta[k])));
   for (int j = 0; j < 6; ++j) {
     for (int k = 0; k < 3; ++k) {

@@ -19,25 +19,7 @@ std::vector<Eigen::MatrixXd> DenseCameraCovariances(const Reconstruction& r, boo
   const int kD = refine ? 9 : 6;
   const int n = static_cast<int>(r.images.size()), p = static_cast<int>(r.points.size());
   const int dim = kD * n + 3 * p, m = 2 * static_cast<int>(r.observations.size());
-  auto residuals = [&](const Eigen::VectorXd& d) {
-    Eigen::VectorXd out(m);
-    for (size_t o = 0; o < r.observations.size(); ++o) {
-      const SfmObservation& obs = r.observations[o];
-      const SfmImage& image = r.images[obs.image];
-      const Pose3 pose = image.pose.Retract(d.segment<6>(kD * obs.image));
-      Cal3Bundler cal = std::get<Cal3Bundler>(r.intrinsics[image.intrinsics].calibration);
-      if (refine) cal = cal.Retract(d.segment<3>(kD * obs.image + 6));
-      const Point3 x = r.points[obs.point].position + d.segment<3>(kD * n + 3 * obs.point);
-      out.segment<2>(2 * o) = Project(pose, cal, x).uv - obs.uv;
-    }
-    return out;
-  };
-  Eigen::MatrixXd J(m, dim);
-  for (int k = 0; k < dim; ++k) {
-    Eigen::VectorXd h = Eigen::VectorXd::Zero(dim);
-    h[k] = 1e-6;
-    J.col(k) = (residuals(h) - residuals(-h)) / 2e-6;
-  }
+  const Eigen::MatrixXd J = testing::BaNumericalJacobian(r, refine);
   std::vector<int> kept;
   for (int k = 0; k < dim; ++k) {
     if (k < 6 || k == kD * gauge.scale_image + gauge.scale_axis) continue;
