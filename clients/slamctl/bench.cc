@@ -121,7 +121,9 @@ void RegisterBench(CLI::App& app) {
                   "odometry where missing) or odometry (compose along odometry in file order, "
                   "ignoring vertices), spanning-tree (compose along the most certain edges) or "
                   "lago (linear orientation then position estimate; 2D) or incremental "
-                  "(re-optimise while adding poses in order; 2D)")
+                  "(re-optimise while adding poses in order; 2D). ba: auto (points whose start "
+                  "reprojects worse than 100 px or lies behind most of their cameras are "
+                  "triangulated again) or file")
       ->check(CLI::IsMember({"auto", "file", "odometry", "spanning-tree", "lago", "incremental"}))
       ->capture_default_str();
   cmd->add_option("--isam-noise", opt->isam_noise,

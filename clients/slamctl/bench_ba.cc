@@ -7,6 +7,7 @@
 #include "core/base/timing.h"
 #include "core/io/sfm_io.h"
 #include "core/sfm/bundle_adjuster.h"
+#include "core/sfm/point_initialization.h"
 
 namespace slamd::clients::bench {
 namespace {
@@ -35,6 +36,17 @@ void RunBundleAdjustment(const BenchOptions& opt) {
   if (!read.ok()) Fail(kExitFailure, read.status().ToString());
   const double read_s = timer.Seconds();
   core::Reconstruction reconstruction = std::move(read).value();
+  // --init auto: points without a usable start are triangulated again; file: as read.
+  if (opt.init != "auto" && opt.init != "file") {
+    Fail(kExitUsage, "--init " + opt.init + ": bundle adjustment starts from auto or file");
+  }
+  core::PointInitializationReport retriangulated;
+  if (opt.init == "auto") {
+    core::Result<core::PointInitializationReport> r =
+        core::RetriangulatePoorPoints(&reconstruction);
+    if (!r.ok()) Fail(kExitFailure, r.status().ToString());
+    retriangulated = r.value();
+  }
 
   core::BundleAdjusterParams params;
   core::Result<core::BaLinearSolver> solver = core::ParseBaLinearSolver(opt.linear_solver);
@@ -70,6 +82,9 @@ void RunBundleAdjustment(const BenchOptions& opt) {
         .Add("linear_solver", core::BaLinearSolverName(s.linear_solver))
         .Add("threads", opt.threads)
         .Add("robust", RobustSpecString(opt.robust))
+        .Add("init", opt.init)
+        .Add("points_poor_start", retriangulated.poor)
+        .Add("points_retriangulated", retriangulated.replaced)
         .Add("cameras", s.num_cameras)
         .Add("camera_block_dim", s.camera_block_dim)
         .Add("points", s.num_points)
@@ -89,6 +104,10 @@ void RunBundleAdjustment(const BenchOptions& opt) {
     std::printf("%s: %d cameras (%d unknowns each), %d points, %d observations (read in %.3f s)\n",
                 opt.dataset.c_str(), s.num_cameras, s.camera_block_dim, s.num_points,
                 s.num_observations, read_s);
+    if (opt.init == "auto") {
+      std::printf("initial guess: %d points with a poor start, %d triangulated again\n",
+                  retriangulated.poor, retriangulated.replaced);
+    }
     std::printf("ba %s, %d threads: cost %.10g -> %.10g in %zu iterations (%s), %.3f s\n",
                 core::BaLinearSolverName(s.linear_solver), opt.threads, s.initial_cost,
                 s.final_cost, s.iterations.size(), s.termination.c_str(), s.total_s);

@@ -259,9 +259,10 @@ TEST(BenchTest, BundleAdjustmentJsonAndOutput) {
     ASSERT_EQ(r.exit_code, 0) << r.out;
     EXPECT_NE(r.out.find(std::string("\"linear_solver\": \"") + solver), std::string::npos)
         << r.out;
-    for (const char* field : {"\"initial_cost\"", "\"final_cost\"", "\"total_s\"",
-                              "\"iterations\": [{\"cost\"", "\"elapsed_s\"", "\"phase_s\"",
-                              "\"schur\"", "\"rms_reprojection_px\"", "\"peak_rss_mb\""}) {
+    for (const char* field :
+         {"\"initial_cost\"", "\"final_cost\"", "\"total_s\"", "\"iterations\": [{\"cost\"",
+          "\"elapsed_s\"", "\"phase_s\"", "\"schur\"", "\"rms_reprojection_px\"", "\"peak_rss_mb\"",
+          "\"points_retriangulated\""}) {
       EXPECT_NE(r.out.find(field), std::string::npos) << field << " missing from " << r.out;
     }
     EXPECT_LT(JsonNumber(r.out, "final_cost"), JsonNumber(r.out, "initial_cost"));
