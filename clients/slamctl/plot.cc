@@ -47,13 +47,6 @@ struct PlotOptions {
   throw CommandExit{code};
 }
 
-// "1200x900" -> width, height; false when malformed.
-bool ParseSize(const std::string& text, int* width, int* height) {
-  int consumed = 0;
-  return std::sscanf(text.c_str(), "%dx%d%n", width, height, &consumed) == 2 &&
-         consumed == static_cast<int>(text.size());
-}
-
 struct Loaded {
   plot::PlotRobot robot;
   int ellipse_every = 1;  // the pose subsampling used
