@@ -1,4 +1,4 @@
-// Shared pieces of the live-server subcommands (see client_common.h).
+// Shared pieces of the slamctl subcommands (see client_common.h).
 #include "clients/slamctl/client_common.h"
 
 #include <unistd.h>
@@ -119,6 +119,12 @@ JsonWriter StatusJson(const slamd::status_t& s) {
       .Add("residual_dimension", static_cast<long long>(s.residual_dimension))
       .Add("settled", static_cast<bool>(s.settled));
   return j;
+}
+
+bool ParseSize(const std::string& text, int* width, int* height) {
+  int consumed = 0;
+  return std::sscanf(text.c_str(), "%dx%d%n", width, height, &consumed) == 2 &&
+         consumed == static_cast<int>(text.size());
 }
 
 bool StderrIsTty() { return ::isatty(STDERR_FILENO) == 1; }

@@ -1,5 +1,6 @@
-// What the slamctl subcommands that talk to a live slamd share: the connection options
-// (--lcm-url, --channel-prefix), connecting, failing with an exit code, and printing status_t.
+// What the slamctl subcommands share: the connection options to a live slamd (--lcm-url,
+// --channel-prefix), connecting, failing with an exit code, printing status_t, and parsing a
+// WIDTHxHEIGHT size.
 #pragma once
 
 #include <memory>
@@ -37,6 +38,9 @@ std::string FormatStatus(const slamd::status_t& status);
 // The same as a JSON object (every field; rejects_by_reason as {reason_name: count} for the
 // non-zero ones).
 JsonWriter StatusJson(const slamd::status_t& status);
+
+// "1200x900" -> width, height; false when malformed (the numbers are not range-checked).
+bool ParseSize(const std::string& text, int* width, int* height);
 
 // True when stderr / stdout is a terminal.
 bool StderrIsTty();

@@ -1,6 +1,8 @@
 // slamctl plot: a report-quality top-down picture of one or more datasets (one robot each):
 // read -> optionally optimise (batch) -> optionally marginals -> PlotScene -> Cairo file.
 // With --live, the running slamd's map instead: query_t -> map_t pages -> PlotScene (plot_live.h).
+// A reconstruction (BAL file, COLMAP text model): read -> optionally bundle-adjust -> cameras and
+// points in a plane (plot_reconstruction.h) -> PlotScene -> Cairo file.
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
@@ -12,10 +14,13 @@
 #include "clients/slamctl/client_common.h"
 #include "clients/slamctl/commands.h"
 #include "clients/slamctl/plot_live.h"
+#include "clients/slamctl/plot_reconstruction.h"
 #include "clients/slamctl/plot_render.h"
 #include "clients/slamctl/plot_scene.h"
 #include "core/batch/batch_solver.h"
 #include "core/io/dataset.h"
+#include "core/io/sfm_io.h"
+#include "core/sfm/bundle_adjuster.h"
 #include "server/journal/snapshot_file.h"
 #include "server/snapshot/estimator_state.h"
 #include "server/snapshot/state_codec.h"
@@ -29,6 +34,8 @@ struct PlotOptions {
   std::string format;             // empty: from the output's extension
   std::string size = "1200x900";  // WxH
   bool optimize = false;
+  bool ba = false;             // --ba: bundle-adjust a reconstruction first
+  std::string plane = "auto";  // a reconstruction's view plane: auto, xy, xz or yz
   bool covariances = false;
   int ellipse_every = 0;  // 0: about 50 pose ellipses per robot
   double sigma = 3.0;
@@ -45,13 +52,6 @@ struct PlotOptions {
 [[noreturn]] void Fail(int code, const std::string& message) {
   std::fprintf(stderr, "slamctl plot: %s\n", message.c_str());
   throw CommandExit{code};
-}
-
-// "1200x900" -> width, height; false when malformed.
-bool ParseSize(const std::string& text, int* width, int* height) {
-  int consumed = 0;
-  return std::sscanf(text.c_str(), "%dx%d%n", width, height, &consumed) == 2 &&
-         consumed == static_cast<int>(text.size());
 }
 
 struct Loaded {
@@ -219,6 +219,55 @@ void RunPlotLive(const PlotOptions& opt, const plot::RenderOptions& render) {
               static_cast<long long>(live->update_sequence));
 }
 
+// One reconstruction (opt.datasets holds only it), in the chosen plane.
+void RunPlotReconstruction(const PlotOptions& opt, const plot::RenderOptions& render) {
+  const std::string& path = opt.datasets.front();
+  core::Result<core::Reconstruction> read = core::ReadReconstruction(path);
+  if (!read.ok()) Fail(kExitFailure, read.status().ToString());
+  core::Reconstruction r = std::move(read).value();
+  std::string state = "as read from the file";
+  if (opt.ba) {
+    const core::Result<core::BundleAdjusterSummary> adjusted =
+        core::BundleAdjust(core::BundleAdjusterParams{}, &r);
+    if (!adjusted.ok()) {
+      Fail(kExitFailure, path + ": bundle adjustment failed: " + adjusted.status().ToString());
+    }
+    char line[160];
+    std::snprintf(line, sizeof line, "cost %.6g -> %.6g in %zu iterations (%s), rms %.4f px",
+                  adjusted->initial_cost, adjusted->final_cost, adjusted->iterations.size(),
+                  adjusted->termination.c_str(), adjusted->rms_reprojection_px);
+    std::fprintf(stderr, "slamctl plot: bundle adjustment: %s\n", line);
+    std::snprintf(line, sizeof line, "bundle-adjusted (rms reprojection error %.3g px)",
+                  adjusted->rms_reprojection_px);
+    state = line;
+  }
+  const bool automatic = opt.plane == "auto";
+  const core::Result<plot::ViewPlane> plane =
+      automatic ? core::Result<plot::ViewPlane>(plot::ChooseViewPlane(r))
+                : plot::ParseViewPlane(opt.plane);
+  if (!plane.ok()) Fail(kExitUsage, "--plane: " + plane.status().message());
+
+  plot::PlotScene scene;
+  scene.reconstruction = plot::BuildReconstruction(r, *plane);
+  scene.x_label = plot::HorizontalLabel(*plane);
+  scene.y_label = plot::VerticalLabel(*plane);
+  std::filesystem::path name(path);
+  if (name.filename().empty()) name = name.parent_path();  // "model/"
+  scene.title = opt.title.empty()
+                    ? name.filename().string() + ": " + std::to_string(r.images.size()) +
+                          " cameras, " + std::to_string(r.points.size()) + " points, " +
+                          std::to_string(r.observations.size()) + " observations"
+                    : opt.title;
+  const std::string axes = plot::ViewPlaneName(*plane);  // "xz" -> "x-z plane"
+  scene.subtitle = state + "; " + axes.substr(0, 1) + "-" + axes.substr(1) + " plane" +
+                   (automatic ? " (the widest spread of the cameras)" : "");
+  const core::Status written = plot::RenderScene(scene, opt.output, render);
+  if (!written.ok()) Fail(kExitFailure, written.ToString());
+  std::printf("wrote %s (%dx%d): %zu cameras, %zu points, %zu observations, %s plane\n",
+              opt.output.c_str(), render.width, render.height, r.images.size(), r.points.size(),
+              r.observations.size(), plot::ViewPlaneName(*plane));
+}
+
 void RunPlot(const PlotOptions& opt) {
   // Argument checks first (exit 2), before any work.
   if (opt.live && !opt.datasets.empty()) {
@@ -229,6 +278,27 @@ void RunPlot(const PlotOptions& opt) {
   }
   if (!opt.live && opt.datasets.empty() && opt.snapshot.empty()) {
     Fail(kExitUsage, "give dataset files to plot, --snapshot FILE, or --live");
+  }
+  const bool reconstruction =
+      std::any_of(opt.datasets.begin(), opt.datasets.end(),
+                  [](const std::string& p) { return plot::IsReconstructionPath(p); });
+  if (reconstruction) {
+    if (opt.datasets.size() > 1) {
+      Fail(kExitUsage, "a reconstruction (BAL file or COLMAP directory) is plotted alone");
+    }
+    if (opt.optimize) {
+      Fail(kExitUsage, "--optimize is for pose graphs: --ba bundle-adjusts a reconstruction");
+    }
+    if (opt.covariances) {
+      Fail(kExitUsage, "--covariances: no camera covariances for a reconstruction yet");
+    }
+  } else {
+    if (opt.ba) {
+      Fail(kExitUsage,
+           "--ba bundle-adjusts a reconstruction (a BAL file or COLMAP directory); use "
+           "--optimize for pose graphs");
+    }
+    if (opt.plane != "auto") Fail(kExitUsage, "--plane is for reconstructions");
   }
   plot::RenderOptions render;
   if (!ParseSize(opt.size, &render.width, &render.height)) {
@@ -247,6 +317,10 @@ void RunPlot(const PlotOptions& opt) {
   }
   if (opt.live) {
     RunPlotLive(opt, render);
+    return;
+  }
+  if (reconstruction) {
+    RunPlotReconstruction(opt, render);
     return;
   }
 
@@ -291,10 +365,14 @@ void RegisterPlot(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "plot",
       "Draw datasets, or with --live the running slamd's map, top-down (trajectories, "
-      "landmarks, loop closures, covariance ellipses) to a PNG, SVG or PDF file");
+      "landmarks, loop closures, covariance ellipses), or a structure-from-motion "
+      "reconstruction (cameras and points), to a PNG, SVG or PDF file");
   cmd->add_option("datasets", opt->datasets,
-                  "Dataset files (g2o 2D/3D, TORO .graph, iSAM .txt); several = several robots")
-      ->check(CLI::ExistingFile);
+                  "Dataset files (g2o 2D/3D, TORO .graph, iSAM .txt); several = several robots. "
+                  "Or one reconstruction: a COLMAP text model (a directory) or a BAL file (a file "
+                  "whose first word is a number; pose-graph files start with a tag such as "
+                  "VERTEX_SE2)")
+      ->check(CLI::ExistingPath);
   cmd->add_option("-o,--output", opt->output, "Picture to write: *.png, *.svg or *.pdf")
       ->required();
   cmd->add_option("--format", opt->format, "png, svg or pdf (default: from the output's extension)")
@@ -305,6 +383,15 @@ void RegisterPlot(CLI::App& app) {
       "--optimize", opt->optimize,
       "Optimise each dataset first (batch Levenberg-Marquardt from the file's initial guess, "
       "first pose anchored)");
+  CLI::Option* ba = cmd->add_flag(
+      "--ba", opt->ba,
+      "Reconstructions: bundle-adjust first (Levenberg-Marquardt, automatic linear solver, "
+      "2 threads) and plot the result");
+  cmd->add_option("--plane", opt->plane,
+                  "Reconstructions: the plane to look at them in, xy, xz or yz; auto: the two "
+                  "axes along which the camera centres spread most (xy when tied)")
+      ->check(CLI::IsMember({"auto", "xy", "xz", "yz"}))
+      ->capture_default_str();
   cmd->add_flag(
       "--covariances", opt->covariances,
       "Draw covariance ellipses of the x-y marginals at the plotted values (with the first pose "
@@ -349,6 +436,7 @@ void RegisterPlot(CLI::App& app) {
     live->excludes(cmd->get_option(offline));
   }
   live->excludes(max_iterations);
+  live->excludes(ba);
   cmd->callback([opt] { RunPlot(*opt); });
 }
 

@@ -1,6 +1,6 @@
 // Cairo rendering of a PlotScene. Steps: 1. layout (plot area, world-to-page map), 2. the plot
-// area (grid, loop closures, ellipses, trajectories, landmarks; clipped), 3. frame, ticks and
-// axis labels, 4. scale bar, 5. title, 6. legend.
+// area (grid, reconstruction, loop closures, ellipses, trajectories, landmarks; clipped),
+// 3. frame, ticks and axis labels, 4. scale bar, 5. title, 6. legend.
 #include "clients/slamctl/plot_render.h"
 
 #include <cairo-pdf.h>
@@ -34,6 +34,8 @@ constexpr std::array<Rgb, 8> kPalette = {{{0.0, 114 / 255.0, 178 / 255.0},
                                           {0.0, 0.0, 0.0}}};
 constexpr Rgb kLoopColor{0.35, 0.35, 0.35};
 constexpr double kLoopAlpha = 0.35;
+constexpr Rgb kCameraColor{0.1, 0.1, 0.1};
+constexpr double kCameraFillAlpha = 0.2;
 
 Rgb RobotColor(std::size_t i) { return kPalette[i % kPalette.size()]; }
 
@@ -86,6 +88,55 @@ void Square(cairo_t* cr, const Eigen::Vector2d& p, double half) {
   cairo_rectangle(cr, p.x() - half, p.y() - half, 2 * half, 2 * half);
 }
 
+// A camera's glyph: a translucent wedge from its centre (a dot) `length` long, closed by a thick
+// line (the image plane) on the side it looks to.
+void DrawCamera(cairo_t* cr, const Eigen::Vector2d& apex, const PlotCamera& camera, double length,
+                double u) {
+  // y is flipped on the page.
+  const Eigen::Vector2d left =
+      apex + length * Eigen::Vector2d(camera.left_edge.x(), -camera.left_edge.y());
+  const Eigen::Vector2d right =
+      apex + length * Eigen::Vector2d(camera.right_edge.x(), -camera.right_edge.y());
+  cairo_new_path(cr);
+  cairo_move_to(cr, apex.x(), apex.y());
+  cairo_line_to(cr, left.x(), left.y());
+  cairo_line_to(cr, right.x(), right.y());
+  cairo_close_path(cr);
+  SetColor(cr, kCameraColor, kCameraFillAlpha);
+  cairo_fill_preserve(cr);
+  SetColor(cr, kCameraColor);
+  cairo_set_line_width(cr, 0.7 * u);
+  cairo_stroke(cr);
+  cairo_move_to(cr, left.x(), left.y());
+  cairo_line_to(cr, right.x(), right.y());
+  cairo_set_line_width(cr, 2.2 * u);
+  cairo_stroke(cr);
+  cairo_new_sub_path(cr);
+  cairo_arc(cr, apex.x(), apex.y(), 1.8 * u, 0.0, 2 * std::numbers::pi);
+  cairo_fill(cr);
+}
+
+// A reconstruction: points under the camera ellipses, the cameras' wedges on top.
+void DrawReconstruction(cairo_t* cr, const PlotReconstruction& rec, const PlotLayout& L, double u) {
+  const double dot = std::max(0.8, 1.3 * u);
+  for (const PlotPoint& p : rec.points) {
+    const Eigen::Vector2d q = L.ToPage(p.position);
+    cairo_set_source_rgba(cr, p.color[0] / 255.0, p.color[1] / 255.0, p.color[2] / 255.0, 0.85);
+    cairo_new_sub_path(cr);
+    cairo_arc(cr, q.x(), q.y(), dot, 0.0, 2 * std::numbers::pi);
+    cairo_fill(cr);
+  }
+  if (!rec.camera_ellipses.empty()) {
+    cairo_set_line_width(cr, 0.9 * u);
+    for (const Ellipse& e : rec.camera_ellipses) EllipsePath(cr, L, e);
+    SetColor(cr, kCameraColor, 0.12);
+    cairo_fill_preserve(cr);
+    SetColor(cr, kCameraColor, 0.85);
+    cairo_stroke(cr);
+  }
+  for (const PlotCamera& c : rec.cameras) DrawCamera(cr, L.ToPage(c.center), c, 16.0 * u, u);
+}
+
 // 2. Everything inside the plot area.
 void DrawData(cairo_t* cr, const PlotScene& scene, const PlotLayout& L, double u, double step) {
   cairo_save(cr);
@@ -109,6 +160,7 @@ void DrawData(cairo_t* cr, const PlotScene& scene, const PlotLayout& L, double u
 
   cairo_set_line_cap(cr, CAIRO_LINE_CAP_ROUND);
   cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
+  DrawReconstruction(cr, scene.reconstruction, L, u);
   // Ellipses.
   cairo_set_line_width(cr, 0.9 * u);
   for (std::size_t i = 0; i < scene.robots.size(); ++i) {
@@ -162,7 +214,7 @@ void DrawData(cairo_t* cr, const PlotScene& scene, const PlotLayout& L, double u
 }
 
 // 3. Frame, ticks, tick labels and axis titles.
-void DrawAxes(cairo_t* cr, const PlotLayout& L, double u, double step) {
+void DrawAxes(cairo_t* cr, const PlotScene& scene, const PlotLayout& L, double u, double step) {
   const Box view = L.VisibleWorld();
   cairo_set_source_rgb(cr, 0.0, 0.0, 0.0);
   cairo_set_line_width(cr, 1.0 * u);
@@ -185,11 +237,11 @@ void DrawAxes(cairo_t* cr, const PlotLayout& L, double u, double step) {
     Text(cr, L.area_x - tick - 0.4 * L.font, py, TickLabel(y, step), 1.0);
   }
   SetFont(cr, L.font);
-  Text(cr, L.area_x + L.area_w / 2, bottom + tick + L.font * 2.3, "x [m]", 0.5);
+  Text(cr, L.area_x + L.area_w / 2, bottom + tick + L.font * 2.3, scene.x_label, 0.5);
   cairo_save(cr);
   cairo_translate(cr, L.area_x - L.font * 4.3, L.area_y + L.area_h / 2);
   cairo_rotate(cr, -std::numbers::pi / 2);
-  Text(cr, 0.0, 0.0, "y [m]", 0.5);
+  Text(cr, 0.0, 0.0, scene.y_label, 0.5);
   cairo_restore(cr);
 }
 
@@ -256,6 +308,21 @@ void DrawLegend(cairo_t* cr, const PlotScene& scene, const PlotLayout& L, double
     label(Shorten(scene.robots[i].name, 26));
   }
   char buf[96];
+  const PlotReconstruction& rec = scene.reconstruction;
+  if (!rec.cameras.empty()) {
+    const PlotCamera glyph{.left_edge = {0.9, 0.45}, .right_edge = {0.9, -0.45}};
+    DrawCamera(cr, {x + 0.15 * swatch, y}, glyph, 0.8 * swatch, u);
+    std::snprintf(buf, sizeof buf, "cameras (%zu)", rec.cameras.size());
+    label(buf);
+  }
+  if (!rec.points.empty()) {
+    cairo_new_path(cr);
+    cairo_arc(cr, x + swatch / 2, y, 2.0 * u, 0.0, 2 * std::numbers::pi);
+    cairo_set_source_rgb(cr, 0.5, 0.5, 0.5);
+    cairo_fill(cr);
+    std::snprintf(buf, sizeof buf, "points (%zu)", rec.points.size());
+    label(buf);
+  }
   if (const std::size_t n = scene.NumLandmarks(); n > 0) {
     Square(cr, {x + swatch / 2, y}, 2.6 * u);
     SetColor(cr, scene.robots.size() == 1 ? RobotColor(0) : Rgb{0.6, 0.6, 0.6});
@@ -276,7 +343,9 @@ void DrawLegend(cairo_t* cr, const PlotScene& scene, const PlotLayout& L, double
     label(buf);
   }
   if (scene.NumEllipses() > 0) {
-    const Rgb c = scene.robots.size() == 1 ? RobotColor(0) : Rgb{0.4, 0.4, 0.4};
+    const Rgb c = scene.robots.size() == 1 ? RobotColor(0)
+                  : scene.robots.empty()   ? kCameraColor
+                                           : Rgb{0.4, 0.4, 0.4};
     cairo_new_path(cr);  // show_text left a current point: no line from it to the arc
     cairo_save(cr);
     cairo_translate(cr, x + swatch / 2, y);
@@ -421,7 +490,7 @@ core::Status RenderScene(const PlotScene& scene, const std::string& path, const 
     cairo_set_source_rgb(cr, 1.0, 1.0, 1.0);
     cairo_paint(cr);
     DrawData(cr, scene, L, u, step);   // 2.
-    DrawAxes(cr, L, u, step);          // 3.
+    DrawAxes(cr, scene, L, u, step);   // 3.
     DrawScaleBar(cr, L, u);            // 4.
     DrawTitle(cr, scene, L);           // 5.
     DrawLegend(cr, scene, L, u);       // 6.

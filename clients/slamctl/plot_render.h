@@ -1,14 +1,17 @@
 // Drawing a PlotScene with Cairo to a PNG, SVG or PDF file.
 //
 // The picture: a title (two lines: PlotScene::title and subtitle) at the top, a plot area with a
-// light grid, axes ticked in metres at "nice" steps (1, 2 or 5 × 10^k) and labelled x [m] / y [m],
-// equal aspect (one metre is as long in x as in y, so the map is not distorted), a scale bar in
-// the bottom-left corner of the plot area and a legend panel on the right (robots, landmarks,
-// loop closures, ellipses; entries only for what the scene holds). Robots take the Okabe-Ito
-// colour-blind-safe palette in order (blue, orange, bluish green, vermillion, sky blue, reddish
-// purple, yellow, black), cycling after eight. Loop closures are thin translucent grey segments;
-// landmarks are small squares in the robot's colour with a dark edge; ellipses are outlined in the
-// robot's colour with a faint fill. Units: PNG in pixels; SVG and PDF in points, same numbers.
+// light grid, axes ticked in metres at "nice" steps (1, 2 or 5 × 10^k) and titled by
+// PlotScene::x_label / y_label, equal aspect (one metre is as long in x as in y, so the map is not
+// distorted), a scale bar in the bottom-left corner of the plot area and a legend panel on the
+// right (cameras, points, robots, landmarks, loop closures, ellipses; entries only for what the
+// scene holds). Robots take the Okabe-Ito colour-blind-safe palette in order (blue, orange, bluish
+// green, vermillion, sky blue, reddish purple, yellow, black), cycling after eight. Loop closures
+// are thin translucent grey segments; landmarks are small squares in the robot's colour with a
+// dark edge; ellipses are outlined in the robot's colour with a faint fill. A reconstruction's
+// points are small dots in their own colour, its cameras dark translucent wedges of a fixed size
+// on the page (their ellipses dark too), under everything else. Units: PNG in pixels; SVG and
+// PDF in points, same numbers.
 //
 // Thread safety: the functions are reentrant (Cairo's toy font API is thread-safe).
 #pragma once

@@ -51,6 +51,8 @@ Box PlotScene::Bounds() const {
     for (const Ellipse& e : r.pose_ellipses) box.Add(e.Bounds());
     for (const Ellipse& e : r.landmark_ellipses) box.Add(e.Bounds());
   }
+  box.Add(reconstruction.extent);
+  for (const Ellipse& e : reconstruction.camera_ellipses) box.Add(e.Bounds());
   return box;
 }
 
@@ -70,7 +72,7 @@ std::size_t PlotScene::NumLoopClosures() const {
   return n;
 }
 std::size_t PlotScene::NumEllipses() const {
-  std::size_t n = 0;
+  std::size_t n = reconstruction.camera_ellipses.size();
   for (const PlotRobot& r : robots) n += r.pose_ellipses.size() + r.landmark_ellipses.size();
   return n;
 }

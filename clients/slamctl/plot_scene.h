@@ -1,9 +1,12 @@
 // PlotScene: a plain description of what `slamctl plot` draws, in world metres, independent of
-// where the data came from (a dataset, an optimised dataset, later the live server's map_t) and
-// of how it is drawn (plot_render.h takes a PlotScene and nothing else).
+// where the data came from (a dataset, an optimised dataset, the live server's map_t, a
+// structure-from-motion reconstruction) and of how it is drawn (plot_render.h takes a PlotScene
+// and nothing else).
 //
-// The picture is a top-down view of the world x-y plane: Pose3 and Point3 values are projected by
-// dropping z. Covariance ellipses are of the x-y marginal in the WORLD frame:
+// The picture of robots is a top-down view of the world x-y plane: Pose3 and Point3 values are
+// projected by dropping z. A reconstruction is seen in the plane plot_reconstruction.h chooses
+// (PlotScene::x_label and y_label name its axes). Covariance ellipses are of the x-y marginal in
+// the WORLD frame:
 //   * Pose2: slamd's chart is X·Pose2(δ), δ = (dx, dy, dθ), so to first order the position moves
 //     by R·(dx, dy): Σ_xy = R Σ_tt Rᵀ with Σ_tt the top-left 2x2 block of the 3x3 marginal.
 //   * Pose3: X·Exp(ξ), ξ = (v, ω) translation first; to first order t moves by R·v, so the world
@@ -14,6 +17,8 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <unordered_map>
@@ -59,18 +64,51 @@ struct PlotRobot {
   std::vector<Ellipse> landmark_ellipses;
 };
 
+// One camera of a reconstruction: a wedge from its centre showing where it looks.
+struct PlotCamera {
+  Eigen::Vector2d center = Eigen::Vector2d::Zero();  // metres, in the picture's plane
+  // The unit directions of the edges of its view (plot_reconstruction.h) projected into the
+  // picture's plane: length 1 when the camera looks along the plane, shorter as it looks across
+  // it. The renderer draws them at a fixed length on the page.
+  Eigen::Vector2d left_edge = Eigen::Vector2d::Zero();
+  Eigen::Vector2d right_edge = Eigen::Vector2d::Zero();
+};
+
+// One 3-D point of a reconstruction, drawn as a small dot in its colour.
+struct PlotPoint {
+  Eigen::Vector2d position = Eigen::Vector2d::Zero();   // metres, in the picture's plane
+  std::array<std::uint8_t, 3> color = {128, 128, 128};  // RGB
+};
+
+// A structure-from-motion reconstruction (plot_reconstruction.h builds it).
+struct PlotReconstruction {
+  std::vector<PlotCamera> cameras;
+  std::vector<PlotPoint> points;
+  // The k-sigma ellipses of the camera centres' marginal covariances in the picture's plane, one
+  // per camera, when they are known (empty otherwise): drawn like pose ellipses, counted by
+  // PlotScene::NumEllipses.
+  std::vector<Ellipse> camera_ellipses;
+  // What the picture must show: every camera and the bulk of the points (a few far-away points
+  // would otherwise shrink the rest to a dot); points outside are clipped.
+  Box extent;
+};
+
 struct PlotScene {
   std::string title;     // first line, e.g. "intel.g2o: 1228 poses, 1483 edges"
   std::string subtitle;  // second line (may be empty), e.g. "optimised; 3σ ellipses every 10th pose"
   double sigma = 3.0;    // the k of the ellipses, for the legend
   std::vector<PlotRobot> robots;  // one colour each, in this order
+  PlotReconstruction reconstruction;  // empty unless a reconstruction is plotted
+  std::string x_label = "x [m]";      // axis titles
+  std::string y_label = "y [m]";
 
-  // Everything drawn: positions, loop-closure ends and the ellipses' bounding boxes.
+  // Everything drawn: positions, loop-closure ends, the ellipses' bounding boxes and the
+  // reconstruction's extent.
   Box Bounds() const;
   std::size_t NumPoses() const;
   std::size_t NumLandmarks() const;
   std::size_t NumLoopClosures() const;
-  std::size_t NumEllipses() const;
+  std::size_t NumEllipses() const;  // the robots' and the cameras'
 };
 
 struct SceneOptions {

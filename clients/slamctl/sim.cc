@@ -1,12 +1,15 @@
 // slamctl sim: writes a synthetic world (dataset + ground truth) into a directory. The worlds and
-// the measurement model are described in sim_world.h; this file is the command line.
+// their measurement models are described in sim_world.h (pose graphs, landmarks) and
+// sim_camera_world.h (structure from motion); this file is the command line.
 #include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "clients/slamctl/client_common.h"
 #include "clients/slamctl/commands.h"
+#include "clients/slamctl/sim_camera_world.h"
 #include "clients/slamctl/sim_world.h"
 
 namespace slamd::clients {
@@ -17,6 +20,11 @@ struct SimOptions {
   std::string output;
   std::string observation = "bearing-range";
   sim::SimParams params;
+  // Camera worlds: their own params, and the options that fill the rest of them.
+  sim::CameraSimParams camera;
+  std::string image_size = "640x480";
+  std::string camera_model = "pinhole";
+  std::string format = "both";
 };
 
 [[noreturn]] void Fail(int code, const std::string& message) {
@@ -24,8 +32,8 @@ struct SimOptions {
   throw CommandExit{code};
 }
 
-// The command-line option of the SimParams field a Validate() message names (CLI11's checks
-// catch most bad values first; NaN gets through them).
+// The command-line option of the SimParams or CameraSimParams field a Validate() message names
+// (CLI11's checks catch most bad values first; NaN gets through them).
 std::string OptionOf(const std::string& message) {
   static const char* const kOptions[][2] = {{"sigma_translation", "--sigma-xy"},
                                             {"sigma_rotation", "--sigma-theta"},
@@ -37,7 +45,19 @@ std::string OptionOf(const std::string& message) {
                                             {"sigma_point", "--sigma-point"},
                                             {"steps", "--steps"},
                                             {"robots", "--robots"},
-                                            {"landmarks", "--landmarks"}};
+                                            {"landmarks", "--landmarks"},
+                                            {"cameras", "--cameras"},
+                                            {"points", "--points"},
+                                            {"width", "--image-size"},
+                                            {"height", "--image-size"},
+                                            {"focal", "--focal"},
+                                            {"k1", "--k1"},
+                                            {"k2", "--k2"},
+                                            {"sigma_pixel", "--sigma-pixel"},
+                                            {"init_sigma_camera", "--init-sigma-camera"},
+                                            {"init_sigma_rotation", "--init-sigma-rotation"},
+                                            {"init_sigma_point", "--init-sigma-point"},
+                                            {"baseline", "--baseline"}};
   for (const auto& [field, option] : kOptions) {
     if (message.find(std::string("::") + field + " ") != std::string::npos) return option;
   }
@@ -54,6 +74,10 @@ Worlds:
              relative-point: the noisy point in the pose frame)
   sphere     3D rings on a sphere, loop closures to the ring below
   helix      3D helix climbing 1 m per turn, loop closures to the turn below
+  camera-city    structure from motion: a camera driving through a grid of city blocks,
+                 looking forward and 50 degrees to either side at points on the facades
+  camera-object  structure from motion: cameras on rings of a hemisphere around an object
+                 (an ellipsoid), looking at points on its surface
 Files written into DIR (one robot; with --robots N: robot<k>.* plus inter_robot.txt):
   world.g2o               VERTEX lines = odometry composed from the true start (the initial guess
                           a robot would have), then EDGE_SE2 / EDGE_SE2_XY / EDGE_SE3:QUAT in
@@ -63,7 +87,121 @@ Files written into DIR (one robot; with --robots N: robot<k>.* plus inter_robot.
   world_groundtruth.g2o   the true poses and landmarks as VERTEX lines
   inter_robot.txt         inter-robot loop closures (format in its '#' header)
   outliers.txt            the loop closures replaced by --outliers (format in its '#' header)
+Files written into DIR by the camera worlds (--format):
+  problem.bal             BAL: the measured pixels, the initial guess (the true cameras and
+                          points perturbed by --init-sigma-*), one Cal3Bundler camera per image
+  groundtruth.bal         the same observations with the true cameras and points
+  colmap/                 COLMAP text model of the problem (cameras.txt, images.txt,
+                          points3D.txt): one PINHOLE or OPENCV camera, points in colour
+  groundtruth_colmap/     the same with the true cameras and points
+  outliers.txt            the observations replaced by --outliers (format in its '#' header)
+  stereo.txt              with --stereo: (uL, uR, v) per observation (format in its '#' header)
+Only observations in front of the camera and inside the image are kept; points seen by fewer
+than 2 images are dropped (and images that see fewer than 8 points).
 Every file is byte-for-byte the same for the same options and --seed.)";
+
+[[noreturn]] void FailOption(const core::Status& invalid) {
+  Fail(kExitUsage, OptionOf(invalid.message()) + ": " + invalid.message());
+}
+
+// -o: created if missing; an error if it exists and is not a directory.
+void MakeOutputDirectory(const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) {
+    Fail(kExitUsage, "-o: '" + dir + "' exists and is not a directory");
+  }
+  fs::create_directories(dir, ec);
+  if (ec) Fail(kExitFailure, "-o: cannot create '" + dir + "': " + ec.message());
+}
+
+void RunCameraSim(SimOptions* opt, sim::CameraWorldKind kind) {
+  sim::CameraSimParams& c = opt->camera;
+  c.world = kind;
+  c.seed = opt->params.seed;
+  c.outliers = opt->params.outliers;
+  c.noise_free = opt->params.noise_free;
+  c.model = opt->camera_model == "opencv" ? sim::CameraModel::kOpenCv : sim::CameraModel::kPinhole;
+  if (!ParseSize(opt->image_size, &c.width, &c.height)) {
+    Fail(kExitUsage, "--image-size '" + opt->image_size + "': expected WIDTHxHEIGHT, e.g. 640x480");
+  }
+  if (const core::Status valid = c.Validate(); !valid.ok()) FailOption(valid);
+  // Generated first: too few points is a usage error, and creates no directory.
+  core::Result<sim::CameraWorld> world = sim::GenerateCameraWorld(c);
+  if (!world.ok()) Fail(kExitUsage, world.status().message());
+  MakeOutputDirectory(opt->output);
+  const sim::CameraFormat format = opt->format == "bal"      ? sim::CameraFormat::kBal
+                                   : opt->format == "colmap" ? sim::CameraFormat::kColmap
+                                                             : sim::CameraFormat::kBoth;
+  std::vector<std::string> written;
+  const core::Status status = sim::WriteCameraWorld(*world, format, opt->output, &written);
+  if (!status.ok()) Fail(kExitFailure, status.ToString());
+  const core::Reconstruction& truth = world->truth;
+  std::printf("%s: %zu images, %zu points, %zu observations (%zu outliers)",
+              sim::CameraWorldKindName(kind), truth.images.size(), truth.points.size(),
+              truth.observations.size(), world->outliers.size());
+  if (c.stereo) std::printf(", %zu stereo measurements", world->stereo.size());
+  std::printf("\n");
+  for (const std::string& file : written) {
+    std::printf("  %s/%s\n", opt->output.c_str(), file.c_str());
+  }
+}
+
+// The options of the camera worlds (--seed, --outliers and --noise-free are shared).
+void AddCameraOptions(CLI::App* cmd, SimOptions* opt) {
+  sim::CameraSimParams& c = opt->camera;
+  cmd->add_option("--cameras", c.cameras,
+                  "camera worlds: images asked for (>= 2); default 60 (camera-city), 36 "
+                  "(camera-object)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--points", c.points,
+                  "camera worlds: points placed (>= 1; unseen ones are dropped); default 6000 "
+                  "(camera-city), 1500 (camera-object)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--image-size", opt->image_size, "camera worlds: WIDTHxHEIGHT in pixels")
+      ->capture_default_str();
+  cmd->add_option("--focal", c.focal, "camera worlds: focal length in pixels (> 0)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--camera-model", opt->camera_model,
+                  "camera worlds: COLMAP camera model, pinhole (Cal3_S2) or opencv (Cal3DS2 with "
+                  "radial distortion --k1, --k2); BAL files get one Cal3Bundler per image")
+      ->check(CLI::IsMember({"pinhole", "opencv"}))
+      ->capture_default_str();
+  cmd->add_option("--k1", c.k1, "camera worlds (opencv): radial distortion k1")
+      ->capture_default_str();
+  cmd->add_option("--k2", c.k2, "camera worlds (opencv): radial distortion k2")
+      ->capture_default_str();
+  cmd->add_option("--sigma-pixel", c.sigma_pixel,
+                  "camera worlds: pixel noise sigma per axis, pixels (>= 0)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cmd->add_option("--init-sigma-camera", c.init_sigma_camera,
+                  "camera worlds: initial guess, camera position noise per axis, metres (>= 0)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cmd->add_option("--init-sigma-rotation", c.init_sigma_rotation,
+                  "camera worlds: initial guess, camera rotation noise per axis, radians (>= 0)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cmd->add_option("--init-sigma-point", c.init_sigma_point,
+                  "camera worlds: initial guess, point noise per axis, metres (>= 0)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  CLI::Option* stereo = cmd->add_flag(
+      "--stereo", c.stereo,
+      "camera worlds: also write stereo.txt, (uL, uR, v) of a rectified pair per image");
+  cmd->add_option("--baseline", c.baseline,
+                  "camera worlds (--stereo): stereo baseline, metres (> 0)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str()
+      ->needs(stereo);
+  cmd->add_option("--format", opt->format,
+                  "camera worlds: bal (problem.bal, groundtruth.bal), colmap (colmap/, "
+                  "groundtruth_colmap/) or both")
+      ->check(CLI::IsMember({"bal", "colmap", "both"}))
+      ->capture_default_str();
+}
 
 }  // namespace
 
@@ -73,7 +211,9 @@ void RegisterSim(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "sim", "Generate a synthetic world (dataset + ground truth) with a fixed seed");
   cmd->footer(kFooter);
-  cmd->add_option("world", opt->world, "World: manhattan, landmarks, sphere or helix")->required();
+  cmd->add_option("world", opt->world,
+                  "World: manhattan, landmarks, sphere, helix, camera-city or camera-object")
+      ->required();
   cmd->add_option("-o,--output", opt->output,
                   "Output directory (created; an error if it exists and is not a directory)")
       ->required();
@@ -101,12 +241,13 @@ void RegisterSim(CLI::App& app) {
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   cmd->add_option("--outliers", p.outliers,
-                  "Fraction of loop closures replaced by random wrong ones, in [0, 1] "
-                  "(listed in outliers.txt)")
+                  "Fraction of loop closures (camera worlds: observations) replaced by random "
+                  "wrong ones, in [0, 1] (listed in outliers.txt)")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   cmd->add_flag("--noise-free", p.noise_free,
-                "Add no noise (the files keep the information matrices of the sigmas)");
+                "Add no noise (the files keep the information matrices of the sigmas; camera "
+                "worlds: no pixel noise, the initial guess is still perturbed)");
   cmd->add_option("--landmarks", p.landmarks,
                   "landmarks: landmarks placed (unobserved ones are dropped); default box area/4")
       ->check(CLI::NonNegativeNumber);
@@ -126,25 +267,24 @@ void RegisterSim(CLI::App& app) {
                   "landmarks (relative-point): sigma per axis, metres (>= 0)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  AddCameraOptions(cmd, opt.get());
   cmd->callback([opt] {
     sim::SimParams& p = opt->params;
+    sim::CameraWorldKind camera_world;
+    if (sim::ParseCameraWorldKind(opt->world, &camera_world)) {
+      RunCameraSim(opt.get(), camera_world);
+      return;
+    }
     if (!sim::ParseWorldKind(opt->world, &p.world)) {
       Fail(kExitUsage, "world: unknown world '" + opt->world +
-                           "' (expected manhattan, landmarks, sphere or helix)");
+                           "' (expected manhattan, landmarks, sphere, helix, camera-city or "
+                           "camera-object)");
     }
     if (p.steps == 1) Fail(kExitUsage, "--steps: must be at least 2 (got 1)");
     p.observation = opt->observation == "relative-point" ? sim::ObservationKind::kRelativePoint
                                                          : sim::ObservationKind::kBearingRange;
-    const core::Status valid = p.Validate();
-    if (!valid.ok()) Fail(kExitUsage, OptionOf(valid.message()) + ": " + valid.message());
-
-    namespace fs = std::filesystem;
-    std::error_code ec;
-    if (fs::exists(opt->output, ec) && !fs::is_directory(opt->output, ec)) {
-      Fail(kExitUsage, "-o: '" + opt->output + "' exists and is not a directory");
-    }
-    fs::create_directories(opt->output, ec);
-    if (ec) Fail(kExitFailure, "-o: cannot create '" + opt->output + "': " + ec.message());
+    if (const core::Status valid = p.Validate(); !valid.ok()) FailOption(valid);
+    MakeOutputDirectory(opt->output);
 
     core::Result<sim::SimWorld> world = sim::Generate(p);
     if (!world.ok()) Fail(kExitUsage, world.status().message());

@@ -5,8 +5,8 @@
 #include <cmath>
 #include <map>
 #include <numbers>
-#include <random>
 
+#include "clients/slamctl/sim_rng.h"
 #include "core/base/key.h"
 #include "core/base/param_check.h"
 #include "core/factors/between_factor.h"
@@ -115,33 +115,6 @@ core::Status SimParams::Validate() const {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
-
-// Portable randomness: mt19937_64's raw output is fixed by the standard; the conversions are ours.
-class Rng {
- public:
-  explicit Rng(std::uint64_t seed) : engine_(seed) {}
-  double Uniform() { return static_cast<double>(engine_() >> 11) * 0x1.0p-53; }  // [0, 1)
-  double Uniform(double a, double b) { return a + (b - a) * Uniform(); }
-  int Index(int n) { return static_cast<int>(engine_() % static_cast<std::uint64_t>(n)); }
-  // Box–Muller: two independent N(0, 1) per pair of uniforms; the second is kept for next time.
-  double Normal() {
-    if (has_spare_) {
-      has_spare_ = false;
-      return spare_;
-    }
-    const double u1 = 1.0 - Uniform();  // (0, 1]: log is finite
-    const double u2 = Uniform();
-    const double r = std::sqrt(-2.0 * std::log(u1));
-    spare_ = r * std::sin(2.0 * kPi * u2);
-    has_spare_ = true;
-    return r * std::cos(2.0 * kPi * u2);
-  }
-
- private:
-  std::mt19937_64 engine_;
-  bool has_spare_ = false;
-  double spare_ = 0.0;
-};
 
 double Floor(double sigma) { return sigma > 0.0 ? sigma : kZeroSigmaFloor; }
 

@@ -3,7 +3,7 @@
 // A world is generated from SimParams alone: the same params (seed included) give the same world,
 // bit for bit, on any platform with the same libm. Randomness is std::mt19937_64's raw output
 // (standardised) with our own uniform and Box–Muller normal sampling, never the <random>
-// distributions (their algorithms differ between standard libraries).
+// distributions (their algorithms differ between standard libraries): sim_rng.h.
 //
 // Worlds (units: metres and radians; a pose maps body to world coordinates):
 //   kManhattan  2D pose graph like Olson's M3500: the robot moves one metre per step on a unit

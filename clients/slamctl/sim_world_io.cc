@@ -1,10 +1,9 @@
 // Writing a synthetic world: the dataset files (through core/io's WriteG2o / WriteIsam), the
 // ground truth, inter_robot.txt, outliers.txt and the raw bearing-range measurements.
-#include <charconv>
-#include <fstream>
 #include <string>
 #include <vector>
 
+#include "clients/slamctl/sim_text.h"
 #include "clients/slamctl/sim_world.h"
 
 namespace slamd::clients::sim {
@@ -15,32 +14,6 @@ using core::Pose2;
 using core::Pose3;
 
 double SigmaWritten(double sigma) { return sigma > 0.0 ? sigma : kZeroSigmaFloor; }
-
-// Appends " <x>" in the shortest form that reads back to the same double.
-void Append(std::string* out, double x) {
-  char buf[32];
-  const auto result = std::to_chars(buf, buf + sizeof(buf), x);
-  out->push_back(' ');
-  out->append(buf, result.ptr);
-}
-void Append(std::string* out, const std::string& word) {
-  out->push_back(' ');
-  out->append(word);
-}
-std::string Num(double x) {
-  std::string s;
-  Append(&s, x);
-  return s.substr(1);
-}
-
-core::Status WriteText(const std::string& path, const std::string& text) {
-  std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  if (!file) return core::IoError("cannot open '" + path + "' for writing");
-  file.write(text.data(), static_cast<std::streamsize>(text.size()));
-  file.close();
-  if (!file) return core::IoError("writing '" + path + "' failed");
-  return core::Status::Ok();
-}
 
 std::string RobotName(int robot) { return "robot" + std::to_string(robot); }
 

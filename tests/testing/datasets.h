@@ -25,7 +25,7 @@ inline std::string SharedDatasetPath(const std::string& name) {
 }
 
 inline std::string TestDataPath(const std::string& name) {
-  return std::string(SLAMD_TEST_DATA) + "/" + name;
+  return std::string(SLAMD_TEST_DATA "/") + name;
 }
 
 inline std::string WriteTempFile(const std::string& name, const std::string& text) {

@@ -142,6 +142,54 @@ TEST(PlotTest, SnapshotFilePlotsEveryRobot) {
   std::filesystem::remove_all(dir);
 }
 
+// A small simulated reconstruction, BAL and COLMAP, plotted as it is and bundle-adjusted.
+TEST(PlotTest, ReconstructionsToPngAndSvg) {
+  testing::TempDir dir("slamd_plot_sfm_");
+  const SlamctlRun sim =
+      RunSlamctl("sim camera-object --cameras 12 --points 300 -o " + dir.File("world"));
+  ASSERT_EQ(sim.exit_code, 0) << sim.out;
+  const SlamctlRun bal = RunSlamctl("plot " + dir.File("world/problem.bal") +
+                                    " --ba --size 640x480 -o " + dir.File("bal.png"));
+  ASSERT_EQ(bal.exit_code, 0) << bal.out;
+  EXPECT_NE(bal.out.find("bundle adjustment: cost"), std::string::npos) << bal.out;
+  EXPECT_NE(bal.out.find("12 cameras, "), std::string::npos) << bal.out;
+  EXPECT_EQ(PngSize(dir.File("bal.png")), std::make_pair(640, 480));
+  // A COLMAP directory (with a trailing slash), in a plane of our choice.
+  const SlamctlRun colmap =
+      RunSlamctl("plot " + dir.File("world/colmap/") + " --plane xz -o " + dir.File("colmap.svg"));
+  ASSERT_EQ(colmap.exit_code, 0) << colmap.out;
+  EXPECT_NE(colmap.out.find("xz plane"), std::string::npos) << colmap.out;
+  const std::string svg = testing::ReadFileBytes(dir.File("colmap.svg"));
+  EXPECT_NE(svg.find("<svg"), std::string::npos);
+}
+
+TEST(PlotTest, ReconstructionErrorsExitWithAMessage) {
+  testing::TempDir dir("slamd_plot_sfm_");
+  ASSERT_EQ(RunSlamctl("sim camera-object --cameras 8 --points 200 -o " + dir.path()).exit_code, 0);
+  const std::string bal = dir.File("problem.bal"), g2o = testing::TestDataPath("small_slam2d.g2o");
+  const std::string out = " -o " + dir.File("x.png");
+  testing::WriteFileBytes(dir.File("bad.bal"), "2 1 1\n0 0 1.5 oops\n");
+  std::filesystem::create_directories(dir.File("empty"));
+  struct Case {
+    std::string args, message;
+    int code;
+  };
+  for (const Case& c : {
+           Case{"plot " + g2o + " --ba" + out, "--ba bundle-adjusts a reconstruction", 2},
+           Case{"plot " + bal + " --optimize" + out, "--ba", 2},
+           Case{"plot " + bal + " --covariances" + out, "--covariances", 2},
+           Case{"plot " + bal + " " + dir.File("colmap") + out, "plotted alone", 2},
+           Case{"plot " + bal + " --plane zx" + out, "--plane", 2},
+           Case{"plot " + g2o + " --plane xz" + out, "--plane is for reconstructions", 2},
+           Case{"plot " + dir.File("bad.bal") + out, "bad.bal:2", 1},
+           Case{"plot " + dir.File("empty") + out, "cameras.txt", 1},
+       }) {
+    const SlamctlRun r = RunSlamctl(c.args);
+    EXPECT_EQ(r.exit_code, c.code) << c.args << "\n" << r.out;
+    EXPECT_NE(r.out.find(c.message), std::string::npos) << c.args << "\n" << r.out;
+  }
+}
+
 TEST(PlotTest, UnreadableDatasetFails) {
   const std::string bad = testing::WriteTempFile("bad.g2o", "VERTEX_SE2 0 zero 0 0\n");
   const SlamctlRun r = RunSlamctl("plot " + bad + " -o /tmp/slamd_plot_test_bad.png");

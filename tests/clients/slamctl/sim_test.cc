@@ -5,9 +5,11 @@
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 
 #include "core/io/dataset.h"
+#include "core/io/sfm_io.h"
 #include "tests/clients/slamctl/slamctl_runner.h"
 #include "tests/testing/files.h"
 
@@ -63,6 +65,38 @@ TEST(SimTest, EveryWorldAndSeveralRobots) {
   EXPECT_EQ(RunSlamctl("sim manhattan --steps 10 -o " + dir.path()).exit_code, 0);
 }
 
+TEST(SimTest, CameraWorldsWriteBalColmapAndStereo) {
+  SimOutputDir both, bal;
+  const std::string args = "sim camera-object --cameras 12 --points 300 --outliers 0.1 --stereo";
+  const SlamctlRun r = RunSlamctl(args + " -o " + both.path());
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("camera-object: 12 images, "), std::string::npos) << r.out;
+  for (const char* f :
+       {"problem.bal", "groundtruth.bal", "colmap/cameras.txt", "colmap/images.txt",
+        "colmap/points3D.txt", "groundtruth_colmap/points3D.txt", "outliers.txt", "stereo.txt"}) {
+    EXPECT_TRUE(fs::exists(both.File(f))) << f;
+  }
+  // The same seed gives the same files; --format bal writes only the BAL pair of them.
+  ASSERT_EQ(RunSlamctl(args + " --format bal -o " + bal.path()).exit_code, 0);
+  EXPECT_EQ(ReadFileBytes(bal.File("problem.bal")), ReadFileBytes(both.File("problem.bal")));
+  EXPECT_FALSE(fs::exists(bal.File("colmap")));
+  const core::Result<core::Reconstruction> problem = core::ReadBal(bal.File("problem.bal"));
+  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+  EXPECT_EQ(problem->images.size(), 12u);
+  const core::Result<core::Reconstruction> colmap = core::ReadColmapText(both.File("colmap"));
+  ASSERT_TRUE(colmap.ok()) << colmap.status().ToString();
+  EXPECT_EQ(colmap->observations.size(), problem->observations.size());
+  // An OPENCV camera with distortion, in a city.
+  SimOutputDir city;
+  const SlamctlRun c = RunSlamctl(
+      "sim camera-city --cameras 20 --points 800 --camera-model opencv --k1 -0.02 --image-size "
+      "800x600 --focal 600 --format colmap -o " +
+      city.path());
+  ASSERT_EQ(c.exit_code, 0) << c.out;
+  EXPECT_NE(ReadFileBytes(city.File("colmap/cameras.txt")).find("OPENCV 800 600 600 600 400 300"),
+            std::string::npos);
+}
+
 TEST(SimTest, BadArgumentsExit2NamingTheOption) {
   SimOutputDir dir;
   const struct {
@@ -80,6 +114,18 @@ TEST(SimTest, BadArgumentsExit2NamingTheOption) {
       {"sim moon", "unknown world 'moon'"},
       {"sim manhattan --sigma-xy nan", "--sigma-xy"},
       {"sim landmarks --sigma-point inf", "--sigma-point"},
+      {"sim camera-city --cameras 1", "--cameras"},
+      {"sim camera-city --points -4", "--points"},
+      {"sim camera-object --image-size 640", "--image-size"},
+      {"sim camera-object --image-size 8x8", "--image-size"},
+      {"sim camera-object --focal nan", "--focal"},
+      {"sim camera-object --k1 0.1", "--k1"},
+      {"sim camera-object --camera-model fisheye", "--camera-model"},
+      {"sim camera-object --sigma-pixel -1", "--sigma-pixel"},
+      {"sim camera-object --init-sigma-rotation inf", "--init-sigma-rotation"},
+      {"sim camera-object --baseline 0.3", "--stereo"},
+      {"sim camera-object --format ply", "--format"},
+      {"sim camera-object --points 3", "more points"},
   };
   for (const auto& c : cases) {
     const SlamctlRun r = RunSlamctl(c.args + " -o " + dir.path());
@@ -108,6 +154,18 @@ TEST(SimTest, HelpExplainsEveryOption) {
                              "helix",          "groundtruth",   "inter_robot.txt",
                              "outliers.txt"}) {
     EXPECT_NE(r.out.find(option), std::string::npos) << option << " missing from\n" << r.out;
+  }
+}
+
+TEST(SimTest, HelpExplainsTheCameraWorlds) {
+  const SlamctlRun r = RunSlamctl("sim --help");
+  EXPECT_EQ(r.exit_code, 0) << r.out;
+  std::istringstream words(
+      "camera-city camera-object --cameras --points --image-size --focal --camera-model --k1 --k2 "
+      "--sigma-pixel --init-sigma-camera --init-sigma-rotation --init-sigma-point --stereo "
+      "--baseline --format problem.bal groundtruth.bal colmap/ groundtruth_colmap/ stereo.txt");
+  for (std::string word; words >> word;) {
+    EXPECT_NE(r.out.find(word), std::string::npos) << word << " missing from\n" << r.out;
   }
 }
 
