@@ -226,6 +226,8 @@ void RunPlotReconstruction(const PlotOptions& opt, const plot::RenderOptions& re
   if (!read.ok()) Fail(kExitFailure, read.status().ToString());
   core::Reconstruction r = std::move(read).value();
   std::string state = "as read from the file";
+  core::Result<core::CameraCovariances> covariances =
+      core::FailedPrecondition("no bundle adjustment");
   if (opt.ba) {
     const core::Result<core::BundleAdjusterSummary> adjusted =
         core::BundleAdjust(core::BundleAdjusterParams{}, &r);
@@ -240,6 +242,13 @@ void RunPlotReconstruction(const PlotOptions& opt, const plot::RenderOptions& re
     std::snprintf(line, sizeof line, "bundle-adjusted (rms reprojection error %.3g px)",
                   adjusted->rms_reprojection_px);
     state = line;
+    // The cameras' covariances for pixel noise of the rms error found.
+    covariances = core::EstimateCameraCovariances(r, core::BundleAdjusterParams{},
+                                                  std::max(adjusted->rms_reprojection_px, 1e-6));
+    if (!covariances.ok()) {
+      std::fprintf(stderr, "slamctl plot: no camera ellipses: %s\n",
+                   covariances.status().ToString().c_str());
+    }
   }
   const bool automatic = opt.plane == "auto";
   const core::Result<plot::ViewPlane> plane =
@@ -249,6 +258,14 @@ void RunPlotReconstruction(const PlotOptions& opt, const plot::RenderOptions& re
 
   plot::PlotScene scene;
   scene.reconstruction = plot::BuildReconstruction(r, *plane);
+  scene.sigma = opt.sigma;
+  if (covariances.ok()) {
+    scene.reconstruction.camera_ellipses = plot::CameraEllipses(r, *covariances, *plane, opt.sigma);
+    char gauge[120];
+    std::snprintf(gauge, sizeof gauge, "; %gσ camera-centre ellipses (gauge: camera %d, scale %d)",
+                  opt.sigma, covariances->gauge_image, covariances->scale_image);
+    state += gauge;
+  }
   scene.x_label = plot::HorizontalLabel(*plane);
   scene.y_label = plot::VerticalLabel(*plane);
   std::filesystem::path name(path);

@@ -120,6 +120,24 @@ PlotReconstruction BuildReconstruction(const core::Reconstruction& r, ViewPlane 
   return out;
 }
 
+std::vector<Ellipse> CameraEllipses(const core::Reconstruction& r,
+                                    const core::CameraCovariances& covariances, ViewPlane plane,
+                                    double sigma) {
+  const auto [across, up] = PlaneAxes(plane);
+  std::vector<Ellipse> out;
+  for (size_t i = 0; i < r.images.size() && i < covariances.per_image.size(); ++i) {
+    const Eigen::Matrix3d R_wc = r.images[i].pose.rotation().matrix();
+    const Eigen::Matrix3d centre =
+        R_wc * covariances.per_image[i].topLeftCorner<3, 3>() * R_wc.transpose();
+    if (centre.isZero()) continue;  // the gauge
+    Eigen::Matrix2d in_plane;
+    in_plane << centre(across, across), centre(across, up), centre(up, across), centre(up, up);
+    out.push_back(
+        CovarianceEllipse(InPlane(r.images[i].pose.translation(), plane), in_plane, sigma));
+  }
+  return out;
+}
+
 std::string HorizontalLabel(ViewPlane plane) { return AxisLabel(PlaneAxes(plane).first); }
 std::string VerticalLabel(ViewPlane plane) { return AxisLabel(PlaneAxes(plane).second); }
 

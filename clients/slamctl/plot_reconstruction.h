@@ -16,8 +16,10 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "clients/slamctl/plot_scene.h"
+#include "core/sfm/camera_covariance.h"
 #include "core/sfm/reconstruction.h"
 
 namespace slamd::clients::plot {
@@ -44,6 +46,13 @@ ViewPlane ChooseViewPlane(const core::Reconstruction& r);
 // no camera ellipses. extent: every camera centre, and the points' 1st to 99th percentile on
 // each axis of the plane. `r` must be valid (Reconstruction::Validate).
 PlotReconstruction BuildReconstruction(const core::Reconstruction& r, ViewPlane plane);
+
+// The `sigma`-sigma ellipses of the camera centres in `plane` from their marginal covariances
+// (core/sfm/camera_covariance.h): a centre moves by R_wc·v for a pose step (v, ω), so its
+// covariance is R_wc·Σ_vv·R_wcᵀ. The gauge camera's is empty and left out.
+std::vector<Ellipse> CameraEllipses(const core::Reconstruction& r,
+                                    const core::CameraCovariances& covariances, ViewPlane plane,
+                                    double sigma);
 
 // The titles of the plane's axes, e.g. "x [m]" and "z [m]" for kXZ.
 std::string HorizontalLabel(ViewPlane plane);

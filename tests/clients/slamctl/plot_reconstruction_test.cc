@@ -139,5 +139,27 @@ TEST(PlotReconstructionTest, CameraEllipsesAreFramedAndCounted) {
   EXPECT_TRUE(RenderScene(scene, dir.File("ellipses.png"), {.width = 400, .height = 300}).ok());
 }
 
+// A camera centre's ellipse is its translation covariance turned into the world (R Σ Rᵀ) and
+// cut to the plane; the gauge camera (zero covariance) has none.
+TEST(PlotReconstructionTest, CameraEllipsesFromTheCovariancesInTheWorld) {
+  core::Reconstruction r;
+  r.intrinsics.push_back({});
+  r.images.push_back({.pose = core::Pose3(), .intrinsics = 0});
+  // Camera 1 turned by 90° about z: its own x is the world's y.
+  const core::Rot3 turn = core::Rot3::FromRollPitchYaw(0.0, 0.0, core::kPi / 2);
+  r.images.push_back({.pose = core::Pose3(turn, core::Point3(4.0, 1.0, 0.0)), .intrinsics = 0});
+  core::CameraCovariances cov{.block_dim = 6};
+  cov.per_image.push_back(Eigen::MatrixXd::Zero(6, 6));
+  Eigen::MatrixXd c = Eigen::MatrixXd::Zero(6, 6);
+  c.diagonal() << 4.0, 1.0, 9.0, 1e-4, 1e-4, 1e-4;  // σx 2 m, σy 1 m in the camera's frame
+  cov.per_image.push_back(c);
+  const std::vector<Ellipse> e = CameraEllipses(r, cov, ViewPlane::kXY, 3.0);
+  ASSERT_EQ(e.size(), 1u);
+  EXPECT_EQ(e[0].center, Eigen::Vector2d(4.0, 1.0));
+  EXPECT_NEAR(e[0].semi_major, 6.0, 1e-9);  // 3σ of 2 m, along the world's y
+  EXPECT_NEAR(e[0].semi_minor, 3.0, 1e-9);
+  EXPECT_NEAR(std::abs(e[0].angle), core::kPi / 2, 1e-9);
+}
+
 }  // namespace
 }  // namespace slamd::clients::plot
