@@ -4,10 +4,10 @@
 
 #include "clients/slamctl/bench.h"
 #include "clients/slamctl/json_writer.h"
+#include "core/ba/bundle_adjuster.h"
+#include "core/ba/point_initialization.h"
 #include "core/base/timing.h"
 #include "core/io/sfm_io.h"
-#include "core/sfm/bundle_adjuster.h"
-#include "core/sfm/point_initialization.h"
 
 namespace slamd::clients::bench {
 namespace {

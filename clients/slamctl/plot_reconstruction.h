@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "clients/slamctl/plot_scene.h"
-#include "core/sfm/camera_covariance.h"
+#include "core/ba/camera_covariance.h"
 #include "core/sfm/reconstruction.h"
 
 namespace slamd::clients::plot {
@@ -48,7 +48,7 @@ ViewPlane ChooseViewPlane(const core::Reconstruction& r);
 PlotReconstruction BuildReconstruction(const core::Reconstruction& r, ViewPlane plane);
 
 // The `sigma`-sigma ellipses of the camera centres in `plane` from their marginal covariances
-// (core/sfm/camera_covariance.h): a centre moves by R_wc·v for a pose step (v, ω), so its
+// (core/ba/camera_covariance.h): a centre moves by R_wc·v for a pose step (v, ω), so its
 // covariance is R_wc·Σ_vv·R_wcᵀ. The gauge camera's is empty and left out.
 std::vector<Ellipse> CameraEllipses(const core::Reconstruction& r,
                                     const core::CameraCovariances& covariances, ViewPlane plane,

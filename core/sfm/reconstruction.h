@@ -1,7 +1,7 @@
 // Reconstruction: what structure from motion produces and bundle adjustment refines: images
 // (camera poses) with their intrinsics, 3-D points, and the pixel where each image observed each
 // point. The readers and writers of BAL, COLMAP's text model and PLY (core/io/sfm_io.h) fill and
-// write it; the bundle adjuster (core/sfm/bundle_adjuster.h) refines it in place.
+// write it; the bundle adjuster (core/ba/bundle_adjuster.h) refines it in place.
 //
 // Conventions (one for every format; the readers convert):
 //   * An image's pose is T_wc (Pose3: camera frame -> world frame, as every pose in slamd).

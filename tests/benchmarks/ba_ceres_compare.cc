@@ -52,10 +52,10 @@
 #include <string_view>
 #include <vector>
 
+#include "core/ba/bundle_adjuster.h"
 #include "core/base/timing.h"
 #include "core/geometry/pose3.h"
 #include "core/io/sfm_io.h"
-#include "core/sfm/bundle_adjuster.h"
 #include "tests/benchmarks/ba_compare_run.h"
 
 namespace {

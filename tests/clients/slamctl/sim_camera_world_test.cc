@@ -11,9 +11,9 @@
 #include <string>
 #include <variant>
 
+#include "core/ba/bundle_adjuster.h"
 #include "core/geometry/camera.h"
 #include "core/io/sfm_io.h"
-#include "core/sfm/bundle_adjuster.h"
 #include "tests/testing/files.h"
 #include "tests/testing/sfm_reconstructions.h"
 

@@ -1,4 +1,4 @@
-#include "core/sfm/bundle_adjuster_params.h"
+#include "core/ba/bundle_adjuster_params.h"
 
 #include "core/base/param_check.h"
 

@@ -1,4 +1,4 @@
-// Internal to core/sfm: turns a reconstruction's calibration model (a std::variant alternative)
+// Internal to core/ba: turns a reconstruction's calibration model (a std::variant alternative)
 // and whether its calibrations are refined into the template arguments of BaProblem, once per
 // call, so that the per-observation code is compiled for each model with fixed sizes.
 #pragma once
@@ -9,8 +9,8 @@
 #include <variant>
 #include <vector>
 
+#include "core/ba/bundle_adjuster_params.h"
 #include "core/base/status.h"
-#include "core/sfm/bundle_adjuster_params.h"
 #include "core/sfm/reconstruction.h"
 
 namespace slamd::core::internal {

@@ -1,14 +1,14 @@
-// Bundle adjustment (core/sfm/bundle_adjuster.h): the Schur step against a dense solve of the
+// Bundle adjustment (core/ba/bundle_adjuster.h): the Schur step against a dense solve of the
 // full damped normal equations with finite-difference Jacobians, the implicit product against the
 // formed S, convergence of every linear solver to the same optimum, robust kernels, and errors.
-#include "core/sfm/bundle_adjuster.h"
+#include "core/ba/bundle_adjuster.h"
 
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
 #include <random>
 
-#include "core/sfm/ba_problem.h"
+#include "core/ba/ba_problem.h"
 #include "tests/testing/ba_worlds.h"
 
 namespace slamd::core {

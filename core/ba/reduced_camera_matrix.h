@@ -3,7 +3,7 @@
 // that see a common point (co-visibility), in the cameras' elimination order ("positions").
 // The bundle adjuster adds into it point by point (schur_elimination.h); then it is solved
 // densely (Eigen's LLᵀ, for few cameras) or by CHOLMOD (sparse, cameras in a fill-reducing
-// order). Internal to core/sfm.
+// order). Internal to core/ba.
 //
 // Thread safety: blocks may be written concurrently by threads that do not share a block row
 // (the adjuster locks rows); everything else: one thread.

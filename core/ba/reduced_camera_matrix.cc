@@ -1,4 +1,4 @@
-#include "core/sfm/reduced_camera_matrix.h"
+#include "core/ba/reduced_camera_matrix.h"
 
 #include <Eigen/Cholesky>
 #include <algorithm>

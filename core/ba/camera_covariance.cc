@@ -1,12 +1,12 @@
-#include "core/sfm/camera_covariance.h"
+#include "core/ba/camera_covariance.h"
 
 #include <Eigen/Cholesky>
 #include <numeric>
 #include <string>
 
+#include "core/ba/ba_problem.h"
+#include "core/ba/problem_dispatch.h"
 #include "core/base/worker_pool.h"
-#include "core/sfm/ba_problem.h"
-#include "core/sfm/problem_dispatch.h"
 
 namespace slamd::core {
 namespace {

@@ -19,8 +19,8 @@
 // only on success (the best estimate found, also after max_iterations).
 #pragma once
 
+#include "core/ba/bundle_adjuster_params.h"
 #include "core/base/status.h"
-#include "core/sfm/bundle_adjuster_params.h"
 #include "core/sfm/reconstruction.h"
 
 namespace slamd::core {

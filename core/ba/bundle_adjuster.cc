@@ -1,4 +1,4 @@
-#include "core/sfm/bundle_adjuster.h"
+#include "core/ba/bundle_adjuster.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,11 +6,11 @@
 #include <numeric>
 #include <variant>
 
+#include "core/ba/ba_problem.h"
+#include "core/ba/problem_dispatch.h"
 #include "core/base/timing.h"
 #include "core/base/worker_pool.h"
 #include "core/linear/ordering.h"
-#include "core/sfm/ba_problem.h"
-#include "core/sfm/problem_dispatch.h"
 
 namespace slamd::core {
 namespace {

@@ -1,11 +1,11 @@
-#include "core/sfm/point_initialization.h"
+#include "core/ba/point_initialization.h"
 
 #include <cmath>
 #include <string>
 #include <vector>
 
+#include "core/ba/problem_dispatch.h"
 #include "core/geometry/camera.h"
-#include "core/sfm/problem_dispatch.h"
 
 namespace slamd::core {
 namespace {

@@ -1,8 +1,8 @@
-#include "core/sfm/point_initialization.h"
+#include "core/ba/point_initialization.h"
 
 #include <gtest/gtest.h>
 
-#include "core/sfm/bundle_adjuster.h"
+#include "core/ba/bundle_adjuster.h"
 #include "tests/testing/ba_worlds.h"
 
 namespace slamd::core {

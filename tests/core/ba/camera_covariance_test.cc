@@ -1,13 +1,13 @@
-// Camera covariances (core/sfm/camera_covariance.h) against the dense inverse of the full
+// Camera covariances (core/ba/camera_covariance.h) against the dense inverse of the full
 // Gauss-Newton matrix JᵀJ, J by central differences over every camera and point unknown, with
 // the same gauge unknowns removed.
-#include "core/sfm/camera_covariance.h"
+#include "core/ba/camera_covariance.h"
 
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
 
-#include "core/sfm/bundle_adjuster.h"
+#include "core/ba/bundle_adjuster.h"
 #include "tests/testing/ba_worlds.h"
 
 namespace slamd::core {

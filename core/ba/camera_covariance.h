@@ -22,9 +22,9 @@
 
 #include <vector>
 
+#include "core/ba/bundle_adjuster_params.h"
 #include "core/base/status.h"
 #include "core/geometry/eigen_types.h"
-#include "core/sfm/bundle_adjuster_params.h"
 #include "core/sfm/reconstruction.h"
 
 namespace slamd::core {

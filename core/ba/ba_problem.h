@@ -1,4 +1,4 @@
-// BaProblem: the bundle adjuster's view of a reconstruction (internal to core/sfm): the
+// BaProblem: the bundle adjuster's view of a reconstruction (internal to core/ba): the
 // observations grouped by point, their linearisation, and the steps of one Levenberg-Marquardt
 // iteration with the points eliminated first.
 //
@@ -28,12 +28,12 @@
 #include <memory>
 #include <vector>
 
+#include "core/ba/reduced_camera_matrix.h"
 #include "core/base/check.h"
 #include "core/base/worker_pool.h"
 #include "core/factors/robust_kernel.h"
 #include "core/geometry/camera.h"
 #include "core/sfm/reconstruction.h"
-#include "core/sfm/reduced_camera_matrix.h"
 
 namespace slamd::core::internal {
 
