@@ -5,13 +5,17 @@
 #include <sys/resource.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
 
+#include "clients/slamctl/plot_reconstruction.h"
 #include "clients/slamctl/robustify.h"
 #include "clients/slamctl/trajectory_error.h"
+#include "core/ba/reconstruction_graph.h"
 #include "core/base/timing.h"
+#include "core/io/sfm_io.h"
 
 namespace slamd::clients {
 namespace bench {
@@ -27,7 +31,48 @@ void Fail(int code, const std::string& message) {
   throw CommandExit{code};
 }
 
+namespace {
+
+// A reconstruction's bundle adjustment problem as a factor graph (core/ba/reconstruction_graph.h),
+// --robust on every observation.
+core::Dataset LoadReconstruction(const BenchOptions& opt) {
+  core::Result<core::Reconstruction> r = core::ReadReconstruction(opt.dataset);
+  if (!r.ok()) Fail(kExitFailure, r.status().ToString());
+  core::Result<core::ReconstructionGraph> built =
+      core::BuildReconstructionGraph(*r, {.robust = opt.robust});
+  if (!built.ok()) Fail(kExitFailure, built.status().ToString());
+  core::Dataset data;
+  data.path = opt.dataset;
+  data.is_3d = true;
+  data.graph = std::move(built->graph);
+  data.initial = std::move(built->values);
+  data.poses = std::move(built->images);
+  data.landmarks = std::move(built->points);
+  data.num_landmark_observations = data.graph.size();
+  return data;
+}
+
+}  // namespace
+
+// -o: PLY for *.ply, BAL for *.bal / *.txt, a COLMAP text model (a directory) otherwise.
+core::Status WriteReconstruction(const core::Reconstruction& r, const std::string& path) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (ext == ".ply") return core::WritePly(r, path);
+  if (ext == ".bal" || ext == ".txt") return core::WriteBal(r, path);
+  std::error_code error;
+  std::filesystem::create_directories(path, error);
+  if (error) return core::IoError(path + ": " + error.message());
+  return core::WriteColmapText(r, path);
+}
+
 core::Dataset Load(const BenchOptions& opt, double* read_s, std::size_t* loop_closures) {
+  if (plot::IsReconstructionPath(opt.dataset)) {
+    core::Stopwatch timer;
+    core::Dataset data = LoadReconstruction(opt);
+    *read_s = timer.Seconds();
+    if (loop_closures != nullptr) *loop_closures = 0;
+    return data;
+  }
   core::ReadOptions read;
   read.isam_noise = opt.isam_noise == "covariance" ? core::ReadOptions::IsamNoise::kCovariance
                                                    : core::ReadOptions::IsamNoise::kSqrtInformation;
@@ -92,7 +137,8 @@ void RegisterBench(CLI::App& app) {
   cmd->add_option("dataset", opt->dataset,
                   "Dataset: a pose graph (g2o 2D/3D, TORO .graph, iSAM .txt) for batch and isam2; "
                   "a BAL file or a COLMAP text model (a directory with cameras.txt, images.txt, "
-                  "points3D.txt) for ba")
+                  "points3D.txt) for ba, and for batch as a factor graph (projection factors "
+                  "refining every calibration)")
       ->required()
       ->check(CLI::ExistingPath);
   cmd->add_option("--solver", opt->solver,
@@ -105,6 +151,12 @@ void RegisterBench(CLI::App& app) {
                   "sparse Cholesky, conjugate gradients for many), dense-schur, sparse-schur, "
                   "iterative-schur")
       ->check(CLI::IsMember({"auto", "dense-schur", "sparse-schur", "iterative-schur"}))
+      ->capture_default_str();
+  auto ordering = std::make_shared<std::string>("auto");
+  cmd->add_option("--ordering", *ordering,
+                  "batch: elimination order: auto (landmarks first when they outnumber the other "
+                  "variables), colamd, landmarks-first (the Schur complement on the poses)")
+      ->check(CLI::IsMember({"auto", "colamd", "landmarks-first"}))
       ->capture_default_str();
   cmd->add_flag("--json", opt->json, "Print one JSON object instead of a human summary");
   cmd->add_option("--algorithm", opt->algorithm, "Batch algorithm: lm (Levenberg-Marquardt) or gn")
@@ -140,9 +192,9 @@ void RegisterBench(CLI::App& app) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->add_option("-o,--output", opt->output,
-                  "Write the result: batch, isam2: the optimised graph as a g2o file; ba: a PLY "
-                  "file (*.ply: points and camera centres), a BAL file (*.bal, *.txt) or a COLMAP "
-                  "text model (any other path: a directory)");
+                  "Write the result: batch, isam2: the optimised graph as a g2o file; ba, and "
+                  "batch on a reconstruction: a PLY file (*.ply: points and camera centres), a BAL "
+                  "file (*.bal, *.txt) or a COLMAP text model (any other path: a directory)");
   auto robust_spec = std::make_shared<std::string>("none");
   cmd->add_option(
          "--robust", *robust_spec,
@@ -226,7 +278,10 @@ void RegisterBench(CLI::App& app) {
                   "isam2: after the last step, refine for up to this many seconds")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  cmd->callback([opt, relin_threshold, robust_spec, max_iterations] {
+  cmd->callback([opt, relin_threshold, robust_spec, max_iterations, ordering] {
+    opt->batch.ordering = *ordering == "colamd"            ? core::BatchParams::Ordering::kColamd
+                          : *ordering == "landmarks-first" ? core::BatchParams::Ordering::kLandmarksFirst
+                                                           : core::BatchParams::Ordering::kAuto;
     core::Result<core::RobustKernel> robust = ParseRobustSpec(*robust_spec);
     if (!robust.ok()) Fail(kExitUsage, "--robust: " + robust.status().message());
     opt->robust = *robust;
@@ -240,6 +295,10 @@ void RegisterBench(CLI::App& app) {
       if (!valid.ok()) Fail(kExitUsage, valid.message());
     }
     if (opt->solver == "isam2") {
+      if (plot::IsReconstructionPath(opt->dataset)) {
+        Fail(kExitUsage, opt->dataset + ": isam2 takes a pose graph; a reconstruction goes to "
+                                        "--solver ba or batch");
+      }
       bench::RunIsam2(*opt);
     } else if (opt->solver == "ba") {
       bench::RunBundleAdjustment(*opt);

@@ -8,6 +8,7 @@
 #include "core/batch/batch_params.h"
 #include "core/factors/robust_kernel.h"
 #include "core/io/dataset.h"
+#include "core/sfm/reconstruction.h"
 #include "core/isam/isam2_params.h"
 
 namespace slamd::clients::bench {
@@ -47,6 +48,9 @@ double PeakRssMb();
 // Reads the dataset as the options say; fails the command on error. With --robust, its loop
 // closures carry the kernel. *loop_closures (when given) receives their count (robustify.h).
 core::Dataset Load(const BenchOptions& opt, double* read_s, std::size_t* loop_closures = nullptr);
+// -o of a reconstruction: PLY for *.ply, BAL for *.bal / *.txt, a COLMAP text model (a
+// directory) otherwise.
+core::Status WriteReconstruction(const core::Reconstruction& r, const std::string& path);
 
 // --robust and --ground-truth output. Ate() reads the ground truth and measures `estimate`
 // against it (fails the command on error); no-op without --ground-truth.

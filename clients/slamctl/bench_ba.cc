@@ -1,6 +1,5 @@
 // slamctl bench --solver ba: bundle adjustment of a BAL file or a COLMAP text model.
 #include <cstdio>
-#include <filesystem>
 
 #include "clients/slamctl/bench.h"
 #include "clients/slamctl/json_writer.h"
@@ -10,29 +9,10 @@
 #include "core/io/sfm_io.h"
 
 namespace slamd::clients::bench {
-namespace {
-
-core::Result<core::Reconstruction> ReadReconstruction(const std::string& path) {
-  if (std::filesystem::is_directory(path)) return core::ReadColmapText(path);
-  return core::ReadBal(path);
-}
-
-// -o: PLY for *.ply, BAL for *.bal / *.txt, a COLMAP text model (a directory) otherwise.
-core::Status WriteReconstruction(const core::Reconstruction& r, const std::string& path) {
-  const std::string ext = std::filesystem::path(path).extension().string();
-  if (ext == ".ply") return core::WritePly(r, path);
-  if (ext == ".bal" || ext == ".txt") return core::WriteBal(r, path);
-  std::error_code error;
-  std::filesystem::create_directories(path, error);
-  if (error) return core::IoError(path + ": " + error.message());
-  return core::WriteColmapText(r, path);
-}
-
-}  // namespace
 
 void RunBundleAdjustment(const BenchOptions& opt) {
   core::Stopwatch timer;
-  core::Result<core::Reconstruction> read = ReadReconstruction(opt.dataset);
+  core::Result<core::Reconstruction> read = core::ReadReconstruction(opt.dataset);
   if (!read.ok()) Fail(kExitFailure, read.status().ToString());
   const double read_s = timer.Seconds();
   core::Reconstruction reconstruction = std::move(read).value();

@@ -3,10 +3,13 @@
 
 #include "clients/slamctl/bench.h"
 #include "clients/slamctl/json_writer.h"
+#include "clients/slamctl/plot_reconstruction.h"
+#include "core/ba/reconstruction_graph.h"
 #include "core/base/timing.h"
 #include "core/batch/auto_initialization.h"
 #include "core/batch/batch_solver.h"
 #include "core/batch/initialization.h"
+#include "core/io/sfm_io.h"
 
 namespace slamd::clients::bench {
 
@@ -76,6 +79,7 @@ void RunBatch(const BenchOptions& opt) {
         .Add("algorithm", opt.algorithm)
         .Add("init", init)
         .Add("init_tried", tried)
+        .Add("landmarks_first", s.landmarks_first)
         .Add("iterations", s.iterations)
         .Add("linear_solves", s.linear_solves)
         .Add("initial_chi2", s.initial_chi2)
@@ -97,13 +101,22 @@ void RunBatch(const BenchOptions& opt) {
                 tried_text.empty() ? "" : " (", tried_text.c_str(), tried_text.empty() ? "" : ")");
     std::printf("%s %s: %s\n", opt.solver.c_str(), opt.algorithm.c_str(), s.Brief().c_str());
     std::printf(
-        "phases: setup %.4f s (ordering %.4f s), linearize %.4f s, factorize %.4f s, solve %.4f s, "
+        "phases: setup %.4f s (ordering %.4f s, %d landmarks first), linearize %.4f s, factorize %.4f s, solve %.4f s, "
         "evaluate %.4f s; peak RSS %.1f MB\n",
-        s.setup_s, s.order_s, s.linearize_s, s.factorize_s, s.solve_s, s.evaluate_s, PeakRssMb());
+        s.setup_s, s.order_s, s.landmarks_first, s.linearize_s, s.factorize_s, s.solve_s, s.evaluate_s, PeakRssMb());
     PrintAccuracy(opt, accuracy);
   }
   if (!result.status.ok()) Fail(kExitFailure, result.status.ToString());
-  if (!opt.output.empty()) {
+  if (!opt.output.empty() && plot::IsReconstructionPath(opt.dataset)) {
+    // The graph's keys follow the reconstruction's order: read it again and write the estimate.
+    core::Result<core::Reconstruction> r = core::ReadReconstruction(opt.dataset);
+    if (!r.ok()) Fail(kExitFailure, r.status().ToString());
+    const core::Result<core::ReconstructionGraph> built = core::BuildReconstructionGraph(*r);
+    if (!built.ok()) Fail(kExitFailure, built.status().ToString());
+    core::UpdateReconstruction(*built, result.values, &*r);
+    const core::Status written = WriteReconstruction(*r, opt.output);
+    if (!written.ok()) Fail(kExitFailure, written.ToString());
+  } else if (!opt.output.empty()) {
     core::Dataset solved = data;
     solved.initial = result.values;
     const core::Status written = core::WriteG2o(solved, opt.output);

@@ -18,8 +18,16 @@ struct BatchParams {
     kDiagonal,  // H + λ·diag(H), diag clamped to [1e-6, 1e32] (Marquardt: scale-invariant)
   };
 
+  // The elimination order of the normal equations (normal_equations.h).
+  enum class Ordering {
+    kAuto,            // kLandmarksFirst on graphs with many landmarks (visual SLAM), else kColamd
+    kColamd,          // fill-reducing (COLAMD) over all variables
+    kLandmarksFirst,  // the points first, then COLAMD on the rest: the Schur complement
+  };
+
   Algorithm algorithm = Algorithm::kLevenbergMarquardt;
   Damping damping = Damping::kIdentity;
+  Ordering ordering = Ordering::kAuto;
   // Upper bound on accepted-or-rejected iterations (linearisations). >= 1.
   int max_iterations = 100;
   // Stop when an accepted step lowers the cost by less than this fraction of it. >= 0.

@@ -71,7 +71,7 @@ BatchResult Optimize(const FactorGraph& graph, const Values& initial, const Batc
 
   Stopwatch phase;
   Result<std::unique_ptr<internal::NormalEquations>> created =
-      internal::NormalEquations::Create(graph, initial);
+      internal::NormalEquations::Create(graph, initial, params.ordering);
   if (!created.ok()) {
     result.status = created.status();
     return result;
@@ -79,6 +79,7 @@ BatchResult Optimize(const FactorGraph& graph, const Values& initial, const Batc
   internal::NormalEquations& equations = **created;
   sum.setup_s = phase.Lap();
   sum.order_s = equations.order_seconds();
+  sum.landmarks_first = equations.landmarks_first();
 
   const bool lm = params.algorithm == BatchParams::Algorithm::kLevenbergMarquardt;
   const bool diagonal = params.damping == BatchParams::Damping::kDiagonal;

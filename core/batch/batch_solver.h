@@ -37,9 +37,11 @@ struct BatchSummary {
   double final_cost = 0.0;
   double final_lambda = 0.0;
   BatchTermination termination = BatchTermination::kInvalidInput;
+  // Landmarks eliminated before the other variables (BatchParams::ordering); 0: plain COLAMD.
+  int landmarks_first = 0;
   // Wall-clock seconds per phase.
   double setup_s = 0.0;        // checks, ordering, symbolic structure (order_s included)
-  double order_s = 0.0;        // the block COLAMD ordering
+  double order_s = 0.0;        // the block ordering
   double linearize_s = 0.0;
   double factorize_s = 0.0;
   double solve_s = 0.0;        // triangular solves

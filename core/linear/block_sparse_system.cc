@@ -9,54 +9,75 @@ namespace {
 
 // Offset of column j inside a block column whose columns have `stride` rows above the diagonal
 // block: column j holds stride + j + 1 entries (its part of the diagonal block is rows 0..j).
-inline int ColumnStart(int j, int stride) { return j * stride + (j * (j + 1)) / 2; }
 
 // values[base + ColumnStart(j) + i] += Σ_t A(t, i) B(t, j) for the block A ᵀB, with A (m x da)
 // and B (m x db) column-major. For a diagonal block (A == B) only i <= j is stored.
-template <int M, int DA, int DB>
+template <int Sign, int M, int DA, int DB>
 inline void AddProductFixed(const double* a, const double* b, bool diagonal, int stride,
                             double* out) {
   for (int j = 0; j < DB; ++j) {
-    double* column = out + ColumnStart(j, stride);
+    double* column = out + BlockSparseSystem::ColumnStart(j, stride);
     const double* bj = b + j * M;
     const int rows = diagonal ? j + 1 : DA;
     for (int i = 0; i < rows; ++i) {
       const double* ai = a + i * M;
       double s = 0.0;
       for (int t = 0; t < M; ++t) s += ai[t] * bj[t];
-      column[i] += s;
+      column[i] += Sign * s;
     }
   }
 }
 
+template <int Sign>
 inline void AddProductGeneric(const double* a, const double* b, int m, int da, int db,
                               bool diagonal, int stride, double* out) {
   for (int j = 0; j < db; ++j) {
-    double* column = out + ColumnStart(j, stride);
+    double* column = out + BlockSparseSystem::ColumnStart(j, stride);
     const double* bj = b + j * m;
     const int rows = diagonal ? j + 1 : da;
     for (int i = 0; i < rows; ++i) {
       const double* ai = a + i * m;
       double s = 0.0;
       for (int t = 0; t < m; ++t) s += ai[t] * bj[t];
-      column[i] += s;
+      column[i] += Sign * s;
     }
   }
 }
 
-// Dispatches the shapes of square whitened factors on 2D and 3D poses (m = d = 3 or 6, and the
-// m = d = 2 points) to fully unrolled kernels; everything else takes the generic loop.
+// Dispatches the common shapes to fully unrolled kernels: square whitened factors on 2D and 3D
+// poses (m = d = 3 or 6) and on points (m = d = 2), and the blocks of projections and of the
+// landmark Schur complement (m = 2 or 3 rows against 3- and 6-dimensional points, calibrations
+// and poses); everything else takes the generic loop.
+template <int Sign, int M>
+inline bool AddProductSmall(const double* a, const double* b, int da, int db, bool diagonal,
+                            int stride, double* out) {
+  const int shape = (da == 3 ? 0 : da == 6 ? 1 : 2) * 3 + (db == 3 ? 0 : db == 6 ? 1 : 2);
+  switch (shape) {
+    case 0: AddProductFixed<Sign, M, 3, 3>(a, b, diagonal, stride, out); return true;
+    case 1: AddProductFixed<Sign, M, 3, 6>(a, b, diagonal, stride, out); return true;
+    case 3: AddProductFixed<Sign, M, 6, 3>(a, b, diagonal, stride, out); return true;
+    case 4: AddProductFixed<Sign, M, 6, 6>(a, b, diagonal, stride, out); return true;
+    default: return false;
+  }
+}
+
+template <int Sign>
 inline void AddProduct(const double* a, const double* b, int m, int da, int db, bool diagonal,
                        int stride, double* out) {
-  if (m == da && m == db) {
-    switch (m) {
-      case 2: return AddProductFixed<2, 2, 2>(a, b, diagonal, stride, out);
-      case 3: return AddProductFixed<3, 3, 3>(a, b, diagonal, stride, out);
-      case 6: return AddProductFixed<6, 6, 6>(a, b, diagonal, stride, out);
-      default: break;
-    }
+  switch (m) {
+    case 2:
+      if (da == 2 && db == 2) return AddProductFixed<Sign, 2, 2, 2>(a, b, diagonal, stride, out);
+      if (AddProductSmall<Sign, 2>(a, b, da, db, diagonal, stride, out)) return;
+      break;
+    case 3:
+      if (AddProductSmall<Sign, 3>(a, b, da, db, diagonal, stride, out)) return;
+      break;
+    case 6:
+      if (da == 6 && db == 6) return AddProductFixed<Sign, 6, 6, 6>(a, b, diagonal, stride, out);
+      break;
+    default: break;
   }
-  AddProductGeneric(a, b, m, da, db, diagonal, stride, out);
+  AddProductGeneric<Sign>(a, b, m, da, db, diagonal, stride, out);
 }
 
 }  // namespace
@@ -241,11 +262,21 @@ void BlockSparseSystem::SetZero() {
 }
 
 void BlockSparseSystem::AddFactor(int f, const double* const* jacobians, const double* e, int m) {
+  Accumulate<1>(f, jacobians, e, m);
+}
+
+void BlockSparseSystem::SubtractFactor(int f, const double* const* jacobians, const double* e,
+                                       int m) {
+  Accumulate<-1>(f, jacobians, e, m);
+}
+
+template <int Sign>
+void BlockSparseSystem::Accumulate(int f, const double* const* jacobians, const double* e, int m) {
   SLAMD_DCHECK(f >= 0 && f < NumFactors()) << "factor " << f << " out of range";
   SLAMD_DCHECK(m >= 1) << "residual dimension " << m;
   const int* vars = factor_vars_.data() + factor_offsets_[f];
   const int size = factor_offsets_[f + 1] - factor_offsets_[f];
-  // b -= Jₖᵀ e for every variable k of the factor.
+  // b -= Sign·Jₖᵀ e for every variable k of the factor.
   for (int k = 0; k < size; ++k) {
     const int v = vars[k];
     const double* jk = jacobians[k];
@@ -253,14 +284,14 @@ void BlockSparseSystem::AddFactor(int f, const double* const* jacobians, const d
     for (int i = 0; i < var_dims_[v]; ++i) {
       double s = 0.0;
       for (int t = 0; t < m; ++t) s += jk[i * m + t] * e[t];
-      b[i] -= s;
+      b[i] -= Sign * s;
     }
   }
-  // H(row, col) += J_rowᵀ J_col for every pair, at the precomputed places.
+  // H(row, col) += Sign·J_rowᵀ J_col for every pair, at the precomputed places.
   double* values = values_.data();
   for (int q = slot_offsets_[f]; q < slot_offsets_[f + 1]; ++q) {
     const BlockSlot& slot = slots_[q];
-    AddProduct(jacobians[slot.row], jacobians[slot.col], m, var_dims_[vars[slot.row]],
+    AddProduct<Sign>(jacobians[slot.row], jacobians[slot.col], m, var_dims_[vars[slot.row]],
                var_dims_[vars[slot.col]], slot.row == slot.col, slot.stride, values + slot.base);
   }
 }

@@ -69,6 +69,8 @@ class BlockSparseSystem {
   // m x d_k block (leading dimension m) for the k-th variable of factor f; e has m entries
   // (whitened residual). Preconditions (SLAMD_DCHECK only): 0 <= f < NumFactors(), m >= 1.
   void AddFactor(int f, const double* const* jacobians, const double* e, int m);
+  // The opposite: H −= JᵀJ, b += Jᵀe (a Schur complement's update, landmark_schur.h).
+  void SubtractFactor(int f, const double* const* jacobians, const double* e, int m);
 
   // H += lambda * I.
   void AddToDiagonal(double lambda);
@@ -76,6 +78,11 @@ class BlockSparseSystem {
   void AddDiagonal(const Eigen::VectorXd& d);
   // diag(H) in ORIGINAL scalar order.
   Eigen::VectorXd Diagonal() const;
+
+  // Where entry (i, j) of a block lies in values(): at base + ColumnStart(j, stride) + i, with
+  // `base` the block's entry (0, 0) and `stride` the rows above its column variable's diagonal
+  // block (see Layout).
+  static int ColumnStart(int j, int stride) { return j * stride + (j * (j + 1)) / 2; }
 
   // --- Backend access (permuted order) ------------------------------------------------------------
   // CSC of the upper triangle of H: column j holds rows row_idx()[col_ptr()[j] .. col_ptr()[j+1]),
@@ -113,6 +120,8 @@ class BlockSparseSystem {
   };
 
   BlockSparseSystem() = default;
+  template <int Sign>
+  void Accumulate(int f, const double* const* jacobians, const double* e, int m);
 
   std::vector<int> var_dims_;
   std::vector<int> order_;

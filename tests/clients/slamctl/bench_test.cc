@@ -13,6 +13,7 @@
 
 #include "tests/clients/slamctl/slamctl_runner.h"
 #include "tests/testing/datasets.h"
+#include "tests/testing/files.h"
 
 namespace slamd::clients {
 namespace {
@@ -271,6 +272,36 @@ TEST(BenchTest, BundleAdjustmentJsonAndOutput) {
   }
   const SlamctlRun bad = RunSlamctl("bench " + bal + " --solver ba --linear-solver qr");
   EXPECT_NE(bad.exit_code, 0);
+}
+
+// The batch solver on a BAL file (its problem as a factor graph): the points eliminated first by
+// default, the same optimum as with COLAMD.
+TEST(BenchTest, BatchOnAReconstructionEliminatesThePoints) {
+  testing::TempDir dir("slamd_bench_sfm_");
+  const SlamctlRun sim =
+      RunSlamctl("sim camera-object --cameras 12 --points 300 -o " + dir.File("world"));
+  ASSERT_EQ(sim.exit_code, 0) << sim.out;
+  const std::string bal = dir.File("world/problem.bal");
+  const SlamctlRun schur =
+      RunSlamctl("bench " + bal + " --solver batch --json -o " + dir.File("solved.bal"));
+  const SlamctlRun colamd = RunSlamctl("bench " + bal + " --solver batch --json --ordering colamd");
+  ASSERT_EQ(schur.exit_code, 0) << schur.out;
+  ASSERT_EQ(colamd.exit_code, 0) << colamd.out;
+  const double points = JsonNumber(schur.out, "landmarks");
+  EXPECT_GT(points, 100.0);
+  EXPECT_EQ(JsonNumber(schur.out, "landmarks_first"), points);
+  EXPECT_EQ(JsonNumber(colamd.out, "landmarks_first"), 0.0);
+  const double chi2 = JsonNumber(colamd.out, "final_chi2");
+  EXPECT_LT(chi2, 1e-2 * JsonNumber(colamd.out, "initial_chi2"));
+  EXPECT_NEAR(JsonNumber(schur.out, "final_chi2"), chi2, 1e-6 * chi2);
+  // The estimate written back: the batch solver starting there stays at its optimum.
+  const SlamctlRun again = RunSlamctl("bench " + dir.File("solved.bal") + " --solver batch --json");
+  ASSERT_EQ(again.exit_code, 0) << again.out;
+  EXPECT_NEAR(JsonNumber(again.out, "initial_chi2"), chi2, 1e-6 * chi2);
+  EXPECT_NE(RunSlamctl("bench " + bal + " --solver batch --ordering amd").exit_code, 0);
+  const SlamctlRun isam2 = RunSlamctl("bench " + bal + " --solver isam2");
+  EXPECT_EQ(isam2.exit_code, 2) << isam2.out;
+  EXPECT_NE(isam2.out.find("isam2 takes a pose graph"), std::string::npos) << isam2.out;
 }
 
 }  // namespace

@@ -1,0 +1,51 @@
+// A reconstruction as a general factor graph: one Pose3 per image, one Point3 per point, one
+// calibration variable per intrinsics (when refined) and one projection factor per observation,
+// so the batch solver (core/batch) and iSAM2 optimise the same problem the bundle adjuster does.
+// With unit pixel noise the graph's cost is twice the adjuster's (the batch solver's cost has no
+// ½): at every estimate graph.Cost(values) = 2·(½ Σ ρ(|r|²)).
+//
+// Keys: image i → MakeKey('x', i), point j → MakeKey('l', j), intrinsics k → MakeKey('k', k).
+// Shared intrinsics (COLMAP cameras used by several images) are one variable, which the bundle
+// adjuster holds fixed: the graph is how to refine them.
+#pragma once
+
+#include <vector>
+
+#include "core/base/status.h"
+#include "core/factors/factor_graph.h"
+#include "core/factors/robust_kernel.h"
+#include "core/factors/values.h"
+#include "core/sfm/reconstruction.h"
+
+namespace slamd::core {
+
+struct ReconstructionGraphParams {
+  // Calibrations as variables (SelfCalibratingProjectionFactor) or held at the file's values
+  // (ProjectionFactor).
+  bool refine_intrinsics = true;
+  // Pixel noise σ of every observation. > 0.
+  double pixel_sigma = 1.0;
+  // On every observation, in whitened units (pixels when pixel_sigma = 1).
+  RobustKernel robust = {};
+
+  Status Validate() const;
+};
+
+struct ReconstructionGraph {
+  FactorGraph graph;
+  Values values;
+  std::vector<Key> images;        // images[i]: image i's pose T_wc
+  std::vector<Key> points;        // points[j]: point j
+  std::vector<Key> calibrations;  // calibrations[k]: intrinsics k (empty when held fixed)
+};
+
+// Fails with kInvalidArgument on invalid params or reconstruction (Reconstruction::Validate).
+Result<ReconstructionGraph> BuildReconstructionGraph(const Reconstruction& reconstruction,
+                                                     const ReconstructionGraphParams& params = {});
+
+// Writes `values` (an estimate of built.values' keys) back into the poses, points and, when
+// refined, calibrations of `reconstruction` (the one the graph was built from).
+void UpdateReconstruction(const ReconstructionGraph& built, const Values& values,
+                          Reconstruction* reconstruction);
+
+}  // namespace slamd::core
