@@ -53,8 +53,22 @@ BaObservations::BaObservations(const Reconstruction& r, std::vector<int> positio
     point_chunk_.push_back(std::max(point_chunk_.back(), std::min(j, num_points)));
   }
   point_chunk_.push_back(num_points);
-  row_locks_ = std::make_unique<std::atomic<bool>[]>(num_images);
-  for (int i = 0; i < num_images; ++i) row_locks_[i].store(false);
+  // One share of S's rows per thread, of about the same number of pair blocks: observation k of
+  // a point seen m times adds m − k of them to its camera's row.
+  std::vector<long> row_weight(num_images + 1, 0);
+  for (int j = 0; j < num_points; ++j) {
+    const int m = point_start_[j + 1] - point_start_[j];
+    for (int k = 0; k < m; ++k) row_weight[position_[camera_[point_start_[j] + k]] + 1] += m - k;
+  }
+  for (int i = 0; i < num_images; ++i) row_weight[i + 1] += row_weight[i];
+  row_share_.assign(1, 0);
+  for (int t = 1; t < chunks; ++t) {
+    const long target = row_weight.back() * t / chunks;
+    const int i = static_cast<int>(
+        std::lower_bound(row_weight.begin(), row_weight.end(), target) - row_weight.begin());
+    row_share_.push_back(std::max(row_share_.back(), std::min(i, num_images)));
+  }
+  row_share_.push_back(num_images);
 }
 
 std::vector<std::vector<int>> BaObservations::CoVisibility() const {
@@ -82,6 +96,11 @@ void BaObservations::ForEachPointChunk(const std::function<void(int, int, int)>&
 void BaObservations::ForEachCameraChunk(const std::function<void(int, int)>& fn) const {
   const int n = num_cameras(), chunks = Chunks();
   pool_->Run(chunks, [&](int t) { fn(n * t / chunks, n * (t + 1) / chunks); });
+  pool_->Wait();
+}
+
+void BaObservations::ForEachRowShare(const std::function<void(int, int)>& fn) const {
+  pool_->Run(Chunks(), [&](int t) { fn(row_share_[t], row_share_[t + 1]); });
   pool_->Wait();
 }
 

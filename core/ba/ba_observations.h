@@ -2,14 +2,12 @@
 // core/ba): grouped by point (each point's in ascending camera position, so that a pair of them
 // lands in the upper block triangle of S) and listed per camera; the cameras' co-visibility (the
 // pattern of S) and, once S exists, the index of each pair's block; one chunk of points per
-// thread, of about the same number of observations; and a spin lock per camera row of S and b,
-// since threads eliminating different points may add to the same row (contention is rare: two
-// threads, a row held for one point's blocks).
+// thread, of about the same number of observations; and one share of S's rows per thread, which
+// only that thread adds to. (Threads adding to any row under per-row spin locks did not scale:
+// the blocks of S moved between the cores' caches, and two threads took as long as one.)
 #pragma once
 
-#include <atomic>
 #include <functional>
-#include <memory>
 #include <vector>
 
 #include "core/ba/reduced_camera_matrix.h"
@@ -41,11 +39,9 @@ class BaObservations {
   void ForEachCameraChunk(const std::function<void(int, int)>& fn) const;
   // For each point, the index in S of each of its pairs of observations (a, c), a <= c.
   void IndexBlocks(const ReducedCameraMatrix& s);
-  void LockRow(int i) {
-    while (row_locks_[i].exchange(true, std::memory_order_acquire)) {
-    }
-  }
-  void UnlockRow(int i) { row_locks_[i].store(false, std::memory_order_release); }
+  // fn(first position, end position) on each thread's share of the rows of S, of about the same
+  // number of blocks to eliminate into.
+  void ForEachRowShare(const std::function<void(int, int)>& fn) const;
 
   const std::vector<int> position_;
   WorkerPool* pool_;
@@ -55,7 +51,7 @@ class BaObservations {
   std::vector<int> camera_obs_start_, camera_obs_;  // per camera, its observations
   std::vector<int> point_chunk_;                    // per thread, its first point
   std::vector<long> pair_start_, pair_block_;       // IndexBlocks
-  std::unique_ptr<std::atomic<bool>[]> row_locks_;
+  std::vector<int> row_share_;                      // per thread, its first row position
 };
 
 }  // namespace slamd::core::internal

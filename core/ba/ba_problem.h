@@ -14,8 +14,8 @@
 // Cal: the calibration model; kRefineCal: whether it is part of each camera's unknowns
 // (D = 6 + its dimension) or fixed (D = 6). Pose unknowns are right perturbations T_wc·Exp(ξ).
 //
-// Threads: every pass splits the points (or cameras) into one chunk per thread; a camera's rows of
-// S and b are added to under its row lock. One owner drives the problem.
+// Threads: every pass splits the points (or cameras) into one chunk per thread, except the
+// elimination, which splits the rows of S and b (ForEachRowShare). One owner drives the problem.
 #pragma once
 
 #include <Eigen/Cholesky>
@@ -87,31 +87,39 @@ class BaProblem : public BaLinearization<Cal, kRefineCal> {
         b->template segment<kD>(kD * p) = -gc_[i];
       }
     });
-    ForEachPointChunk([&](int, int j_begin, int j_end) {
+    // Every share visits every point but adds only to its own rows of S and b (no locks, no
+    // cache lines passed between cores): the rows of a point's pairs (a, c), a <= c, are its
+    // observations' positions, ascending.
+    ForEachRowShare([&](int row_begin, int row_end) {
       std::vector<CameraPoint> a;  // per observation of the point: A_o = Jc_oᵀ Jp_o R_j⁻¹
-      for (int j = j_begin; j < j_end; ++j) {
+      for (int j = 0; j < num_points(); ++j) {
+        const int begin = point_start_[j], m = point_start_[j + 1] - begin;
+        int first = 0;  // this share's observations of the point: [first, last)
+        while (first < m && position_[camera_[begin + first]] < row_begin) ++first;
+        int last = first;
+        while (last < m && position_[camera_[begin + last]] < row_end) ++last;
+        if (first == last) continue;
         // R_j: the triangular factor of V_j + λ·D_j by Givens rotations of the rows of Jp (not
         // Cholesky of the formed V_j, which squares its condition: a point a few millimetres
         // in front of a camera gives V_j a condition of 1e10 and S indefinite through the
         // cancellation in U − W V⁻¹ Wᵀ).
         Matrix3 R = Matrix3::Zero();
         R.diagonal() = (point_lambda * ClampedDiagonal(v_diagonal_[j])).cwiseSqrt();
-        const int begin = point_start_[j], m = point_start_[j + 1] - begin;
         for (int o = begin; o < begin + m; ++o) {
           for (int row = 0; row < 2; ++row) AppendRowToFactor(jp_[o].row(row), &R);
         }
-        r_factor_[j] = R;
+        if (first == 0) r_factor_[j] = R;  // one writer: the share of the point's first row
         a.resize(m);
-        for (int k = 0; k < m; ++k) {
+        for (int k = first; k < m; ++k) {
           // Z = Jp R⁻¹, so that W V⁻¹ Wᵀ = Σ (Jcᵀ Z)(Jcᵀ Z)ᵀ.
           const Matrix32 zt = SolveFactorTransposed(R, Matrix32(jp_[begin + k].transpose()));
           a[k].noalias() = jc_[begin + k].transpose().lazyProduct(zt.transpose());
         }
         const Vector3 q = SolveFactorTransposed(R, gp_[j]);
-        long pair = s ? pair_start_[j] : 0;
-        for (int k = 0; k < m; ++k) {
+        // Pairs are listed k-major: (k, k..m-1) starts k·m − k(k−1)/2 after the point's first.
+        long pair = s ? pair_start_[j] + first * m - first * (first - 1) / 2 : 0;
+        for (int k = first; k < last; ++k) {
           const int i = position_[camera_[begin + k]];
-          LockRow(i);
           b->template segment<kD>(kD * i).noalias() += a[k] * q;
           if (s) {
             for (int c = k; c < m; ++c) {
@@ -121,7 +129,6 @@ class BaProblem : public BaLinearization<Cal, kRefineCal> {
           } else {
             (*diagonal)[i].noalias() -= a[k].lazyProduct(a[k].transpose());
           }
-          UnlockRow(i);
         }
       }
     });
@@ -208,19 +215,18 @@ class BaProblem : public BaLinearization<Cal, kRefineCal> {
   using Base::Chunks;
   using Base::ForEachCameraChunk;
   using Base::ForEachPointChunk;
+  using Base::ForEachRowShare;
   using Base::gc_;
   using Base::gp_;
   using Base::IndexBlocks;
   using Base::jc_;
   using Base::jp_;
-  using Base::LockRow;
   using Base::pair_block_;
   using Base::pair_start_;
   using Base::point_start_;
   using Base::position_;
   using Base::Sum;
   using Base::u_;
-  using Base::UnlockRow;
   using Base::v_diagonal_;
 
   // (V_j + λ·D_j)⁻¹ x with the factor of the last EliminatePoints.
