@@ -1,10 +1,26 @@
 #include "core/ba/ba_observations.h"
 
 #include <algorithm>
+#include <numeric>
 
 #include "core/base/check.h"
+#include "core/linear/ordering.h"
 
 namespace slamd::core::internal {
+
+Result<std::vector<int>> CameraPositions(const Reconstruction& r, bool fill_reducing) {
+  const int n = static_cast<int>(r.images.size());
+  std::vector<int> identity(n);
+  std::iota(identity.begin(), identity.end(), 0);
+  if (!fill_reducing) return identity;
+  std::vector<std::vector<int>> cameras_of(r.points.size());
+  for (const SfmObservation& o : r.observations) cameras_of[o.point].push_back(o.image);
+  FactorIncidence incidence;
+  for (const std::vector<int>& cams : cameras_of) incidence.AddFactor(cams);
+  Result<std::vector<int>> order = ColamdOrdering(n, incidence);
+  if (!order.ok()) return order.status();
+  return InversePermutation(order.value());
+}
 
 BaObservations::BaObservations(const Reconstruction& r, std::vector<int> position, WorkerPool* pool)
     : position_(std::move(position)), pool_(pool) {

@@ -11,10 +11,16 @@
 #include <vector>
 
 #include "core/ba/reduced_camera_matrix.h"
+#include "core/base/status.h"
 #include "core/base/worker_pool.h"
 #include "core/sfm/reconstruction.h"
 
 namespace slamd::core::internal {
+
+// The cameras' places in the reduced camera system: with `fill_reducing`, an order for sparse
+// Cholesky (COLAMD on the point-by-camera incidence, whose AᵀA has S's pattern); otherwise the
+// images' own order.
+Result<std::vector<int>> CameraPositions(const Reconstruction& r, bool fill_reducing);
 
 class BaObservations {
  public:

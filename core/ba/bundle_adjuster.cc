@@ -25,21 +25,6 @@ BaLinearSolver ChooseSolver(const BundleAdjusterParams& params, int num_cameras,
   return BaLinearSolver::kIterativeSchur;
 }
 
-// The cameras' places in the reduced camera system: a fill-reducing order for sparse Cholesky
-// (COLAMD on the point-by-camera incidence, whose AᵀA has S's pattern), else as given.
-Result<std::vector<int>> CameraPositions(const Reconstruction& r, BaLinearSolver solver) {
-  const int n = static_cast<int>(r.images.size());
-  std::vector<int> identity(n);
-  std::iota(identity.begin(), identity.end(), 0);
-  if (solver != BaLinearSolver::kSparseSchur) return identity;
-  std::vector<std::vector<int>> cameras_of(r.points.size());
-  for (const SfmObservation& o : r.observations) cameras_of[o.point].push_back(o.image);
-  FactorIncidence incidence;
-  for (const std::vector<int>& cams : cameras_of) incidence.AddFactor(cams);
-  Result<std::vector<int>> order = ColamdOrdering(n, incidence);
-  if (!order.ok()) return order.status();
-  return InversePermutation(order.value());
-}
 
 // Preconditioned conjugate gradients on S x = b with S applied implicitly and the inverses of
 // its diagonal blocks as preconditioner. Returns the iterations run.
@@ -109,7 +94,8 @@ Result<BundleAdjusterSummary> Adjust(const BundleAdjusterParams& params, BaLinea
   summary.num_points = static_cast<int>(rec->points.size());
   summary.num_observations = static_cast<int>(rec->observations.size());
 
-  Result<std::vector<int>> positions = CameraPositions(*rec, solver);
+  Result<std::vector<int>> positions =
+      internal::CameraPositions(*rec, solver == BaLinearSolver::kSparseSchur);
   if (!positions.ok()) return positions.status();
   WorkerPool pool(params.num_threads - 1);
   Problem problem(*rec, params.robust, std::move(positions).value(), &pool);

@@ -1,7 +1,7 @@
 #include "core/ba/camera_covariance.h"
 
 #include <Eigen/Cholesky>
-#include <numeric>
+#include <algorithm>
 #include <string>
 
 #include "core/ba/ba_problem.h"
@@ -14,17 +14,34 @@ namespace {
 using internal::BaProblem;
 using internal::ReducedCameraMatrix;
 
+// S⁻¹ without the gauge unknowns (positions order), densely: all of it.
+Result<Eigen::MatrixXd> DenseInverse(const ReducedCameraMatrix& s, const std::vector<int>& gauge) {
+  const Eigen::MatrixXd S = s.ToDense();
+  std::vector<int> kept;
+  for (int k = 0; k < s.dim(); ++k) {
+    if (std::find(gauge.begin(), gauge.end(), k) == gauge.end()) kept.push_back(k);
+  }
+  const int m = static_cast<int>(kept.size());
+  Eigen::MatrixXd reduced(m, m);
+  for (int a = 0; a < m; ++a) {
+    for (int c = 0; c < m; ++c) reduced(a, c) = S(kept[a], kept[c]);
+  }
+  const Eigen::LLT<Eigen::MatrixXd> llt(reduced);
+  if (llt.info() != Eigen::Success) return NumericalFailure("not positive definite");
+  const Eigen::MatrixXd inverse = llt.solve(Eigen::MatrixXd::Identity(m, m));
+  Eigen::MatrixXd full = Eigen::MatrixXd::Zero(s.dim(), s.dim());
+  for (int a = 0; a < m; ++a) {
+    for (int c = 0; c < m; ++c) full(kept[a], kept[c]) = inverse(a, c);
+  }
+  return full;
+}
+
 template <typename Cal, bool kRefineCal>
 Result<CameraCovariances> Estimate(const Reconstruction& r, const BundleAdjusterParams& params,
                                    double pixel_sigma, int max_dense_dim) {
   using Problem = BaProblem<Cal, kRefineCal>;
   constexpr int kD = Problem::kD;
   const int n = static_cast<int>(r.images.size());
-  if (kD * n > max_dense_dim) {
-    return FailedPrecondition("camera covariances: " + std::to_string(kD * n) +
-                              " camera unknowns, more than the dense limit of " +
-                              std::to_string(max_dense_dim));
-  }
   CameraCovariances out{.block_dim = kD};
   // The scale: the image farthest from image 0, along its own axis nearest the baseline.
   const Point3 c0 = r.images[0].pose.translation();
@@ -42,40 +59,51 @@ Result<CameraCovariances> Estimate(const Reconstruction& r, const BundleAdjuster
     return FailedPrecondition("camera covariances: no second camera centre to fix the scale");
   }
 
-  std::vector<int> identity(n);
-  std::iota(identity.begin(), identity.end(), 0);
+  const bool sparse = kD * n > max_dense_dim;
+  Result<std::vector<int>> positions = internal::CameraPositions(r, sparse);
+  if (!positions.ok()) return positions.status();
+  const std::vector<int> position = positions.value();
   WorkerPool pool(params.num_threads - 1);
-  Problem problem(r, params.robust, identity, &pool);
+  Problem problem(r, params.robust, position, &pool);
   problem.Linearize(Problem::StateOf(r));
   ReducedCameraMatrix s(kD, problem.CoVisibility());
   Eigen::VectorXd b;
   problem.EliminatePoints(0.0, 1e-12, &s, nullptr, &b);
-  const Eigen::MatrixXd S = s.ToDense();
+  std::vector<int> gauge;
+  for (int k = 0; k < 6; ++k) gauge.push_back(kD * position[0] + k);
+  gauge.push_back(kD * position[out.scale_image] + out.scale_axis);
 
-  // Keep every unknown but the gauge's.
-  std::vector<int> kept;
-  for (int k = 0; k < kD * n; ++k) {
-    if (k < 6 || k == kD * out.scale_image + out.scale_axis) continue;
-    kept.push_back(k);
+  const std::string singular =
+      "camera covariances: the reduced camera system is singular beyond the gauge (cameras that "
+      "share too few points with the rest)";
+  const double variance = pixel_sigma * pixel_sigma;
+  if (!sparse) {
+    const Result<Eigen::MatrixXd> inverse = DenseInverse(s, gauge);
+    if (!inverse.ok()) return FailedPrecondition(singular);
+    for (int i = 0; i < n; ++i) {
+      const int p = kD * position[i];
+      out.per_image.push_back(variance * inverse->block(p, p, kD, kD));
+    }
+    return out;
   }
-  const int m = static_cast<int>(kept.size());
-  Eigen::MatrixXd reduced(m, m);
-  for (int a = 0; a < m; ++a) {
-    for (int c = 0; c < m; ++c) reduced(a, c) = S(kept[a], kept[c]);
+  // Sparse: the gauge unknowns decoupled, one factorisation, and per camera its kD columns of
+  // S⁻¹ (kD solves each): the diagonal blocks without the rest of the inverse.
+  for (int k : gauge) s.Pin(k);
+  if (!s.FactorSparse().ok()) return FailedPrecondition(singular);
+  Eigen::VectorXd e = Eigen::VectorXd::Zero(s.dim()), x;
+  for (int i = 0; i < n; ++i) {
+    const int p = kD * position[i];
+    Eigen::MatrixXd block = Eigen::MatrixXd::Zero(kD, kD);
+    for (int c = 0; c < kD; ++c) {
+      if (std::find(gauge.begin(), gauge.end(), p + c) != gauge.end()) continue;
+      e[p + c] = 1.0;
+      SLAMD_RETURN_IF_ERROR(s.SolveFactored(e, &x));
+      e[p + c] = 0.0;
+      block.col(c) = x.segment(p, kD);
+    }
+    // The gauge rows: x there is e's, 0; the block is symmetric up to round-off.
+    out.per_image.push_back(variance * 0.5 * (block + block.transpose()));
   }
-  const Eigen::LLT<Eigen::MatrixXd> llt(reduced);
-  if (llt.info() != Eigen::Success) {
-    return FailedPrecondition(
-        "camera covariances: the reduced camera system is singular beyond the gauge (cameras "
-        "that share too few points with the rest)");
-  }
-  const Eigen::MatrixXd inverse =
-      llt.solve(Eigen::MatrixXd::Identity(m, m)) * (pixel_sigma * pixel_sigma);
-  Eigen::MatrixXd full = Eigen::MatrixXd::Zero(kD * n, kD * n);
-  for (int a = 0; a < m; ++a) {
-    for (int c = 0; c < m; ++c) full(kept[a], kept[c]) = inverse(a, c);
-  }
-  for (int i = 0; i < n; ++i) out.per_image.push_back(full.block(kD * i, kD * i, kD, kD));
   return out;
 }
 

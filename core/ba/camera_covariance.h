@@ -14,8 +14,10 @@
 // (BundleAdjusterParams::refine_intrinsics). Pixel noise: `pixel_sigma` pixels on each
 // coordinate of every observation (the covariance scales with its square).
 //
-// Cost: S is formed and inverted densely: O((cameras · block)³), refused above
-// `max_dense_dim` unknowns (kFailedPrecondition). Points seen by one camera only carry no
+// Cost: up to `max_dense_dim` camera unknowns S is inverted densely, O((cameras · block)³);
+// above, CHOLMOD factors S once (cameras in a fill-reducing order) and each camera's diagonal
+// block of S⁻¹ takes `block` solves, O(cameras · block · nnz(L)) in all, memory O(nnz(L)).
+// Points seen by one camera only carry no
 // information about the cameras; they are damped by 1e-12 · their diagonal so that their
 // blocks stay invertible.
 #pragma once
@@ -38,8 +40,8 @@ struct CameraCovariances {
 };
 
 // `params` says which unknowns a camera has (refine_intrinsics) and the threads to use.
-// kFailedPrecondition when the gauge cannot be set (fewer than 2 images), S is too large, or
-// the reconstruction does not constrain its cameras (S singular beyond the gauge: the message
+// kFailedPrecondition when the gauge cannot be set (fewer than 2 images) or the reconstruction
+// does not constrain its cameras (S singular beyond the gauge: the message
 // says so); kInvalidArgument as BundleAdjust.
 Result<CameraCovariances> EstimateCameraCovariances(const Reconstruction& reconstruction,
                                                     const BundleAdjusterParams& params,

@@ -95,6 +95,11 @@ void ReducedCameraMatrix::BuildCompressedColumns() {
 }
 
 Status ReducedCameraMatrix::SolveSparse(const Eigen::VectorXd& b, Eigen::VectorXd* x) {
+  SLAMD_RETURN_IF_ERROR(FactorSparse());
+  return SolveFactored(b, x);
+}
+
+Status ReducedCameraMatrix::FactorSparse() {
   if (!cholesky_) BuildCompressedColumns();
   for (size_t t = 0; t < source_.size(); ++t) csc_values_[t] = values_[source_[t]];
   std::string message;
@@ -104,11 +109,30 @@ Status ReducedCameraMatrix::SolveSparse(const Eigen::VectorXd& b, Eigen::VectorX
   if (factorized != LinearSolverTermination::kSuccess) {
     return NumericalFailure("reduced camera system: " + message);
   }
+  return Status::Ok();
+}
+
+Status ReducedCameraMatrix::SolveFactored(const Eigen::VectorXd& b, Eigen::VectorXd* x) {
+  SLAMD_CHECK(cholesky_ != nullptr) << "SolveFactored before FactorSparse";
+  std::string message;
   x->resize(dim());
   if (cholesky_->Solve(b.data(), x->data(), &message) != LinearSolverTermination::kSuccess) {
     return NumericalFailure("reduced camera system: " + message);
   }
   return Status::Ok();
+}
+
+void ReducedCameraMatrix::Pin(int k) {
+  const int i = k / d_, r = k % d_;
+  // Blocks are column-major: entry (row, col) at col·D + row.
+  for (long blk = row_start_[i]; blk < row_start_[i + 1]; ++blk) {  // row r of blocks (i, ≥ i)
+    for (int c = 0; c < d_; ++c) Block(blk)[c * d_ + r] = 0.0;
+  }
+  for (int above = 0; above <= i; ++above) {  // column r of blocks (≤ i, i)
+    const long blk = BlockIndex(above, i);
+    if (blk >= 0) std::fill_n(Block(blk) + r * d_, d_, 0.0);
+  }
+  Block(row_start_[i])[r * d_ + r] = 1.0;  // a row's first block is its diagonal one
 }
 
 }  // namespace slamd::core::internal

@@ -46,6 +46,12 @@ class ReducedCameraMatrix {
   Status SolveDense(const Eigen::VectorXd& b, Eigen::VectorXd* x) const;
   // The same by CHOLMOD; the symbolic analysis is kept between calls (the pattern never changes).
   Status SolveSparse(const Eigen::VectorXd& b, Eigen::VectorXd* x);
+  // SolveSparse in two steps, to solve for many right-hand sides with one factorisation.
+  Status FactorSparse();
+  Status SolveFactored(const Eigen::VectorXd& b, Eigen::VectorXd* x);
+  // Decouples unknown k (positions order, scalar): its row and column zero, its diagonal 1, so
+  // that the solution's entry k is b's and the rest solve S without unknown k (a gauge).
+  void Pin(int k);
   // Entries of the Cholesky factor of the last SolveSparse (0 before it).
   long FactorNonZeros() const { return cholesky_ ? cholesky_->FactorNonZeros() : 0; }
 

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 
 #include "core/ba/bundle_adjuster.h"
 #include "tests/testing/ba_worlds.h"
@@ -45,6 +46,11 @@ TEST(CameraCovarianceTest, EqualsTheDenseInverseOfTheFullSystem) {
     ASSERT_TRUE(BundleAdjust(params, &r).ok());
     const Result<CameraCovariances> cov = EstimateCameraCovariances(r, params, 0.5);
     ASSERT_TRUE(cov.ok()) << cov.status().ToString();
+    // The sparse path (every size above the dense limit of 0): the same blocks.
+    const Result<CameraCovariances> sparse = EstimateCameraCovariances(r, params, 0.5, 0);
+    ASSERT_TRUE(sparse.ok()) << sparse.status().ToString();
+    EXPECT_EQ(sparse->scale_image, cov->scale_image);
+    EXPECT_EQ(sparse->scale_axis, cov->scale_axis);
     EXPECT_EQ(cov->block_dim, refine ? 9 : 6);
     EXPECT_EQ(cov->gauge_image, 0);
     EXPECT_NE(cov->scale_image, 0);
@@ -56,19 +62,28 @@ TEST(CameraCovarianceTest, EqualsTheDenseInverseOfTheFullSystem) {
           << "image " << i << (refine ? " (calibration refined)" : "") << "\n"
           << cov->per_image[i] << "\nexpected\n"
           << expected;
+      EXPECT_LT((sparse->per_image[i] - expected).norm(), 1e-5 * expected.norm() + 1e-12)
+          << "image " << i << " sparse" << (refine ? " (calibration refined)" : "");
     }
     EXPECT_TRUE((cov->per_image[0].topLeftCorner<6, 6>().isZero()));  // the gauge
   }
 }
 
-TEST(CameraCovarianceTest, RefusesWhatHasNoGaugeOrIsTooLarge) {
+TEST(CameraCovarianceTest, RefusesWhatHasNoGaugeOrIsUnconstrained) {
   Reconstruction one = testing::BaWorld(Cal3Bundler(500.0, 0.0, 0.0), 1, 5, 0.0, 23);
   EXPECT_EQ(EstimateCameraCovariances(one, {}).status().code(), StatusCode::kFailedPrecondition);
   Reconstruction r = testing::BaWorld(Cal3Bundler(500.0, 0.0, 0.0), 4, 10, 0.0, 24);
-  const Status big = EstimateCameraCovariances(r, {}, 1.0, 20).status();
-  EXPECT_EQ(big.code(), StatusCode::kFailedPrecondition);
-  EXPECT_NE(big.message().find("dense limit"), std::string::npos) << big.ToString();
   EXPECT_EQ(EstimateCameraCovariances(r, {}, -1.0).status().code(), StatusCode::kInvalidArgument);
+  // A camera that sees nothing: singular beyond the gauge, in both paths.
+  r.observations.erase(std::remove_if(r.observations.begin(), r.observations.end(),
+                                      [](const SfmObservation& o) { return o.image == 2; }),
+                       r.observations.end());
+  for (int dense_limit : {6000, 0}) {
+    const Status singular = EstimateCameraCovariances(r, {}, 1.0, dense_limit).status();
+    EXPECT_EQ(singular.code(), StatusCode::kFailedPrecondition) << singular.ToString();
+    EXPECT_NE(singular.message().find("singular beyond the gauge"), std::string::npos)
+        << singular.ToString();
+  }
 }
 
 }  // namespace
