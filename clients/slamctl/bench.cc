@@ -279,9 +279,10 @@ void RegisterBench(CLI::App& app) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd->callback([opt, relin_threshold, robust_spec, max_iterations, ordering] {
-    opt->batch.ordering = *ordering == "colamd"            ? core::BatchParams::Ordering::kColamd
-                          : *ordering == "landmarks-first" ? core::BatchParams::Ordering::kLandmarksFirst
-                                                           : core::BatchParams::Ordering::kAuto;
+    opt->batch.ordering = *ordering == "colamd" ? core::BatchParams::Ordering::kColamd
+                          : *ordering == "landmarks-first"
+                              ? core::BatchParams::Ordering::kLandmarksFirst
+                              : core::BatchParams::Ordering::kAuto;
     core::Result<core::RobustKernel> robust = ParseRobustSpec(*robust_spec);
     if (!robust.ok()) Fail(kExitUsage, "--robust: " + robust.status().message());
     opt->robust = *robust;
@@ -296,8 +297,9 @@ void RegisterBench(CLI::App& app) {
     }
     if (opt->solver == "isam2") {
       if (plot::IsReconstructionPath(opt->dataset)) {
-        Fail(kExitUsage, opt->dataset + ": isam2 takes a pose graph; a reconstruction goes to "
-                                        "--solver ba or batch");
+        Fail(kExitUsage, opt->dataset +
+                             ": isam2 takes a pose graph; a reconstruction goes to "
+                             "--solver ba or batch");
       }
       bench::RunIsam2(*opt);
     } else if (opt->solver == "ba") {

@@ -8,8 +8,8 @@
 #include "core/batch/batch_params.h"
 #include "core/factors/robust_kernel.h"
 #include "core/io/dataset.h"
-#include "core/sfm/reconstruction.h"
 #include "core/isam/isam2_params.h"
+#include "core/sfm/reconstruction.h"
 
 namespace slamd::clients::bench {
 

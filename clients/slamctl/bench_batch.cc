@@ -101,9 +101,10 @@ void RunBatch(const BenchOptions& opt) {
                 tried_text.empty() ? "" : " (", tried_text.c_str(), tried_text.empty() ? "" : ")");
     std::printf("%s %s: %s\n", opt.solver.c_str(), opt.algorithm.c_str(), s.Brief().c_str());
     std::printf(
-        "phases: setup %.4f s (ordering %.4f s, %d landmarks first), linearize %.4f s, factorize %.4f s, solve %.4f s, "
-        "evaluate %.4f s; peak RSS %.1f MB\n",
-        s.setup_s, s.order_s, s.landmarks_first, s.linearize_s, s.factorize_s, s.solve_s, s.evaluate_s, PeakRssMb());
+        "phases: setup %.4f s (ordering %.4f s, %d landmarks first), linearize %.4f s, "
+        "factorize %.4f s, solve %.4f s, evaluate %.4f s; peak RSS %.1f MB\n",
+        s.setup_s, s.order_s, s.landmarks_first, s.linearize_s, s.factorize_s, s.solve_s,
+        s.evaluate_s, PeakRssMb());
     PrintAccuracy(opt, accuracy);
   }
   if (!result.status.ok()) Fail(kExitFailure, result.status.ToString());

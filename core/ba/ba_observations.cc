@@ -80,8 +80,8 @@ BaObservations::BaObservations(const Reconstruction& r, std::vector<int> positio
   row_share_.assign(1, 0);
   for (int t = 1; t < chunks; ++t) {
     const long target = row_weight.back() * t / chunks;
-    const int i = static_cast<int>(
-        std::lower_bound(row_weight.begin(), row_weight.end(), target) - row_weight.begin());
+    const int i = static_cast<int>(std::lower_bound(row_weight.begin(), row_weight.end(), target) -
+                                   row_weight.begin());
     row_share_.push_back(std::max(row_share_.back(), std::min(i, num_images)));
   }
   row_share_.push_back(num_images);

@@ -25,7 +25,6 @@ BaLinearSolver ChooseSolver(const BundleAdjusterParams& params, int num_cameras,
   return BaLinearSolver::kIterativeSchur;
 }
 
-
 // Preconditioned conjugate gradients on S x = b with S applied implicitly and the inverses of
 // its diagonal blocks as preconditioner. Returns the iterations run.
 template <typename Problem>

@@ -64,9 +64,8 @@ void UpdateReconstruction(const ReconstructionGraph& built, const Values& values
     r->points[j].position = values.At<Point3>(built.points[j]);
   }
   for (std::size_t k = 0; k < built.calibrations.size(); ++k) {
-    std::visit(
-        [&](auto& K) { K = values.At<std::decay_t<decltype(K)>>(built.calibrations[k]); },
-        r->intrinsics[k].calibration);
+    std::visit([&](auto& K) { K = values.At<std::decay_t<decltype(K)>>(built.calibrations[k]); },
+               r->intrinsics[k].calibration);
   }
 }
 

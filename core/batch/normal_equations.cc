@@ -155,15 +155,14 @@ Status NormalEquations::Solve(Eigen::VectorXd* delta) {
   std::string message;
   int failed_column = -1;
   const LinearSolverTermination t =
-      cholesky_->Factorize(factored->Dim(), factored->col_ptr().data(),
-                           factored->row_idx().data(), factored->values().data(), &message,
-                           &failed_column);
+      cholesky_->Factorize(factored->Dim(), factored->col_ptr().data(), factored->row_idx().data(),
+                           factored->values().data(), &message, &failed_column);
   factorize_s_ += timer.Lap();
   if (t != LinearSolverTermination::kSuccess) {
     if (t == LinearSolverTermination::kNumericalFailure && failed_column >= 0) {
       return NumericalFailure("the linear system is indeterminate near variable " +
-                              KeyToString(VariableAtColumn(failed_column + column_offset)) +
-                              " (" + message + ")");
+                              KeyToString(VariableAtColumn(failed_column + column_offset)) + " (" +
+                              message + ")");
     }
     return NumericalFailure("sparse Cholesky failed: " + message);
   }

@@ -29,10 +29,9 @@ class NormalEquations {
  public:
   // Checks the graph against the values (every key present with the right type, every variable
   // touched by some factor) and builds the ordering and the sparsity pattern.
-  static Result<std::unique_ptr<NormalEquations>> Create(const FactorGraph& graph,
-                                                         const Values& values,
-                                                         BatchParams::Ordering ordering =
-                                                             BatchParams::Ordering::kAuto);
+  static Result<std::unique_ptr<NormalEquations>> Create(
+      const FactorGraph& graph, const Values& values,
+      BatchParams::Ordering ordering = BatchParams::Ordering::kAuto);
 
   // Linearises every factor at `values` into H and b (values must have the same keys and slots as
   // the ones given to Create).
@@ -70,7 +69,7 @@ class NormalEquations {
   std::vector<Key> keys_;
   BlockSparseSystem system_;
   std::unique_ptr<LandmarkSchur> schur_;  // the landmarks first: solve through S (null: COLAMD)
-  Eigen::VectorXd reduced_delta_;          // S's solution
+  Eigen::VectorXd reduced_delta_;         // S's solution
   std::unique_ptr<SparseCholesky> cholesky_;
   std::vector<double> undamped_;
   Eigen::VectorXd damping_;            // D of the last Damp() (diagonal mode), original order

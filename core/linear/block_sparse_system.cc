@@ -51,14 +51,18 @@ inline void AddProductGeneric(const double* a, const double* b, int m, int da, i
 template <int Sign, int M>
 inline bool AddProductSmall(const double* a, const double* b, int da, int db, bool diagonal,
                             int stride, double* out) {
-  const int shape = (da == 3 ? 0 : da == 6 ? 1 : 2) * 3 + (db == 3 ? 0 : db == 6 ? 1 : 2);
-  switch (shape) {
-    case 0: AddProductFixed<Sign, M, 3, 3>(a, b, diagonal, stride, out); return true;
-    case 1: AddProductFixed<Sign, M, 3, 6>(a, b, diagonal, stride, out); return true;
-    case 3: AddProductFixed<Sign, M, 6, 3>(a, b, diagonal, stride, out); return true;
-    case 4: AddProductFixed<Sign, M, 6, 6>(a, b, diagonal, stride, out); return true;
-    default: return false;
+  if (da == 3 && db == 3) {
+    AddProductFixed<Sign, M, 3, 3>(a, b, diagonal, stride, out);
+  } else if (da == 3 && db == 6) {
+    AddProductFixed<Sign, M, 3, 6>(a, b, diagonal, stride, out);
+  } else if (da == 6 && db == 3) {
+    AddProductFixed<Sign, M, 6, 3>(a, b, diagonal, stride, out);
+  } else if (da == 6 && db == 6) {
+    AddProductFixed<Sign, M, 6, 6>(a, b, diagonal, stride, out);
+  } else {
+    return false;
   }
+  return true;
 }
 
 template <int Sign>
@@ -75,7 +79,8 @@ inline void AddProduct(const double* a, const double* b, int m, int da, int db, 
     case 6:
       if (da == 6 && db == 6) return AddProductFixed<Sign, 6, 6, 6>(a, b, diagonal, stride, out);
       break;
-    default: break;
+    default:
+      break;
   }
   AddProductGeneric<Sign>(a, b, m, da, db, diagonal, stride, out);
 }
@@ -292,7 +297,8 @@ void BlockSparseSystem::Accumulate(int f, const double* const* jacobians, const 
   for (int q = slot_offsets_[f]; q < slot_offsets_[f + 1]; ++q) {
     const BlockSlot& slot = slots_[q];
     AddProduct<Sign>(jacobians[slot.row], jacobians[slot.col], m, var_dims_[vars[slot.row]],
-               var_dims_[vars[slot.col]], slot.row == slot.col, slot.stride, values + slot.base);
+                     var_dims_[vars[slot.col]], slot.row == slot.col, slot.stride,
+                     values + slot.base);
   }
 }
 

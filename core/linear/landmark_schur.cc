@@ -1,9 +1,8 @@
 #include "core/linear/landmark_schur.h"
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <string>
-
-#include <Eigen/Cholesky>
 
 namespace slamd::core {
 namespace {
@@ -12,7 +11,8 @@ namespace {
 constexpr int kMaxLandmarkDim = 6;
 using LandmarkMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor,
                                      kMaxLandmarkDim, kMaxLandmarkDim>;
-using LandmarkVector = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxLandmarkDim, 1>;
+using LandmarkVector =
+    Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxLandmarkDim, 1>;
 
 }  // namespace
 
@@ -156,7 +156,8 @@ Status LandmarkSchur::Reduce(const BlockSparseSystem& h, int* failed_variable) {
       const Border& border = border_[b];
       g_blocks_.push_back(g);
       for (int j = 0; j < s_.VarDim(border.var); ++j) {
-        const double* column = hv.data() + border.base + BlockSparseSystem::ColumnStart(j, border.stride);
+        const double* column =
+            hv.data() + border.base + BlockSparseSystem::ColumnStart(j, border.stride);
         for (int i = 0; i < d; ++i) *g++ = column[i];
       }
     }
@@ -183,7 +184,8 @@ void LandmarkSchur::BackSubstitute(const BlockSparseSystem& h, const Eigen::Vect
       const Border& border = border_[b];
       const int offset = s_.Offset(border.var);
       for (int j = 0; j < s_.VarDim(border.var); ++j) {
-        const double* column = hv.data() + border.base + BlockSparseSystem::ColumnStart(j, border.stride);
+        const double* column =
+            hv.data() + border.base + BlockSparseSystem::ColumnStart(j, border.stride);
         const double x = delta_rest[offset + j];
         for (int i = 0; i < d; ++i) r[i] -= column[i] * x;
       }

@@ -12,10 +12,9 @@
 // Thread safety: one thread per object.
 #pragma once
 
+#include <Eigen/Core>
 #include <memory>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "core/base/status.h"
 #include "core/linear/block_sparse_system.h"
@@ -57,12 +56,12 @@ class LandmarkSchur {
   int landmark_dim_ = 0;
   std::vector<int> border_offsets_ = {0};  // landmark l's borders: [offsets[l], offsets[l+1])
   std::vector<Border> border_;
-  std::vector<int> factor_of_landmark_;     // its factor in s_, or -1 (no border)
+  std::vector<int> factor_of_landmark_;       // its factor in s_, or -1 (no border)
   std::vector<int> hrr_source_, hrr_target_;  // s_.values()[target] = h.values()[source]
   BlockSparseSystem s_;
-  std::vector<double> cholesky_;        // per landmark its d x d factor L (column-major)
-  std::vector<int> cholesky_offsets_;   // landmark l's factor at cholesky_[offsets[l]]
-  std::vector<double> g_;               // L⁻¹·W of one landmark, reused
+  std::vector<double> cholesky_;       // per landmark its d x d factor L (column-major)
+  std::vector<int> cholesky_offsets_;  // landmark l's factor at cholesky_[offsets[l]]
+  std::vector<double> g_;              // L⁻¹·W of one landmark, reused
   std::vector<const double*> g_blocks_;
 };
 

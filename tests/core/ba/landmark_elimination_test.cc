@@ -17,8 +17,8 @@ namespace {
 // Cameras of BaWorld with odometry between consecutive ones and a prior on the first: a robot
 // driving a circle with a calibrated camera. The start is perturbed.
 ReconstructionGraph VisualSlamGraph(int cameras, int points) {
-  const Reconstruction truth = testing::BaWorld(Cal3_S2(400, 400, 0, 320, 240), cameras, points,
-                                                0.5, 21);
+  const Reconstruction truth =
+      testing::BaWorld(Cal3_S2(400, 400, 0, 320, 240), cameras, points, 0.5, 21);
   Reconstruction start = truth;
   testing::BaPerturb(&start, 0.01, 0.05, 22);
   Result<ReconstructionGraph> built = BuildReconstructionGraph(start, {.refine_intrinsics = false});

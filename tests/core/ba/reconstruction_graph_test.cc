@@ -27,8 +27,8 @@ TEST(ReconstructionGraphTest, CostIsTwiceTheAdjustersAndBatchReachesItsOptimum) 
   Result<ReconstructionGraph> built = BuildReconstructionGraph(start);
   ASSERT_TRUE(built.ok()) << built.status().ToString();
   EXPECT_EQ(built->graph.size(), start.observations.size());
-  EXPECT_EQ(built->values.size(), start.images.size() + start.points.size() +
-                                      start.intrinsics.size());
+  EXPECT_EQ(built->values.size(),
+            start.images.size() + start.points.size() + start.intrinsics.size());
 
   Reconstruction adjusted = start;
   Result<BundleAdjusterSummary> ba = BundleAdjust({.function_tolerance = 1e-12}, &adjusted);

@@ -28,7 +28,8 @@ struct LandmarkProblem {
   int num_landmarks = 0;
 };
 
-void AddRandomFactor(const std::vector<int>& vars, int m, std::mt19937* rng, RandomBlockProblem* p) {
+void AddRandomFactor(const std::vector<int>& vars, int m, std::mt19937* rng,
+                     RandomBlockProblem* p) {
   std::normal_distribution<double> normal(0.0, 1.0);
   RandomFactor factor;
   for (int v : vars) {
