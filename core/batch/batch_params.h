@@ -22,7 +22,8 @@ struct BatchParams {
   enum class Ordering {
     kAuto,            // kLandmarksFirst on graphs with many landmarks (visual SLAM), else kColamd
     kColamd,          // fill-reducing (COLAMD) over all variables
-    kLandmarksFirst,  // the points first, then COLAMD on the rest: the Schur complement
+    kLandmarksFirst,  // the points first, then COLAMD on the rest: the Schur complement (COLAMD
+                      // when no point is, some factor joins two, or nothing else is left)
   };
 
   Algorithm algorithm = Algorithm::kLevenbergMarquardt;

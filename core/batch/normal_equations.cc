@@ -42,7 +42,7 @@ Result<std::vector<int>> Order(const Values& values, const FactorIncidence& inci
     int num_landmarks = 0;
     const std::vector<int> group = LandmarkGroups(values, incidence, &num_landmarks);
     const bool many = 2 * num_landmarks > n;
-    if (!group.empty() && num_landmarks > 0 &&
+    if (!group.empty() && num_landmarks > 0 && num_landmarks < n &&
         (ordering == BatchParams::Ordering::kLandmarksFirst || many)) {
       *landmarks_first = num_landmarks;
       return ConstrainedColamdOrdering(n, incidence, group);

@@ -75,6 +75,23 @@ TEST(LandmarkEliminationTest, FewLandmarksKeepColamdUnlessAsked) {
   EXPECT_LT(MaxDifference(automatic.values, forced.values), 1e-7);
 }
 
+// Nothing but points (each with its prior): nothing to reduce to, so COLAMD.
+TEST(LandmarkEliminationTest, OnlyPointsKeepColamd) {
+  FactorGraph graph;
+  Values values;
+  for (int j = 0; j < 4; ++j) {
+    ASSERT_TRUE(values.Insert(MakeKey('l', j), Point3(j, 0, 0)).ok());
+    graph.Emplace<PriorFactor<Point3>>(MakeKey('l', j), Point3(j, 1, 0),
+                                       NoiseModel::Isotropic(3, 0.1).value());
+  }
+  for (auto ordering : {BatchParams::Ordering::kAuto, BatchParams::Ordering::kLandmarksFirst}) {
+    const BatchResult r = Optimize(graph, values, {.ordering = ordering});
+    ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+    EXPECT_EQ(r.summary.landmarks_first, 0);
+    EXPECT_LT(r.summary.final_chi2, 1e-12);
+  }
+}
+
 TEST(LandmarkEliminationTest, PointSeenOnceIsNamed) {
   ReconstructionGraph g = VisualSlamGraph(8, 30);
   const Key lonely = MakeKey('l', 999);
