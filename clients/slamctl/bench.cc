@@ -137,8 +137,9 @@ void RegisterBench(CLI::App& app) {
   cmd->add_option("dataset", opt->dataset,
                   "Dataset: a pose graph (g2o 2D/3D, TORO .graph, iSAM .txt) for batch and isam2; "
                   "a BAL file or a COLMAP text model (a directory with cameras.txt, images.txt, "
-                  "points3D.txt) for ba, and for batch as a factor graph (projection factors "
-                  "refining every calibration)")
+                  "points3D.txt) for ba, for batch as a factor graph (projection factors refining "
+                  "every calibration) and for isam2 camera by camera (a point enters once two "
+                  "views see it with 1 degree of parallax; camera 0 and the scale anchored)")
       ->required()
       ->check(CLI::ExistingPath);
   cmd->add_option("--solver", opt->solver,
@@ -297,11 +298,10 @@ void RegisterBench(CLI::App& app) {
     }
     if (opt->solver == "isam2") {
       if (plot::IsReconstructionPath(opt->dataset)) {
-        Fail(kExitUsage, opt->dataset +
-                             ": isam2 takes a pose graph; a reconstruction goes to "
-                             "--solver ba or batch");
+        bench::RunIsam2Reconstruction(*opt);
+      } else {
+        bench::RunIsam2(*opt);
       }
-      bench::RunIsam2(*opt);
     } else if (opt->solver == "ba") {
       bench::RunBundleAdjustment(*opt);
     } else {

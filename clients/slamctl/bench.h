@@ -68,6 +68,8 @@ void PrintAccuracy(const BenchOptions& opt, const AccuracyReport& report);
 
 void RunBatch(const BenchOptions& opt);
 void RunIsam2(const BenchOptions& opt);
+// A reconstruction replayed camera by camera into Isam2.
+void RunIsam2Reconstruction(const BenchOptions& opt);
 void RunBundleAdjustment(const BenchOptions& opt);
 
 }  // namespace slamd::clients::bench

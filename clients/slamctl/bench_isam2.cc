@@ -17,9 +17,11 @@
 
 #include "clients/slamctl/bench.h"
 #include "clients/slamctl/json_writer.h"
+#include "core/ba/reconstruction_stream.h"
 #include "core/base/timing.h"
 #include "core/batch/batch_solver.h"
 #include "core/io/dataset_stream.h"
+#include "core/io/sfm_io.h"
 #include "core/isam/isam2.h"
 #include "core/marginals/marginals.h"
 
@@ -261,6 +263,94 @@ void RunIsam2(const BenchOptions& opt) {
     std::printf("relinearized %lld variables, re-eliminated %lld; peak RSS %.1f MB\n", relinearized,
                 reeliminated, PeakRssMb());
   }
+}
+
+// A reconstruction camera by camera (core/ba/reconstruction_stream.h): one update per image,
+// points entering once two views see them with parallax. Costs are Ceres's (½ Σ ρ, pixels²) of
+// the whole graph (the anchors' priors add ~0); `batch_cost` is the batch optimum of the same
+// graph (--compare-batch).
+void RunIsam2Reconstruction(const BenchOptions& opt) {
+  core::Stopwatch read_timer;
+  core::Result<core::Reconstruction> r = core::ReadReconstruction(opt.dataset);
+  if (!r.ok()) Fail(kExitFailure, r.status().ToString());
+  const double read_s = read_timer.Seconds();
+  core::Result<core::ReconstructionStream> stream =
+      core::ReconstructionStream::Create(*r, {.robust = opt.robust});
+  if (!stream.ok()) Fail(kExitFailure, stream.status().ToString());
+  core::Result<std::unique_ptr<core::Isam2>> created = core::Isam2::Create(opt.isam2);
+  if (!created.ok()) Fail(kExitUsage, created.status().message());
+  core::Isam2& isam = **created;
+
+  core::FactorGraph graph;  // every factor the solver took, for the batch reference
+  core::Values initial;
+  std::vector<double> step_ms;
+  int observations_in = 0;
+  std::string failure;
+  core::Stopwatch total;
+  for (int i = 0; i < stream->num_steps(); ++i) {
+    core::Stopwatch timer;
+    const core::ReconstructionStep step = stream->Next();
+    const core::Isam2Result u = isam.Update(step.factors, step.values);
+    if (!u.status.ok()) {  // nothing changed; later cameras need this one: stop here
+      failure = "update for image " + std::to_string(i) + ": " + u.status.ToString();
+      break;
+    }
+    (void)isam.CalculateEstimate(stream->keys().images[i]);  // the newest camera's estimate
+    step_ms.push_back(timer.Seconds() * 1e3);
+    observations_in += step.observations_entered;
+    for (const core::FactorPtr& f : step.factors) graph.Add(f);
+    for (int s = 0; s < static_cast<int>(step.values.size()); ++s) {
+      (void)initial.Insert(step.values.KeyAt(s), step.values.VariableAt(s));
+    }
+  }
+  const double total_s = total.Seconds();
+  const double cost = 0.5 * graph.Cost(isam.CalculateEstimate());
+  double settled_cost = cost;
+  if (opt.settle_s > 0.0 && failure.empty()) {
+    (void)isam.Refine(opt.settle_s);
+    settled_cost = 0.5 * graph.Cost(isam.CalculateEstimate());
+  }
+  double batch_cost = -1.0;
+  if (opt.compare_batch) {
+    const core::BatchResult batch = core::Optimize(graph, initial, opt.batch);
+    if (!batch.status.ok()) Fail(kExitFailure, "batch reference: " + batch.status.ToString());
+    batch_cost = 0.5 * batch.summary.final_cost;
+  }
+  const int failed_updates = failure.empty() ? 0 : 1;
+  if (opt.json) {
+    JsonWriter out;
+    out.Add("dataset", opt.dataset)
+        .Add("solver", opt.solver)
+        .Add("cameras", r->images.size())
+        .Add("steps", step_ms.size())
+        .Add("failed_updates", failed_updates)
+        .Add("observations", r->observations.size())
+        .Add("observations_in_graph", observations_in)
+        .Add("points_in_graph", stream->points_in())
+        .Add("read_s", read_s)
+        .Add("total_s", total_s)
+        .Add("step_ms_p50", Percentile(step_ms, 0.5))
+        .Add("step_ms_p99", Percentile(step_ms, 0.99))
+        .Add("step_ms_max", Percentile(step_ms, 1.0))
+        .Add("final_cost", cost)
+        .Add("settled_cost", settled_cost)
+        .Add("peak_rss_mb", PeakRssMb());
+    if (opt.compare_batch) out.Add("batch_cost", batch_cost);
+    std::printf("%s\n", out.str().c_str());
+  } else {
+    std::printf("%s: %zu cameras, %zu points, %zu observations (read in %.3f s)\n",
+                opt.dataset.c_str(), r->images.size(), r->points.size(), r->observations.size(),
+                read_s);
+    std::printf(
+        "isam2 camera by camera: %zu steps in %.3f s (step p50 %.2f ms, p99 %.2f ms, max "
+        "%.2f ms), %d of %zu observations and %d points in the graph\n",
+        step_ms.size(), total_s, Percentile(step_ms, 0.5), Percentile(step_ms, 0.99),
+        Percentile(step_ms, 1.0), observations_in, r->observations.size(), stream->points_in());
+    std::printf("cost (½Σρ, px²) after the last step %.10g, settled %.10g", cost, settled_cost);
+    if (opt.compare_batch) std::printf(", batch optimum %.10g", batch_cost);
+    std::printf("; peak RSS %.1f MB\n", PeakRssMb());
+  }
+  if (!failure.empty()) Fail(kExitFailure, failure);
 }
 
 }  // namespace slamd::clients::bench

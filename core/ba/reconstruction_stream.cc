@@ -1,0 +1,134 @@
+#include "core/ba/reconstruction_stream.h"
+
+#include <cmath>
+#include <variant>
+
+#include "core/base/param_check.h"
+#include "core/factors/prior_factor.h"
+#include "core/factors/projection_factor.h"
+
+namespace slamd::core {
+
+Status ReconstructionStreamParams::Validate() const {
+  SLAMD_PARAM_CHECK(ReconstructionStreamParams, min_views, >=, 2);
+  SLAMD_PARAM_CHECK(ReconstructionStreamParams, min_parallax_deg, >=, 0.0);
+  SLAMD_PARAM_CHECK(ReconstructionStreamParams, anchor_sigma, >, 0.0);
+  SLAMD_PARAM_CHECK(ReconstructionStreamParams, pixel_sigma, >, 0.0);
+  return Status::Ok();
+}
+
+Result<ReconstructionStream> ReconstructionStream::Create(
+    const Reconstruction& r, const ReconstructionStreamParams& params) {
+  SLAMD_RETURN_IF_ERROR(params.Validate());
+  SLAMD_RETURN_IF_ERROR(r.Validate());
+  Result<NoiseModel> pixel = NoiseModel::Isotropic(2, params.pixel_sigma);
+  if (!pixel.ok()) return pixel.status();
+  return ReconstructionStream(r, params, *pixel);
+}
+
+ReconstructionStream::ReconstructionStream(Reconstruction r, ReconstructionStreamParams params,
+                                           NoiseModel pixel_noise)
+    : r_(std::move(r)), params_(params), pixel_noise_(std::move(pixel_noise)) {
+  for (std::size_t i = 0; i < r_.images.size(); ++i) keys_.images.push_back(MakeKey('x', i));
+  for (std::size_t j = 0; j < r_.points.size(); ++j) keys_.points.push_back(MakeKey('l', j));
+  for (std::size_t k = 0; k < r_.intrinsics.size(); ++k) {
+    keys_.calibrations.push_back(MakeKey('k', k));
+  }
+  observations_of_image_.resize(r_.images.size());
+  for (std::size_t o = 0; o < r_.observations.size(); ++o) {
+    observations_of_image_[r_.observations[o].image].push_back(static_cast<int>(o));
+  }
+  held_.resize(r_.points.size());
+  point_in_.assign(r_.points.size(), 0);
+  intrinsics_in_.assign(r_.intrinsics.size(), 0);
+}
+
+bool ReconstructionStream::Determined(int point) const {
+  const std::vector<int>& held = held_[point];
+  if (static_cast<int>(held.size()) < params_.min_views) return false;
+  const double min_cos = std::cos(params_.min_parallax_deg * M_PI / 180.0);
+  const Point3& X = r_.points[point].position;
+  for (std::size_t a = 0; a < held.size(); ++a) {
+    const Vector3 ra = (X - r_.images[r_.observations[held[a]].image].pose.translation());
+    for (std::size_t c = a + 1; c < held.size(); ++c) {
+      const Vector3 rc = (X - r_.images[r_.observations[held[c]].image].pose.translation());
+      if (ra.normalized().dot(rc.normalized()) <= min_cos) return true;
+    }
+  }
+  return false;
+}
+
+ReconstructionStep ReconstructionStream::Next() {
+  SLAMD_CHECK(next_ < num_steps()) << "ReconstructionStream: no step " << next_;
+  const int i = next_++;
+  ReconstructionStep step;
+  const SfmImage& image = r_.images[i];
+  const Key pose = keys_.images[i];
+  const Key calibration = keys_.calibrations[image.intrinsics];
+  SLAMD_CHECK(step.values.Insert(pose, image.pose).ok());
+  const Calibration& K = r_.intrinsics[image.intrinsics].calibration;
+  if (!intrinsics_in_[image.intrinsics]) {
+    intrinsics_in_[image.intrinsics] = 1;
+    SLAMD_CHECK(
+        step.values.Insert(calibration, std::visit([](const auto& k) { return Variable(k); }, K))
+            .ok());
+  }
+  if (i == 0) {
+    step.factors.Emplace<PriorFactor<Pose3>>(
+        pose, image.pose, NoiseModel::Isotropic(6, params_.anchor_sigma).value());
+    std::visit(
+        [&](const auto& k) {
+          using Cal = std::decay_t<decltype(k)>;
+          step.factors.Emplace<PriorFactor<Cal>>(
+              calibration, k, NoiseModel::Isotropic(Cal::kDim, params_.anchor_sigma).value());
+        },
+        K);
+  }
+  auto add_observation = [&](int o) {
+    const SfmObservation& obs = r_.observations[o];
+    const Key image_calibration = keys_.calibrations[r_.images[obs.image].intrinsics];
+    std::visit(
+        [&](const auto& k) {
+          using Cal = std::decay_t<decltype(k)>;
+          step.factors.Emplace<SelfCalibratingProjectionFactor<Cal>>(
+              keys_.images[obs.image], keys_.points[obs.point], image_calibration, obs.uv,
+              pixel_noise_, params_.robust);
+        },
+        r_.intrinsics[r_.images[obs.image].intrinsics].calibration);
+    ++step.observations_entered;
+  };
+  for (int o : observations_of_image_[i]) {
+    const int j = r_.observations[o].point;
+    if (point_in_[j]) {
+      add_observation(o);
+      continue;
+    }
+    held_[j].push_back(o);
+    if (!Determined(j)) continue;
+    point_in_[j] = 1;
+    ++points_in_;
+    ++step.points_entered;
+    const Point3& X = r_.points[j].position;
+    SLAMD_CHECK(step.values.Insert(keys_.points[j], X).ok());
+    for (int h : held_[j]) add_observation(h);
+    held_[j].clear();
+    if (!scale_fixed_) {  // the range from image 0
+      scale_fixed_ = true;
+      const Vector3 u = (X - r_.images[0].pose.translation()).normalized();
+      const Matrix3 information =
+          u * u.transpose() / (params_.anchor_sigma * params_.anchor_sigma) +
+          1e-6 * Matrix3::Identity();
+      step.factors.Emplace<PriorFactor<Point3>>(keys_.points[j], X,
+                                                NoiseModel::FromInformation(information).value());
+    }
+  }
+  return step;
+}
+
+int ReconstructionStream::held_observations() const {
+  int held = 0;
+  for (const std::vector<int>& h : held_) held += static_cast<int>(h.size());
+  return held;
+}
+
+}  // namespace slamd::core

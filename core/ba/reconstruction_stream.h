@@ -1,0 +1,76 @@
+// A reconstruction replayed camera by camera, as a robot's camera would send it to an
+// incremental solver: step i brings image i's pose and calibration (values from the
+// reconstruction) and its observations. A point enters once it is determined: seen by at least
+// `min_views` images with at least `min_parallax_deg` between two of their rays (at the
+// reconstruction's camera centres); its observations are held until then and enter with it, its
+// initial value the reconstruction's. A point seen by fewer views, or along nearly parallel rays,
+// would leave the incremental system indeterminate (GTSAM's "indeterminant linear system").
+//
+// Gauge: image 0's pose and calibration have priors (sigma anchor_sigma); the scale is fixed by
+// a prior on the first point that enters along its ray from image 0 only (information
+// 1/anchor_sigma² along the ray, 1e-6 across: in effect its range, as GTSAM's driver fixes it).
+// Keys as core/ba/reconstruction_graph.h: image i → 'x' i, point j → 'l' j, intrinsics k → 'k' k
+// (calibrations refined; a shared intrinsics enters with its first image).
+#pragma once
+
+#include <vector>
+
+#include "core/ba/reconstruction_graph.h"
+#include "core/base/status.h"
+#include "core/factors/factor_graph.h"
+#include "core/factors/robust_kernel.h"
+#include "core/factors/values.h"
+#include "core/sfm/reconstruction.h"
+
+namespace slamd::core {
+
+struct ReconstructionStreamParams {
+  int min_views = 2;              // >= 2
+  double min_parallax_deg = 1.0;  // >= 0
+  double anchor_sigma = 1e-3;     // > 0
+  double pixel_sigma = 1.0;       // > 0
+  RobustKernel robust = {};       // on every observation
+
+  Status Validate() const;
+};
+
+struct ReconstructionStep {
+  FactorGraph factors;  // this step's: priors, observations of points already in, entering ones
+  Values values;        // the variables these factors introduce
+  int points_entered = 0;
+  int observations_entered = 0;  // projection factors in `factors`
+};
+
+class ReconstructionStream {
+ public:
+  // kInvalidArgument for invalid params or reconstruction.
+  static Result<ReconstructionStream> Create(const Reconstruction& reconstruction,
+                                             const ReconstructionStreamParams& params = {});
+
+  int num_steps() const { return static_cast<int>(r_.images.size()); }
+  // Step `image`; steps must be taken in order 0, 1, ... (checked).
+  ReconstructionStep Next();
+  // Observations held for points not (yet) in: after the last step, those never determined.
+  int held_observations() const;
+  int points_in() const { return points_in_; }
+  // The graph's keys for the reconstruction (images, points, calibrations: as
+  // BuildReconstructionGraph), e.g. for UpdateReconstruction.
+  const ReconstructionGraph& keys() const { return keys_; }
+
+ private:
+  ReconstructionStream(Reconstruction r, ReconstructionStreamParams params, NoiseModel pixel_noise);
+  bool Determined(int point) const;
+
+  Reconstruction r_;
+  ReconstructionStreamParams params_;
+  ReconstructionGraph keys_;  // keys only (graph and values empty)
+  NoiseModel pixel_noise_;
+  int next_ = 0;
+  int points_in_ = 0;
+  bool scale_fixed_ = false;
+  std::vector<std::vector<int>> observations_of_image_;  // indices into r_.observations
+  std::vector<std::vector<int>> held_;                   // per point, its held observations
+  std::vector<char> point_in_, intrinsics_in_;
+};
+
+}  // namespace slamd::core
