@@ -139,7 +139,7 @@ void RegisterBench(CLI::App& app) {
                   "a BAL file or a COLMAP text model (a directory with cameras.txt, images.txt, "
                   "points3D.txt) for ba, for batch as a factor graph (projection factors refining "
                   "every calibration) and for isam2 camera by camera (a point enters once two "
-                  "views see it with 1 degree of parallax; camera 0 and the scale anchored)")
+                  "views see it with --min-parallax; camera 0 and the scale anchored)")
       ->required()
       ->check(CLI::ExistingPath);
   cmd->add_option("--solver", opt->solver,
@@ -272,6 +272,11 @@ void RegisterBench(CLI::App& app) {
   cmd->add_option("--marginals-every", opt->marginals_every,
                   "isam2 --marginals all: only every K steps")
       ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--min-parallax", opt->min_parallax_deg,
+                  "isam2 on a reconstruction: a point enters once two views see it with at least "
+                  "this angle (degrees) between their rays")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd->add_flag("--compare-batch", opt->compare_batch,
                 "isam2: also solve the final graph in batch and report batch_chi2");

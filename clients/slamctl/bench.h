@@ -36,6 +36,7 @@ struct BenchOptions {
   std::string marginals = "none";  // isam2: none, latest or all
   int marginals_every = 1;
   int threads = 2;  // isam2 (Isam2Params::threads) and ba
+  double min_parallax_deg = 1.0;  // isam2 on a reconstruction: when a point enters
   // ba
   std::string linear_solver = "auto";
   int ba_max_iterations = 50;
