@@ -258,7 +258,9 @@ void RegisterBench(CLI::App& app) {
       "--step-times", opt->step_times,
       "isam2: write one line per step to this CSV file (index, pose, factors added, ms, "
       "relinearised and re-eliminated variables, then ms per phase of the update: add, "
-      "relinearize, remove_top, order, eliminate, solve)");
+      "relinearize, remove_top, order, eliminate, solve); on a reconstruction: index, points "
+      "and observations entered, ms, relinearised and re-eliminated variables, cost after the "
+      "step (computed outside the step's time)");
   cmd->add_option("--rate", opt->rate_hz,
                   "isam2: also model a server fed HZ poses per second (a pose's factors as one "
                   "message each, at its time slot) that runs these steps one at a time, in order: "

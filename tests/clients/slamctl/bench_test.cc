@@ -302,9 +302,19 @@ TEST(BenchTest, ReconstructionAsAGraphForBatchAndIsam2) {
 
   // Isam2 camera by camera on the same file: every observation in, settled at the batch optimum
   // of the graph it built.
-  const SlamctlRun isam2 =
-      RunSlamctl("bench " + bal + " --solver isam2 --settle 5 --compare-batch --json");
+  const SlamctlRun isam2 = RunSlamctl("bench " + bal +
+                                      " --solver isam2 --settle 5 --compare-batch --json "
+                                      "--step-times " +
+                                      dir.File("steps.csv"));
   ASSERT_EQ(isam2.exit_code, 0) << isam2.out;
+  // One CSV line per camera after the header, the last one's cost the final cost.
+  std::istringstream csv(testing::ReadFileBytes(dir.File("steps.csv")));
+  std::string line, last;
+  int lines = 0;
+  for (; std::getline(csv, line); ++lines) last = line;
+  EXPECT_EQ(lines, 13);
+  EXPECT_NEAR(std::stod(last.substr(last.rfind(',') + 1)), JsonNumber(isam2.out, "final_cost"),
+              1e-6 * JsonNumber(isam2.out, "final_cost"));
   EXPECT_EQ(JsonNumber(isam2.out, "failed_updates"), 0.0);
   EXPECT_EQ(JsonNumber(isam2.out, "steps"), 12.0);
   EXPECT_EQ(JsonNumber(isam2.out, "observations_in_graph"), JsonNumber(isam2.out, "observations"));
