@@ -280,6 +280,8 @@ void RegisterBench(CLI::App& app) {
                   "this angle (degrees) between their rays")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  cmd->add_flag("--fixed-intrinsics", opt->fixed_intrinsics,
+                "isam2 on a reconstruction: hold every calibration at the file's values");
   cmd->add_flag("--compare-batch", opt->compare_batch,
                 "isam2: also solve the final graph in batch and report batch_chi2");
   cmd->add_option("--settle", opt->settle_s,

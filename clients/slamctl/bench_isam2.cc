@@ -274,8 +274,10 @@ void RunIsam2Reconstruction(const BenchOptions& opt) {
   core::Result<core::Reconstruction> r = core::ReadReconstruction(opt.dataset);
   if (!r.ok()) Fail(kExitFailure, r.status().ToString());
   const double read_s = read_timer.Seconds();
-  core::Result<core::ReconstructionStream> stream = core::ReconstructionStream::Create(
-      *r, {.min_parallax_deg = opt.min_parallax_deg, .robust = opt.robust});
+  core::Result<core::ReconstructionStream> stream =
+      core::ReconstructionStream::Create(*r, {.refine_intrinsics = !opt.fixed_intrinsics,
+                                              .min_parallax_deg = opt.min_parallax_deg,
+                                              .robust = opt.robust});
   if (!stream.ok()) Fail(kExitFailure, stream.status().ToString());
   core::Result<std::unique_ptr<core::Isam2>> created = core::Isam2::Create(opt.isam2);
   if (!created.ok()) Fail(kExitUsage, created.status().message());

@@ -67,7 +67,7 @@ ReconstructionStep ReconstructionStream::Next() {
   const Key calibration = keys_.calibrations[image.intrinsics];
   SLAMD_CHECK(step.values.Insert(pose, image.pose).ok());
   const Calibration& K = r_.intrinsics[image.intrinsics].calibration;
-  if (!intrinsics_in_[image.intrinsics]) {
+  if (params_.refine_intrinsics && !intrinsics_in_[image.intrinsics]) {
     intrinsics_in_[image.intrinsics] = 1;
     SLAMD_CHECK(
         step.values.Insert(calibration, std::visit([](const auto& k) { return Variable(k); }, K))
@@ -76,6 +76,8 @@ ReconstructionStep ReconstructionStream::Next() {
   if (i == 0) {
     step.factors.Emplace<PriorFactor<Pose3>>(
         pose, image.pose, NoiseModel::Isotropic(6, params_.anchor_sigma).value());
+  }
+  if (i == 0 && params_.refine_intrinsics) {
     std::visit(
         [&](const auto& k) {
           using Cal = std::decay_t<decltype(k)>;
@@ -90,9 +92,15 @@ ReconstructionStep ReconstructionStream::Next() {
     std::visit(
         [&](const auto& k) {
           using Cal = std::decay_t<decltype(k)>;
-          step.factors.Emplace<SelfCalibratingProjectionFactor<Cal>>(
-              keys_.images[obs.image], keys_.points[obs.point], image_calibration, obs.uv,
-              pixel_noise_, params_.robust);
+          if (params_.refine_intrinsics) {
+            step.factors.Emplace<SelfCalibratingProjectionFactor<Cal>>(
+                keys_.images[obs.image], keys_.points[obs.point], image_calibration, obs.uv,
+                pixel_noise_, params_.robust);
+          } else {
+            step.factors.Emplace<ProjectionFactor<Cal>>(keys_.images[obs.image],
+                                                        keys_.points[obs.point], obs.uv, k,
+                                                        pixel_noise_, params_.robust);
+          }
         },
         r_.intrinsics[r_.images[obs.image].intrinsics].calibration);
     ++step.observations_entered;

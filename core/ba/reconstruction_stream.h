@@ -6,11 +6,11 @@
 // initial value the reconstruction's. A point seen by fewer views, or along nearly parallel rays,
 // would leave the incremental system indeterminate (GTSAM's "indeterminant linear system").
 //
-// Gauge: image 0's pose and calibration have priors (sigma anchor_sigma); the scale is fixed by
-// a prior on the first point that enters along its ray from image 0 only (information
+// Gauge: image 0's pose and (when refined) calibration have priors (sigma anchor_sigma); the scale
+// is fixed by a prior on the first point that enters along its ray from image 0 only (information
 // 1/anchor_sigma² along the ray, 1e-6 across: in effect its range, as GTSAM's driver fixes it).
 // Keys as core/ba/reconstruction_graph.h: image i → 'x' i, point j → 'l' j, intrinsics k → 'k' k
-// (calibrations refined; a shared intrinsics enters with its first image).
+// (a shared intrinsics enters with its first image).
 #pragma once
 
 #include <vector>
@@ -26,6 +26,7 @@ namespace slamd::core {
 
 struct ReconstructionStreamParams {
   int min_views = 2;              // >= 2
+  bool refine_intrinsics = true;  // calibrations as variables, or held at the file's values
   double min_parallax_deg = 1.0;  // >= 0
   double anchor_sigma = 1e-3;     // > 0
   double pixel_sigma = 1.0;       // > 0

@@ -8,6 +8,7 @@
 #include <set>
 
 #include "core/batch/batch_solver.h"
+#include "core/factors/projection_factor.h"
 #include "core/isam/isam2.h"
 #include "tests/testing/ba_worlds.h"
 
@@ -98,6 +99,25 @@ TEST(ReconstructionStreamTest, PointsWaitForViewsAndParallax) {
   ASSERT_TRUE(three.ok());
   EXPECT_EQ(three->Next().points_entered + three->Next().points_entered, 0);
   EXPECT_EQ(three->Next().points_entered, 1);
+}
+
+TEST(ReconstructionStreamTest, FixedIntrinsicsAddNoCalibrationVariables) {
+  const Reconstruction r = World();
+  Result<ReconstructionStream> stream =
+      ReconstructionStream::Create(r, {.refine_intrinsics = false});
+  ASSERT_TRUE(stream.ok());
+  int observations = 0;
+  for (int i = 0; i < stream->num_steps(); ++i) {
+    const ReconstructionStep step = stream->Next();
+    for (Key key : step.values.keys()) EXPECT_NE(KeyToString(key)[0], 'k') << KeyToString(key);
+    for (const FactorPtr& f : step.factors) {
+      if (f->keys().size() == 2 && KeyToString(f->keys()[1])[0] == 'l') {
+        EXPECT_NE(dynamic_cast<const ProjectionFactor<Cal3Bundler>*>(f.get()), nullptr);
+        ++observations;
+      }
+    }
+  }
+  EXPECT_EQ(observations, static_cast<int>(r.observations.size()));
 }
 
 TEST(ReconstructionStreamTest, RejectsBadParams) {
