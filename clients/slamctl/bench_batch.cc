@@ -112,9 +112,7 @@ void RunBatch(const BenchOptions& opt) {
     // The graph's keys follow the reconstruction's order: read it again and write the estimate.
     core::Result<core::Reconstruction> r = core::ReadReconstruction(opt.dataset);
     if (!r.ok()) Fail(kExitFailure, r.status().ToString());
-    const core::Result<core::ReconstructionGraph> built = core::BuildReconstructionGraph(*r);
-    if (!built.ok()) Fail(kExitFailure, built.status().ToString());
-    core::UpdateReconstruction(*built, result.values, &*r);
+    core::UpdateReconstruction(core::ReconstructionKeys(*r, true), result.values, &*r);
     const core::Status written = WriteReconstruction(*r, opt.output);
     if (!written.ok()) Fail(kExitFailure, written.ToString());
   } else if (!opt.output.empty()) {

@@ -12,6 +12,41 @@ Status ReconstructionGraphParams::Validate() const {
   return Status::Ok();
 }
 
+ReconstructionGraph ReconstructionKeys(const Reconstruction& r, bool refine_intrinsics) {
+  ReconstructionGraph keys;
+  for (std::size_t i = 0; i < r.images.size(); ++i) keys.images.push_back(MakeKey('x', i));
+  for (std::size_t j = 0; j < r.points.size(); ++j) keys.points.push_back(MakeKey('l', j));
+  if (refine_intrinsics) {
+    for (std::size_t k = 0; k < r.intrinsics.size(); ++k) {
+      keys.calibrations.push_back(MakeKey('k', k));
+    }
+  }
+  return keys;
+}
+
+Variable CalibrationVariable(const SfmIntrinsics& intrinsics) {
+  return std::visit([](const auto& K) { return Variable(K); }, intrinsics.calibration);
+}
+
+void AddObservationFactor(const Reconstruction& r, const SfmObservation& o,
+                          const ReconstructionGraph& keys, const NoiseModel& noise,
+                          const RobustKernel& robust, FactorGraph* graph) {
+  const Key pose = keys.images[o.image];
+  const Key point = keys.points[o.point];
+  const int k = r.images[o.image].intrinsics;
+  std::visit(
+      [&](const auto& K) {
+        using Cal = std::decay_t<decltype(K)>;
+        if (!keys.calibrations.empty()) {
+          graph->Emplace<SelfCalibratingProjectionFactor<Cal>>(pose, point, keys.calibrations[k],
+                                                               o.uv, noise, robust);
+        } else {
+          graph->Emplace<ProjectionFactor<Cal>>(pose, point, o.uv, K, noise, robust);
+        }
+      },
+      r.intrinsics[k].calibration);
+}
+
 Result<ReconstructionGraph> BuildReconstructionGraph(const Reconstruction& r,
                                                      const ReconstructionGraphParams& params) {
   SLAMD_RETURN_IF_ERROR(params.Validate());
@@ -19,38 +54,19 @@ Result<ReconstructionGraph> BuildReconstructionGraph(const Reconstruction& r,
   Result<NoiseModel> noise = NoiseModel::Isotropic(2, params.pixel_sigma);
   if (!noise.ok()) return noise.status();
 
-  ReconstructionGraph out;
+  ReconstructionGraph out = ReconstructionKeys(r, params.refine_intrinsics);
   for (std::size_t i = 0; i < r.images.size(); ++i) {
-    out.images.push_back(MakeKey('x', i));
-    SLAMD_RETURN_IF_ERROR(out.values.Insert(out.images.back(), r.images[i].pose));
+    SLAMD_RETURN_IF_ERROR(out.values.Insert(out.images[i], r.images[i].pose));
   }
   for (std::size_t j = 0; j < r.points.size(); ++j) {
-    out.points.push_back(MakeKey('l', j));
-    SLAMD_RETURN_IF_ERROR(out.values.Insert(out.points.back(), r.points[j].position));
+    SLAMD_RETURN_IF_ERROR(out.values.Insert(out.points[j], r.points[j].position));
   }
-  if (params.refine_intrinsics) {
-    for (std::size_t k = 0; k < r.intrinsics.size(); ++k) {
-      out.calibrations.push_back(MakeKey('k', k));
-      const Variable calibration =
-          std::visit([](const auto& K) { return Variable(K); }, r.intrinsics[k].calibration);
-      SLAMD_RETURN_IF_ERROR(out.values.Insert(out.calibrations.back(), calibration));
-    }
+  for (std::size_t k = 0; k < out.calibrations.size(); ++k) {
+    SLAMD_RETURN_IF_ERROR(
+        out.values.Insert(out.calibrations[k], CalibrationVariable(r.intrinsics[k])));
   }
   for (const SfmObservation& o : r.observations) {
-    const Key pose = out.images[o.image];
-    const Key point = out.points[o.point];
-    const int k = r.images[o.image].intrinsics;
-    std::visit(
-        [&](const auto& K) {
-          using Cal = std::decay_t<decltype(K)>;
-          if (params.refine_intrinsics) {
-            out.graph.Emplace<SelfCalibratingProjectionFactor<Cal>>(
-                pose, point, out.calibrations[k], o.uv, *noise, params.robust);
-          } else {
-            out.graph.Emplace<ProjectionFactor<Cal>>(pose, point, o.uv, K, *noise, params.robust);
-          }
-        },
-        r.intrinsics[k].calibration);
+    AddObservationFactor(r, o, out, *noise, params.robust, &out.graph);
   }
   return out;
 }

@@ -13,6 +13,7 @@
 
 #include "core/base/status.h"
 #include "core/factors/factor_graph.h"
+#include "core/factors/noise_model.h"
 #include "core/factors/robust_kernel.h"
 #include "core/factors/values.h"
 #include "core/sfm/reconstruction.h"
@@ -38,6 +39,16 @@ struct ReconstructionGraph {
   std::vector<Key> points;        // points[j]: point j
   std::vector<Key> calibrations;  // calibrations[k]: intrinsics k (empty when held fixed)
 };
+
+// The keys of `r`'s unknowns, calibrations only when refined (graph and values left empty).
+ReconstructionGraph ReconstructionKeys(const Reconstruction& r, bool refine_intrinsics);
+// Intrinsics k's calibration as a variable.
+Variable CalibrationVariable(const SfmIntrinsics& intrinsics);
+// Adds observation `o` of `r` to `graph` on `keys`' variables: a SelfCalibratingProjectionFactor
+// when `keys` has calibrations, else a ProjectionFactor with the calibration fixed.
+void AddObservationFactor(const Reconstruction& r, const SfmObservation& o,
+                          const ReconstructionGraph& keys, const NoiseModel& noise,
+                          const RobustKernel& robust, FactorGraph* graph);
 
 // Fails with kInvalidArgument on invalid params or reconstruction (Reconstruction::Validate).
 Result<ReconstructionGraph> BuildReconstructionGraph(const Reconstruction& reconstruction,

@@ -5,7 +5,6 @@
 
 #include "core/base/param_check.h"
 #include "core/factors/prior_factor.h"
-#include "core/factors/projection_factor.h"
 
 namespace slamd::core {
 
@@ -28,12 +27,10 @@ Result<ReconstructionStream> ReconstructionStream::Create(
 
 ReconstructionStream::ReconstructionStream(Reconstruction r, ReconstructionStreamParams params,
                                            NoiseModel pixel_noise)
-    : r_(std::move(r)), params_(params), pixel_noise_(std::move(pixel_noise)) {
-  for (std::size_t i = 0; i < r_.images.size(); ++i) keys_.images.push_back(MakeKey('x', i));
-  for (std::size_t j = 0; j < r_.points.size(); ++j) keys_.points.push_back(MakeKey('l', j));
-  for (std::size_t k = 0; k < r_.intrinsics.size(); ++k) {
-    keys_.calibrations.push_back(MakeKey('k', k));
-  }
+    : r_(std::move(r)),
+      params_(params),
+      keys_(ReconstructionKeys(r_, params.refine_intrinsics)),
+      pixel_noise_(std::move(pixel_noise)) {
   observations_of_image_.resize(r_.images.size());
   for (std::size_t o = 0; o < r_.observations.size(); ++o) {
     observations_of_image_[r_.observations[o].image].push_back(static_cast<int>(o));
@@ -64,45 +61,29 @@ ReconstructionStep ReconstructionStream::Next() {
   ReconstructionStep step;
   const SfmImage& image = r_.images[i];
   const Key pose = keys_.images[i];
-  const Key calibration = keys_.calibrations[image.intrinsics];
   SLAMD_CHECK(step.values.Insert(pose, image.pose).ok());
-  const Calibration& K = r_.intrinsics[image.intrinsics].calibration;
-  if (params_.refine_intrinsics && !intrinsics_in_[image.intrinsics]) {
-    intrinsics_in_[image.intrinsics] = 1;
-    SLAMD_CHECK(
-        step.values.Insert(calibration, std::visit([](const auto& k) { return Variable(k); }, K))
-            .ok());
-  }
   if (i == 0) {
     step.factors.Emplace<PriorFactor<Pose3>>(
         pose, image.pose, NoiseModel::Isotropic(6, params_.anchor_sigma).value());
   }
-  if (i == 0 && params_.refine_intrinsics) {
-    std::visit(
-        [&](const auto& k) {
-          using Cal = std::decay_t<decltype(k)>;
-          step.factors.Emplace<PriorFactor<Cal>>(
-              calibration, k, NoiseModel::Isotropic(Cal::kDim, params_.anchor_sigma).value());
-        },
-        K);
+  if (params_.refine_intrinsics && !intrinsics_in_[image.intrinsics]) {
+    intrinsics_in_[image.intrinsics] = 1;
+    const Key calibration = keys_.calibrations[image.intrinsics];
+    SLAMD_CHECK(
+        step.values.Insert(calibration, CalibrationVariable(r_.intrinsics[image.intrinsics])).ok());
+    if (i == 0) {
+      std::visit(
+          [&](const auto& k) {
+            using Cal = std::decay_t<decltype(k)>;
+            step.factors.Emplace<PriorFactor<Cal>>(
+                calibration, k, NoiseModel::Isotropic(Cal::kDim, params_.anchor_sigma).value());
+          },
+          r_.intrinsics[image.intrinsics].calibration);
+    }
   }
   auto add_observation = [&](int o) {
-    const SfmObservation& obs = r_.observations[o];
-    const Key image_calibration = keys_.calibrations[r_.images[obs.image].intrinsics];
-    std::visit(
-        [&](const auto& k) {
-          using Cal = std::decay_t<decltype(k)>;
-          if (params_.refine_intrinsics) {
-            step.factors.Emplace<SelfCalibratingProjectionFactor<Cal>>(
-                keys_.images[obs.image], keys_.points[obs.point], image_calibration, obs.uv,
-                pixel_noise_, params_.robust);
-          } else {
-            step.factors.Emplace<ProjectionFactor<Cal>>(keys_.images[obs.image],
-                                                        keys_.points[obs.point], obs.uv, k,
-                                                        pixel_noise_, params_.robust);
-          }
-        },
-        r_.intrinsics[r_.images[obs.image].intrinsics].calibration);
+    AddObservationFactor(r_, r_.observations[o], keys_, pixel_noise_, params_.robust,
+                         &step.factors);
     ++step.observations_entered;
   };
   for (int o : observations_of_image_[i]) {

@@ -54,8 +54,7 @@ class ReconstructionStream {
   // Observations held for points not (yet) in: after the last step, those never determined.
   int held_observations() const;
   int points_in() const { return points_in_; }
-  // The graph's keys for the reconstruction (images, points, calibrations: as
-  // BuildReconstructionGraph), e.g. for UpdateReconstruction.
+  // The graph's keys (ReconstructionKeys), e.g. for UpdateReconstruction.
   const ReconstructionGraph& keys() const { return keys_; }
 
  private:
