@@ -11,6 +11,8 @@
 // Small value types: cheap to copy, never allocate.
 #pragma once
 
+#include <variant>
+
 #include "core/geometry/eigen_types.h"
 
 namespace slamd::core {
@@ -79,5 +81,8 @@ class Cal3Bundler : public internal::VectorCalibration<Cal3Bundler, 3> {
   double k1() const { return p_[1]; }
   double k2() const { return p_[2]; }
 };
+
+// The monocular calibration models (a reconstruction's cameras, a robot's camera).
+using Calibration = std::variant<Cal3_S2, Cal3DS2, Cal3Bundler>;
 
 }  // namespace slamd::core

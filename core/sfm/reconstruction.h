@@ -28,9 +28,6 @@
 
 namespace slamd::core {
 
-// The calibration models a reconstruction's cameras can have.
-using Calibration = std::variant<Cal3_S2, Cal3DS2, Cal3Bundler>;
-
 // One camera's intrinsics (a COLMAP camera; one per image in BAL files).
 struct SfmIntrinsics {
   Calibration calibration = Cal3Bundler();

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "core/base/param_check.h"
@@ -20,6 +21,29 @@ std::string ViewName(std::size_t i, std::size_t n) {
   return "view " + std::to_string(i) + " (of " + std::to_string(n) + ")";
 }
 
+// A view's calibration: one model for all views (Cal), or each its own (Calibration).
+template <typename Cal>
+Vector2 CalibrateView(const Cal& K, const Vector2& uv) {
+  return Calibrate(K, uv);
+}
+Vector2 CalibrateView(const Calibration& K, const Vector2& uv) {
+  return std::visit([&](const auto& k) { return Calibrate(k, uv); }, K);
+}
+template <typename Cal>
+Vector2 ProjectView(const Pose3& pose, const Cal& K, const Point3& X, Matrix23* J) {
+  return Project(pose, K, X, nullptr, J).uv;
+}
+Vector2 ProjectView(const Pose3& pose, const Calibration& K, const Point3& X, Matrix23* J) {
+  return std::visit([&](const auto& k) { return Project(pose, k, X, nullptr, J).uv; }, K);
+}
+template <typename Cal>
+bool FiniteView(const Cal& K) {
+  return K.vector().allFinite();
+}
+bool FiniteView(const Calibration& K) {
+  return std::visit([](const auto& k) { return k.vector().allFinite(); }, K);
+}
+
 // The reprojection errors' normal equations at X: JᵀJ, Jᵀr and Σ|r|² over the views.
 struct Normal {
   Matrix3 JtJ = Matrix3::Zero();
@@ -33,7 +57,7 @@ Normal Linearize(std::span<const Pose3> poses, std::span<const Cal> calibrations
   Normal n;
   for (std::size_t i = 0; i < poses.size(); ++i) {
     Matrix23 J;
-    const Vector2 r = Project(poses[i], calibrations[i], X, nullptr, &J).uv - pixels[i];
+    const Vector2 r = ProjectView(poses[i], calibrations[i], X, &J) - pixels[i];
     n.JtJ.noalias() += J.transpose() * J;
     n.Jtr.noalias() += J.transpose() * r;
     n.cost += r.squaredNorm();
@@ -112,10 +136,10 @@ Status CheckInputs(std::span<const Pose3> poses, std::span<const Cal> calibratio
                            " view(s): triangulation needs at least 2");
   }
   for (std::size_t i = 0; i < poses.size(); ++i) {
-    const char* what = !poses[i].matrix().allFinite()          ? "pose"
-                       : !calibrations[i].vector().allFinite() ? "calibration"
-                       : !pixels[i].allFinite()                ? "pixel"
-                                                               : nullptr;
+    const char* what = !poses[i].matrix().allFinite() ? "pose"
+                       : !FiniteView(calibrations[i]) ? "calibration"
+                       : !pixels[i].allFinite()       ? "pixel"
+                                                      : nullptr;
     if (what) return InvalidArgument(ViewName(i, poses.size()) + ": " + what + " is not finite");
   }
   return Status::Ok();
@@ -144,7 +168,7 @@ Result<TriangulatedPoint> Triangulate(std::span<const Pose3> poses_wc,
   std::vector<Vector2> normalized(n);
   std::vector<Vector3> rays(n);
   for (std::size_t i = 0; i < n; ++i) {
-    normalized[i] = Calibrate(calibrations[i], pixels[i]);
+    normalized[i] = CalibrateView(calibrations[i], pixels[i]);
     rays[i] = poses_wc[i].rotation().matrix() * normalized[i].homogeneous().normalized();
   }
 
@@ -204,6 +228,11 @@ template Result<TriangulatedPoint> Triangulate<Cal3DS2>(std::span<const Pose3>,
                                                         const TriangulationParams&);
 template Result<TriangulatedPoint> Triangulate<Cal3Bundler>(std::span<const Pose3>,
                                                             std::span<const Cal3Bundler>,
+                                                            std::span<const Vector2>,
+                                                            const TriangulationParams&);
+
+template Result<TriangulatedPoint> Triangulate<Calibration>(std::span<const Pose3>,
+                                                            std::span<const Calibration>,
                                                             std::span<const Vector2>,
                                                             const TriangulationParams&);
 

@@ -52,7 +52,8 @@ struct TriangulatedPoint {
 };
 
 // The point seen at pixels[i] by the camera at poses_wc[i] with calibrations[i], for Cal =
-// Cal3_S2, Cal3DS2, Cal3Bundler (instantiated in triangulation.cc; spell the template argument
+// Cal3_S2, Cal3DS2, Cal3Bundler, or Calibration when the views have different models
+// (instantiated in triangulation.cc; spell the template argument
 // when passing containers: Triangulate<Cal3DS2>(poses, calibrations, pixels)). Failures:
 //   kInvalidArgument     invalid params; spans of different sizes; fewer than 2 views; a pose,
 //                        calibration or pixel that is not finite (the message names the view);
@@ -76,6 +77,11 @@ extern template Result<TriangulatedPoint> Triangulate<Cal3DS2>(std::span<const P
                                                                const TriangulationParams&);
 extern template Result<TriangulatedPoint> Triangulate<Cal3Bundler>(std::span<const Pose3>,
                                                                    std::span<const Cal3Bundler>,
+                                                                   std::span<const Vector2>,
+                                                                   const TriangulationParams&);
+
+extern template Result<TriangulatedPoint> Triangulate<Calibration>(std::span<const Pose3>,
+                                                                   std::span<const Calibration>,
                                                                    std::span<const Vector2>,
                                                                    const TriangulationParams&);
 

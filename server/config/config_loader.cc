@@ -119,6 +119,23 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   if (e.has_rebuild_catch_up_rounds()) {
     p->estimator.rebuild_catch_up_rounds = e.rebuild_catch_up_rounds();
   }
+  if (e.has_landmark_min_views()) p->estimator.landmark_min_views = e.landmark_min_views();
+  if (e.has_landmark_min_parallax_deg()) {
+    p->estimator.landmark_min_parallax_deg = e.landmark_min_parallax_deg();
+  }
+  if (e.has_landmark_min_disparity_px()) {
+    p->estimator.landmark_min_disparity_px = e.landmark_min_disparity_px();
+  }
+  if (e.has_landmark_max_reprojection_px()) {
+    p->estimator.landmark_max_reprojection_px = e.landmark_max_reprojection_px();
+  }
+  if (e.has_landmark_max_wait_updates()) {
+    p->estimator.landmark_max_wait_updates = e.landmark_max_wait_updates();
+  }
+  if (e.has_max_track_observations()) {
+    p->estimator.max_track_observations = e.max_track_observations();
+  }
+  if (e.has_max_landmark_error_px()) p->estimator.max_landmark_error_px = e.max_landmark_error_px();
 }
 
 std::string Quote(const std::string& s) { return "\"" + s + "\""; }
@@ -239,6 +256,20 @@ std::string DefaultConfigText() {
       << "  # larger relinearisations rebuild the solver on a helper thread, 0 = never\n"
       << "  rebuild_catch_up_rounds: " << d.estimator.rebuild_catch_up_rounds
       << "  # at most this many catch-up rounds on its thread, 0..64\n"
+      << "  landmark_min_views: " << d.estimator.landmark_min_views
+      << "  # camera landmarks enter once this many views (>= 2) ...\n"
+      << "  landmark_min_parallax_deg: " << Num(d.estimator.landmark_min_parallax_deg)
+      << "  # ... see them with this parallax [deg]\n"
+      << "  landmark_min_disparity_px: " << Num(d.estimator.landmark_min_disparity_px)
+      << "  # or one stereo view with this disparity [px]\n"
+      << "  landmark_max_reprojection_px: " << Num(d.estimator.landmark_max_reprojection_px)
+      << "  # and they reproject within this RMS [px]\n"
+      << "  landmark_max_wait_updates: " << d.estimator.landmark_max_wait_updates
+      << "  # updates an undetermined landmark waits before it is dropped, >= 1\n"
+      << "  max_track_observations: " << d.estimator.max_track_observations
+      << "  # observations of undetermined landmarks held in all\n"
+      << "  max_landmark_error_px: " << Num(d.estimator.max_landmark_error_px)
+      << "  # a feature this far from its landmark's projection is rejected [px]\n"
       << "}\n\n"
       << "journal {\n"
       << "  sync: "

@@ -153,6 +153,9 @@ void Daemon::PublishStatus(const EstimateSnapshot& snap) {
   out.messages_rejected = intake_rejected_ + snap.counters.rejected;
   out.messages_already_held = snap.counters.already_held;
   out.decode_errors = decode_errors_;
+  out.landmark_tracks = snap.landmark_tracks;
+  out.track_observations = snap.track_observations;
+  out.landmarks_dropped = snap.counters.landmarks_dropped;
   out.num_rejects_by_reason = kNumRejectReasonCodes;
   out.rejects_by_reason.resize(kNumRejectReasonCodes);
   for (int i = 0; i < kNumRejectReasonCodes; ++i) {

@@ -20,7 +20,12 @@ MeasurementPolicy Policy(const EstimatorParams& params) {
   MeasurementPolicy policy{
       .anchor_at_origin = params.new_robot_anchor == AnchorPolicy::kAnchorAtOrigin,
       .anchor_sigma = params.anchor_sigma,
-      .loop_closure_kernel = {}};
+      .loop_closure_kernel = {},
+      .landmark_initialization = {.min_views = params.landmark_min_views,
+                                  .min_parallax_deg = params.landmark_min_parallax_deg,
+                                  .max_reprojection_px = params.landmark_max_reprojection_px,
+                                  .min_disparity_px = params.landmark_min_disparity_px},
+      .max_landmark_error_px = params.max_landmark_error_px};
   const auto kind = core::RobustKernel::ParseKind(params.loop_closure_kernel).value();
   if (kind != core::RobustKernel::Kind::kNone) {
     policy.loop_closure_kernel =
@@ -240,6 +245,9 @@ class Estimator::Builder final : public GraphBuilder {
     return e_.AddMeasured(std::move(factor), first, what, &s_, v);
   }
   void Touch(std::uint8_t robot) override { e_.Touch(robot, in_, &s_); }
+  CameraTable& cameras() override { return e_.cameras_; }
+  LandmarkTracks& tracks() override { return e_.tracks_; }
+  void RejectPart(Verdict verdict) override { s_.parts.push_back({in_, std::move(verdict)}); }
 
  private:
   Estimator& e_;
@@ -265,6 +273,26 @@ void Estimator::Reject(const Inbound& in, RejectReason reason, std::string messa
   ++counters_.rejected;
   ++counters_.rejects_by_reason[static_cast<int>(reason)];
   result->rejections.push_back({in, Verdict{reason, std::move(message)}});
+}
+
+void Estimator::AgeTracks(ProcessResult* result) {
+  for (auto& [key, track] :
+       tracks_.Age(params_.landmark_max_wait_updates, params_.max_track_observations)) {
+    ++counters_.landmarks_dropped;
+    const bool full = track.waited <= params_.landmark_max_wait_updates;
+    const FrameObservations& first = track.observations.front();
+    const std::string name = LandmarkName(first, first.features[0].landmark_id);
+    Reject(Inbound{.measurement = std::move(track.observations.front())},
+           RejectReason::kOutOfOrderTimeout,
+           "frame_observations_t: " + name + " dropped with its " +
+               std::to_string(track.observations.size()) + " observation(s): " +
+               (full ? "the track buffer is full (estimator.max_track_observations = " +
+                           std::to_string(params_.max_track_observations) + ")"
+                     : "not determined within " +
+                           std::to_string(params_.landmark_max_wait_updates) + " updates") +
+               (track.why.empty() ? "" : "; " + track.why),
+           result);
+  }
 }
 
 ProcessResult Estimator::Process(std::vector<Inbound> batch, bool finish_later) {
@@ -359,7 +387,16 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
     held_.pop_front();
   }
 
+  for (Rejection& part : s.parts) {
+    Reject(part.message, part.verdict.reason, std::move(part.verdict.message), &result);
+  }
   if (s.factors.size() == 0 && s.values.empty()) {
+    // Applied without factors (a camera_info_t, features that joined tracks): nothing to undo.
+    cameras_.Commit();
+    tracks_.Commit();
+    AgeTracks(&result);
+    result.applied += static_cast<int>(applied.size());
+    counters_.applied += static_cast<std::int64_t>(applied.size());
     PublishSnapshot(false);
     return;
   }
@@ -370,6 +407,8 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
     if (result.status.ok()) result.status = update.status;
     // The solver left its state unchanged: undo ours and reject what this batch applied.
     for (const auto& [id, state] : s.robots_before) robots_[id] = state;
+    cameras_.Rollback();
+    tracks_.Rollback();
     for (size_t i : applied) {
       Reject(pending[i].message, RejectReason::kBadMeasurement,
              std::string(MessageTypeName(pending[i].message)) +
@@ -379,6 +418,9 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
     PublishSnapshot(false);
     return;
   }
+  cameras_.Commit();
+  tracks_.Commit();
+  AgeTracks(&result);
   for (const auto& [position, id, first] : s.ids) {
     applied_[id] = static_cast<int>(solver_index_.size());
     applied_factors_.push_back({id, first, s.factors[position]->dim()});
@@ -499,6 +541,8 @@ void Estimator::PublishSnapshot(bool bump) {
   snap->num_factors = num_factors_;
   snap->residual_dimension = residual_dimension_;
   snap->held_messages = static_cast<int>(held_.size());
+  snap->landmark_tracks = tracks_.num_tracks();
+  snap->track_observations = tracks_.num_observations();
   snap->settled = settled_;
   // chi2 is O(factors): after every update it would dominate a long run's update time. It is
   // recomputed at most every chi2_interval_s and at most 2% of the time, and whenever the

@@ -83,6 +83,7 @@
 #include "server/estimator/estimator_params.h"
 #include "server/estimator/robot_registry.h"
 #include "server/messages/inbound.h"
+#include "server/messages/landmark_tracks.h"
 #include "server/snapshot/estimate_snapshot.h"
 #include "server/snapshot/estimator_state.h"
 
@@ -177,6 +178,9 @@ class Estimator {
   const RobotRegistry& registry() const { return registry_; }
   const core::Isam2& solver() const { return *isam_; }
   int held_messages() const { return static_cast<int>(held_.size()); }
+  // Cameras (camera_info_t) and the held observations of landmarks not determined yet.
+  const CameraTable& cameras() const { return cameras_; }
+  const LandmarkTracks& tracks() const { return tracks_; }
 
   ~Estimator();  // waits for a rebuild in flight
 
@@ -203,6 +207,7 @@ class Estimator {
     // Set by FirstTime when that identity is applied or staged already: the factor it has.
     core::FactorPtr pending_existing;
     std::vector<std::pair<std::uint8_t, RobotState>> robots_before;  // for rollback
+    std::vector<Rejection> parts;  // rejected parts of messages (GraphBuilder::RejectPart)
   };
 
   // The GraphBuilder a message's spec applies itself to: this estimator's state and batch `s`.
@@ -225,6 +230,8 @@ class Estimator {
                const Inbound& in, Staged* s);
   void Touch(std::uint8_t robot, const Inbound& in, Staged* s);
   void Reject(const Inbound& in, RejectReason reason, std::string message, ProcessResult* result);
+  // Ages the landmark tracks by one update; rejects those dropped (never determined).
+  void AgeTracks(ProcessResult* result);
   void PublishSnapshot(bool bump);
   // Options for every update from messages (the deferral), and what follows an update.
   core::Isam2UpdateOptions UpdateOptions() const;
@@ -268,6 +275,8 @@ class Estimator {
   bool finish_later_ = false;
   int pending_deferred_ = 0;
   std::deque<Held> held_;
+  CameraTable cameras_;
+  LandmarkTracks tracks_;
   EstimatorCounters counters_;
   std::int64_t sequence_ = 0;
   std::int64_t num_factors_ = 0;

@@ -34,6 +34,19 @@ EstimatorState Estimator::ExportState() const {
     state.robots.push_back({registry_.Name(id), id, r});
   }
   for (const Held& h : held_) state.held.push_back({h.message, h.waited});
+  cameras_.ForEach(
+      [&](std::uint8_t robot, int camera_id, std::uint64_t from, const CameraModel& camera) {
+        state.cameras.push_back({.measurement = CameraInfo{.utime = 0,
+                                                           .robot = registry_.Name(robot),
+                                                           .camera_id = camera_id,
+                                                           .from_pose_index = from,
+                                                           .camera = camera}});
+      });
+  for (const auto& [landmark, track] : tracks_.tracks()) {
+    for (const FrameObservations& o : track.observations) {
+      state.track_observations.push_back({{.measurement = o}, track.waited});
+    }
+  }
   state.counters = counters_;
   state.num_factors = num_factors_;
   state.residual_dimension = residual_dimension_;
@@ -91,6 +104,27 @@ core::Result<std::unique_ptr<Estimator>> Estimator::Restore(const EstimatorParam
   e->solver_index_.resize(state.factors.size());  // the state's factor i is the solver's i
   std::iota(e->solver_index_.begin(), e->solver_index_.end(), 0);
   for (const EstimatorState::HeldMessage& h : state.held) e->held_.push_back({h.message, h.waited});
+  for (const Inbound& in : state.cameras) {
+    const auto* c = std::get_if<CameraInfo>(&in.measurement);
+    const std::optional<std::uint8_t> id = c ? e->registry_.Find(c->robot) : std::nullopt;
+    if (!id || e->cameras_.FindExact(*id, c->camera_id, c->from_pose_index)) {
+      return core::DataLoss(
+          "snapshot: a camera is not a camera_info_t of a known robot, or "
+          "appears twice");
+    }
+    e->cameras_.Add(*id, c->camera_id, c->from_pose_index, c->camera);
+  }
+  e->cameras_.Commit();
+  for (const EstimatorState::HeldMessage& h : state.track_observations) {
+    const auto* o = std::get_if<FrameObservations>(&h.message.measurement);
+    const std::optional<std::uint8_t> id = o ? e->registry_.Find(o->robot) : std::nullopt;
+    if (!id || o->features.size() != 1 || !e->cameras_.Find(*id, o->camera_id, o->pose_index)) {
+      return core::DataLoss(
+          "snapshot: a landmark track observation is not a one-feature "
+          "frame_observations_t of a known robot and camera");
+    }
+    e->tracks_.Restore(LandmarkKey(*o, o->features[0].landmark_id, *id), *o, h.waited);
+  }
   e->counters_ = state.counters;
   e->sequence_ = state.update_sequence;
   e->num_factors_ = state.num_factors;

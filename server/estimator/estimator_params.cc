@@ -22,6 +22,14 @@ core::Status EstimatorParams::Validate() const {
   SLAMD_CONFIG_CHECK(estimator.background_relinearization_above, >=, 0);
   SLAMD_CONFIG_CHECK(estimator.rebuild_catch_up_rounds, >=, 0);
   SLAMD_CONFIG_CHECK(estimator.rebuild_catch_up_rounds, <=, 64);
+  SLAMD_CONFIG_CHECK(estimator.landmark_min_views, >=, 2);
+  SLAMD_CONFIG_CHECK(estimator.landmark_min_parallax_deg, >=, 0.0);
+  SLAMD_CONFIG_CHECK(estimator.landmark_min_parallax_deg, <, 180.0);
+  SLAMD_CONFIG_CHECK(estimator.landmark_min_disparity_px, >, 0.0);
+  SLAMD_CONFIG_CHECK(estimator.landmark_max_reprojection_px, >, 0.0);
+  SLAMD_CONFIG_CHECK(estimator.landmark_max_wait_updates, >=, 1);
+  SLAMD_CONFIG_CHECK(estimator.max_track_observations, >=, 0);
+  SLAMD_CONFIG_CHECK(estimator.max_landmark_error_px, >, 0.0);
   const core::Result<core::RobustKernel::Kind> kind =
       core::RobustKernel::ParseKind(loop_closure_kernel);
   if (!kind.ok()) {

@@ -68,6 +68,24 @@ struct EstimatorParams {
   // variables: 3718 MB with rounds, 2477 MB without). 0 = no rounds. 0..64.
   int rebuild_catch_up_rounds = 8;
 
+  // Camera landmarks (frame_observations_t): a landmark enters the graph once its views
+  // determine it (core/sfm/landmark_initialization.h): at least landmark_min_views views (>= 2)
+  // with landmark_min_parallax_deg between two rays ([0, 180)), or one stereo view with at least
+  // landmark_min_disparity_px (> 0); in front of every camera and with an RMS reprojection
+  // error of at most landmark_max_reprojection_px (> 0).
+  int landmark_min_views = 2;
+  double landmark_min_parallax_deg = 1.0;
+  double landmark_min_disparity_px = 1.0;
+  double landmark_max_reprojection_px = 4.0;
+  // Its observations wait at most landmark_max_wait_updates solver updates (>= 1), and at most
+  // max_track_observations wait in all (>= 0; the oldest landmark is dropped first); a dropped
+  // landmark is answered by a reject_t saying why it was not determined.
+  int landmark_max_wait_updates = 300;
+  int max_track_observations = 200000;
+  // A feature of a landmark in the graph farther than this from the landmark's projection is
+  // rejected as a wrong match [px]; > 0.
+  double max_landmark_error_px = 50.0;
+
   core::Status Validate() const;
 };
 

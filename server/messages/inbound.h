@@ -12,6 +12,8 @@
 #include <variant>
 #include <vector>
 
+#include "server/messages/camera_info.h"
+#include "server/messages/frame_observations.h"
 #include "server/messages/landmark_observation.h"
 #include "server/messages/loop_closure.h"
 #include "server/messages/odometry.h"
@@ -32,7 +34,7 @@ struct SpecList {
 };
 
 using InboundSpecs = SpecList<OdometrySpec, LandmarkObservationSpec, LoopClosureSpec, PriorSpec,
-                              RemoveFactorSpec, QuerySpec>;
+                              RemoveFactorSpec, QuerySpec, CameraInfoSpec, FrameObservationsSpec>;
 
 namespace internal {
 // The first spec S of the list with Member<S> = T.

@@ -28,6 +28,7 @@
 #include "core/base/key.h"
 #include "core/factors/factor.h"
 #include "core/factors/robust_kernel.h"
+#include "core/sfm/landmark_initialization.h"
 #include "core/variables/variable.h"
 #include "server/ingest/measurements.h"
 #include "server/ingest/validation.h"
@@ -53,7 +54,15 @@ struct MeasurementPolicy {
   double anchor_sigma = 1e-3;
   // For loop closures that name no kernel.
   core::RobustKernel loop_closure_kernel;
+  // When a landmark seen by cameras is determined (frame_observations.h).
+  core::LandmarkInitializationParams landmark_initialization;
+  // A feature of a landmark in the graph whose pixel is farther than this from the landmark's
+  // projection at the current estimate is rejected as a wrong match [px].
+  double max_landmark_error_px = 50.0;
 };
+
+class CameraTable;     // server/messages/camera_info.h
+class LandmarkTracks;  // server/messages/landmark_tracks.h
 
 class GraphBuilder {
  public:
@@ -87,6 +96,12 @@ class GraphBuilder {
                               Verdict* verdict) = 0;
   // Records this message as the robot's latest (its utime and receipt time in estimate_t).
   virtual void Touch(std::uint8_t robot) = 0;
+  // The cameras (camera_info_t) and the observations of landmarks not determined yet
+  // (frame_observations_t): what a spec changes there is undone with its batch.
+  virtual CameraTable& cameras() = 0;
+  virtual LandmarkTracks& tracks() = 0;
+  // Rejects a part of the message being applied (a feature of a frame) while the rest goes on.
+  virtual void RejectPart(Verdict verdict) = 0;
 };
 
 // "robot 'a' pose 3", for messages.

@@ -23,6 +23,7 @@ struct EstimatorCounters {
   std::int64_t updates = 0;  // Isam2::Update calls (one per Process with anything new)
   std::int64_t refinements = 0;
   std::int64_t rebuilds = 0;  // background rebuilds swapped in
+  std::int64_t landmarks_dropped = 0;  // camera landmarks never determined (LandmarkTracks)
   std::array<std::int64_t, kNumRejectReasonCodes> rejects_by_reason = {};
 };
 
@@ -52,6 +53,8 @@ struct EstimateSnapshot {
   std::int64_t num_factors = 0;
   bool settled = true;  // the last refinement converged (or none was needed)
   int held_messages = 0;
+  int landmark_tracks = 0;            // camera landmarks waiting to be determined
+  int track_observations = 0;         // and their observations
   std::vector<RobotEstimate> robots;  // anchored robots only, in registration order
   EstimatorCounters counters;
 };

@@ -35,7 +35,7 @@ struct EstimatorState {
 
   // A retractable measurement (remove_factor_t) and its factor's position in `factors`.
   struct Applied {
-    char type = 0;  // 'o' odometry, 'l' landmark, 'c' loop closure, 'p' prior
+    char type = 0;  // 'o' odometry, 'l' landmark, 'c' loop closure, 'p' prior, 'f' frame feature
     core::Key a = 0, b = 0;
     int kind = 0;
     int factor = 0;
@@ -56,6 +56,11 @@ struct EstimatorState {
     int waited = 0;
   };
   std::vector<HeldMessage> held = {};
+  // The cameras, as the camera_info_t messages that made them (utime 0), and the observations
+  // of camera landmarks not determined yet: one-feature frame_observations_t, `waited` the
+  // updates their landmark has waited.
+  std::vector<Inbound> cameras = {};
+  std::vector<HeldMessage> track_observations = {};
 
   EstimatorCounters counters;
   std::int64_t num_factors = 0;

@@ -154,6 +154,23 @@ core::Result<core::FactorPtr> ReadFactor(const pb::Factor& in, int index) {
   return f;
 }
 
+// A message re-encoded as its LCM type (held messages, cameras, track observations).
+void WriteHeld(const Inbound& message, int waited, pb::HeldMessage* out) {
+  std::string type;
+  const std::vector<std::uint8_t> bytes = EncodeInbound(message, &type);
+  out->set_message_type(type);
+  out->set_lcm_payload(bytes.data(), bytes.size());
+  out->set_waited(waited);
+}
+
+core::Result<Inbound> ReadHeld(const pb::HeldMessage& m, const char* what) {
+  const auto* data = reinterpret_cast<const std::uint8_t*>(m.lcm_payload().data());
+  core::Result<Inbound> msg = DecodeInbound(m.message_type(), {data, m.lcm_payload().size()});
+  if (!msg.ok())
+    return core::DataLoss(std::string("snapshot: ") + what + ": " + msg.status().message());
+  return msg;
+}
+
 }  // namespace
 
 std::string EncodeState(const EstimatorState& state, const JournalPosition& position) {
@@ -186,12 +203,11 @@ std::string EncodeState(const EstimatorState& state, const JournalPosition& posi
     m->set_moved_sequence(r.state.moved_sequence);
   }
   for (const EstimatorState::HeldMessage& h : state.held) {
-    pb::HeldMessage* m = out.add_held();
-    std::string type;
-    const std::vector<std::uint8_t> bytes = EncodeInbound(h.message, &type);
-    m->set_message_type(type);
-    m->set_lcm_payload(bytes.data(), bytes.size());
-    m->set_waited(h.waited);
+    WriteHeld(h.message, h.waited, out.add_held());
+  }
+  for (const Inbound& camera : state.cameras) WriteHeld(camera, 0, out.add_cameras());
+  for (const EstimatorState::HeldMessage& h : state.track_observations) {
+    WriteHeld(h.message, h.waited, out.add_track_observations());
   }
   pb::Counters* c = out.mutable_counters();
   c->set_processed(state.counters.processed);
@@ -199,6 +215,7 @@ std::string EncodeState(const EstimatorState& state, const JournalPosition& posi
   c->set_held(state.counters.held);
   c->set_rejected(state.counters.rejected);
   c->set_already_held(state.counters.already_held);
+  c->set_landmarks_dropped(state.counters.landmarks_dropped);
   c->set_updates(state.counters.updates);
   c->set_refinements(state.counters.refinements);
   c->set_rebuilds(state.counters.rebuilds);
@@ -247,10 +264,19 @@ core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition
                                        .moved_sequence = m.moved_sequence()}});
   }
   for (const pb::HeldMessage& m : in.held()) {
-    const auto* data = reinterpret_cast<const std::uint8_t*>(m.lcm_payload().data());
-    core::Result<Inbound> msg = DecodeInbound(m.message_type(), {data, m.lcm_payload().size()});
-    if (!msg.ok()) return core::DataLoss("snapshot: held message: " + msg.status().message());
+    core::Result<Inbound> msg = ReadHeld(m, "held message");
+    if (!msg.ok()) return msg.status();
     state.held.push_back({std::move(msg).value(), m.waited()});
+  }
+  for (const pb::HeldMessage& m : in.cameras()) {
+    core::Result<Inbound> msg = ReadHeld(m, "camera");
+    if (!msg.ok()) return msg.status();
+    state.cameras.push_back(std::move(msg).value());
+  }
+  for (const pb::HeldMessage& m : in.track_observations()) {
+    core::Result<Inbound> msg = ReadHeld(m, "landmark track observation");
+    if (!msg.ok()) return msg.status();
+    state.track_observations.push_back({std::move(msg).value(), m.waited()});
   }
   const pb::Counters& c = in.counters();
   state.counters.processed = c.processed();
@@ -258,6 +284,7 @@ core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition
   state.counters.held = c.held();
   state.counters.rejected = c.rejected();
   state.counters.already_held = c.already_held();
+  state.counters.landmarks_dropped = c.landmarks_dropped();
   state.counters.updates = c.updates();
   state.counters.refinements = c.refinements();
   state.counters.rebuilds = c.rebuilds();

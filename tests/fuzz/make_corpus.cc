@@ -57,6 +57,11 @@ std::vector<Example> Examples() {
     e.push_back({"remove_factor_t", Encode(t::RemoveFactor(target))});
   }
   e.push_back({"query_t", Encode(t::Query())});
+  for (int model = 1; model <= 4; ++model) {
+    e.push_back({"camera_info_t", Encode(t::CameraInfoMessage(model))});
+  }
+  e.push_back({"frame_observations_t", Encode(t::FrameMessage(1))});
+  e.push_back({"frame_observations_t", Encode(t::FrameMessage(2, true))});
   return e;
 }
 

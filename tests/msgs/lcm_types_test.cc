@@ -3,6 +3,7 @@
 // encoded sizes the map publisher pages by.
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -13,7 +14,9 @@
 #include <string>
 #include <vector>
 
+#include "slamd/camera_info_t.hpp"
 #include "slamd/estimate_t.hpp"
+#include "slamd/frame_observations_t.hpp"
 #include "slamd/key_t.hpp"
 #include "slamd/landmark_observation_t.hpp"
 #include "slamd/loop_closure_t.hpp"
@@ -192,7 +195,7 @@ TEST(LcmFiles, FollowTheHouseRules) {
     for (size_t i = 0; i < p.fields.size(); ++i) {
       const Field& f = p.fields[i];
       EXPECT_TRUE(f.commented) << f.name << " has no units/frame comment";
-      if (!f.count.empty()) {
+      if (!f.count.empty() && !std::isdigit(static_cast<unsigned char>(f.count[0]))) {
         ASSERT_GT(i, 0u);
         EXPECT_EQ(p.fields[i - 1].name, f.count)
             << f.name << ": its count field must come just before it";
@@ -200,7 +203,7 @@ TEST(LcmFiles, FollowTheHouseRules) {
       }
     }
   }
-  EXPECT_EQ(files, 14);
+  EXPECT_EQ(files, 16);
 }
 
 // --- Generated code ---
@@ -213,7 +216,8 @@ TEST(LcmTypes, FingerprintsAreDistinct) {
       slamd::map_t::getHash(),           slamd::status_t::getHash(),
       slamd::reject_t::getHash(),        slamd::query_t::getHash(),
       slamd::query_reply_t::getHash(),   slamd::key_t::getHash(),
-      slamd::map_entry_t::getHash(),     slamd::variable_t::getHash()};
+      slamd::map_entry_t::getHash(),     slamd::variable_t::getHash(),
+      slamd::camera_info_t::getHash(),   slamd::frame_observations_t::getHash()};
   EXPECT_EQ(std::set<int64_t>(hashes.begin(), hashes.end()).size(), hashes.size());
 }
 

@@ -17,7 +17,9 @@
 #include <type_traits>
 #include <vector>
 
+#include "slamd/camera_info_t.hpp"
 #include "slamd/estimate_t.hpp"
+#include "slamd/frame_observations_t.hpp"
 #include "slamd/key_t.hpp"
 #include "slamd/landmark_observation_t.hpp"
 #include "slamd/loop_closure_t.hpp"
@@ -62,6 +64,11 @@ inline void Put(Fields& f, const std::string& path, const std::vector<T>& v) {
   for (size_t i = 0; i < v.size(); ++i) Put(f, path + "[" + std::to_string(i) + "]", v[i]);
 }
 
+template <typename T, std::size_t N>
+inline void Put(Fields& f, const std::string& path, const T (&v)[N]) {
+  for (std::size_t i = 0; i < N; ++i) Put(f, path + "[" + std::to_string(i) + "]", v[i]);
+}
+
 #define PUT(field) Put(f, Join(path, #field), m.field)
 // LCM's boolean is an int8_t in C++, a boolean in Java.
 #define PUT_BOOL(field) Put(f, Join(path, #field), m.field != 0)
@@ -79,6 +86,16 @@ inline void Put(Fields& f, const std::string& path, const slamd::estimate_t& m) 
   PUT(utime), PUT(robot), PUT(update_sequence), PUT(pose_index), PUT(dimension);
   PUT(num_values), PUT(values), PUT(num_covariance), PUT(covariance);
   PUT(measurement_utime), PUT(latency_us);
+}
+inline void Put(Fields& f, const std::string& path, const slamd::camera_info_t& m) {
+  PUT(utime), PUT(robot), PUT(camera_id), PUT(from_pose_index), PUT(model);
+  PUT(num_intrinsics), PUT(intrinsics), PUT(body_t_camera), PUT(body_q_camera);
+  PUT(width), PUT(height);
+}
+inline void Put(Fields& f, const std::string& path, const slamd::frame_observations_t& m) {
+  PUT(utime), PUT(robot), PUT(pose_index), PUT(camera_id), PUT(kind), PUT(landmark_namespace);
+  PUT(num_features), PUT(landmark_ids), PUT(num_values), PUT(values), PUT(num_sigmas);
+  PUT(sigmas), PUT(num_covariance), PUT(covariance), PUT(robust_kernel), PUT(robust_parameter);
 }
 inline void Put(Fields& f, const std::string& path, const slamd::landmark_observation_t& m) {
   PUT(utime), PUT(robot), PUT(pose_index), PUT(landmark_id), PUT(kind);
@@ -121,7 +138,8 @@ inline void Put(Fields& f, const std::string& path, const slamd::remove_factor_t
 inline void Put(Fields& f, const std::string& path, const slamd::status_t& m) {
   PUT(utime), PUT(update_sequence), PUT(rebuilds), PUT(num_robots), PUT(num_variables);
   PUT(num_factors), PUT(messages_received), PUT(messages_accepted), PUT(messages_rejected);
-  PUT(messages_already_held), PUT(decode_errors), PUT(num_rejects_by_reason);
+  PUT(messages_already_held), PUT(decode_errors), PUT(landmark_tracks), PUT(track_observations);
+  PUT(landmarks_dropped), PUT(num_rejects_by_reason);
   PUT(rejects_by_reason), PUT(queue_depth), PUT(queue_peak), PUT(queue_capacity);
   PUT(update_latency_p50_us), PUT(update_latency_p90_us), PUT(update_latency_p99_us);
   PUT(update_latency_max_us), PUT(publish_latency_p50_us), PUT(publish_latency_p99_us);
@@ -153,7 +171,9 @@ inline TypeInfo Type(const char* name, bool message = true) {
 }
 
 inline std::vector<TypeInfo> AllTypes() {
-  return {Type<slamd::estimate_t>("estimate_t"),
+  return {Type<slamd::camera_info_t>("camera_info_t"),
+          Type<slamd::estimate_t>("estimate_t"),
+          Type<slamd::frame_observations_t>("frame_observations_t"),
           Type<slamd::key_t>("key_t", false),
           Type<slamd::landmark_observation_t>("landmark_observation_t"),
           Type<slamd::loop_closure_t>("loop_closure_t"),

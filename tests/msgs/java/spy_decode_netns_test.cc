@@ -184,6 +184,36 @@ TEST(SpyDecodeNetnsTest, JavaDecoderAgreesWithSlamdOnEveryMessage) {
   landmark.covariance = Diagonal({0.01, 0.05});
   landmark.num_covariance = 4;
   bus.publish("JV_LANDMARK", &landmark);
+  // A stereo camera and a frame of it (refused: the robot's poses are 2D), both decoded.
+  slamd::camera_info_t camera;
+  camera.utime = 104;
+  camera.robot = robot;
+  camera.camera_id = 0;
+  camera.from_pose_index = 0;
+  camera.model = slamd::camera_info_t::MODEL_STEREO;
+  camera.intrinsics = {400.0, 400.0, 0.0, 320.0, 240.0, 0.12};
+  camera.num_intrinsics = 6;
+  const double mount_t[3] = {0.1, 0.0, 0.2}, mount_q[4] = {1.0, 0.0, 0.0, 0.0};
+  std::copy(mount_t, mount_t + 3, camera.body_t_camera);
+  std::copy(mount_q, mount_q + 4, camera.body_q_camera);
+  camera.width = 640;
+  camera.height = 480;
+  bus.publish("JV_CAMERA_INFO", &camera);
+  slamd::frame_observations_t frame;
+  frame.utime = 104;
+  frame.robot = robot;
+  frame.pose_index = 3;
+  frame.camera_id = 0;
+  frame.kind = slamd::frame_observations_t::KIND_STEREO;
+  frame.landmark_namespace = slamd::frame_observations_t::NAMESPACE_MAP;
+  frame.landmark_ids = {3, 9};
+  frame.num_features = 2;
+  frame.values = {300.5, 290.0, 200.0, 100.0, 95.5, 50.25};
+  frame.num_values = 6;
+  frame.sigmas = {1.5};
+  frame.num_sigmas = 1;
+  frame.num_covariance = 0;
+  bus.publish("JV_FRAME", &frame);
   slamd::loop_closure_t loop;
   loop.utime = 105;
   loop.robot_a = robot;
@@ -218,11 +248,12 @@ TEST(SpyDecodeNetnsTest, JavaDecoderAgreesWithSlamdOnEveryMessage) {
   bad.covariance = {1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0};
   bad.num_covariance = 9;
   bus.publish("JV_ODOMETRY", &bad);
-  // Query once the graph is what the messages make: x0..x3 and l7; prior, odometry, landmark.
+  // Query once the graph is what the messages make: x0..x3 and l7; prior, odometry, landmark;
+  // the bad odometry and the frame rejected.
   auto settled = [&] {
     for (const Decoded& d : recorder.messages) {
       if (d.channel == "JV_STATUS" && Str(d.fields, "num_variables") == "5" &&
-          Str(d.fields, "num_factors") == "5" && Str(d.fields, "messages_rejected") == "1") {
+          Str(d.fields, "num_factors") == "5" && Str(d.fields, "messages_rejected") == "2") {
         return true;
       }
     }
@@ -314,8 +345,9 @@ TEST(SpyDecodeNetnsTest, JavaDecoderAgreesWithSlamdOnEveryMessage) {
   for (const auto& [type, n] : compared) counts += " " + type.substr(6) + " " + std::to_string(n);
   std::printf("compared field by field:%s\n", counts.c_str());
   for (const char* type :
-       {"estimate_t", "landmark_observation_t", "loop_closure_t", "map_t", "odometry_t", "prior_t",
-        "query_reply_t", "query_t", "reject_t", "remove_factor_t", "status_t"}) {
+       {"camera_info_t", "estimate_t", "frame_observations_t", "landmark_observation_t",
+        "loop_closure_t", "map_t", "odometry_t", "prior_t", "query_reply_t", "query_t", "reject_t",
+        "remove_factor_t", "status_t"}) {
     EXPECT_GT(compared[std::string("slamd.") + type], 0) << "no " << type << " on the bus";
   }
 
@@ -330,7 +362,8 @@ TEST(SpyDecodeNetnsTest, JavaDecoderAgreesWithSlamdOnEveryMessage) {
   EXPECT_NEAR(Num(*estimate, "values[2]"), 0.0, 1e-6);
   EXPECT_EQ(Str(*estimate, "num_covariance"), "9");
 
-  const Fields* reject = LastOn(spy_output, "JV_REJECT");
+  const Fields* reject = LastOn(spy_output, "JV_REJECT",
+                                [](const Fields& f) { return Str(f, "channel") == "JV_ODOMETRY"; });
   ASSERT_NE(reject, nullptr);
   EXPECT_EQ(Str(*reject, "channel"), "JV_ODOMETRY");
   EXPECT_EQ(Str(*reject, "message_type"), "odometry_t");
@@ -339,6 +372,11 @@ TEST(SpyDecodeNetnsTest, JavaDecoderAgreesWithSlamdOnEveryMessage) {
   EXPECT_EQ(Str(*reject, "reason"),
             std::to_string(slamd::reject_t::REASON_COVARIANCE_NOT_POSITIVE_DEFINITE));
   EXPECT_NE(Str(*reject, "detail").find("covariance"), std::string::npos);
+  const Fields* frame_reject = LastOn(
+      spy_output, "JV_REJECT", [](const Fields& f) { return Str(f, "channel") == "JV_FRAME"; });
+  ASSERT_NE(frame_reject, nullptr);
+  EXPECT_EQ(Str(*frame_reject, "message_type"), "frame_observations_t");
+  EXPECT_NE(Str(*frame_reject, "detail").find("2D pose"), std::string::npos);
 
   const Fields* reply = LastOn(spy_output, "JV_QUERY_REPLY");
   ASSERT_NE(reply, nullptr);
@@ -382,8 +420,9 @@ TEST(SpyDecodeNetnsTest, JavaDecoderAgreesWithSlamdOnEveryMessage) {
   EXPECT_EQ(Str(*status, "num_robots"), "1");
   EXPECT_EQ(Str(*status, "num_variables"), "5");
   EXPECT_EQ(Str(*status, "num_factors"), "5");
-  EXPECT_EQ(Str(*status, "messages_rejected"), "1");
+  EXPECT_EQ(Str(*status, "messages_rejected"), "2");
   EXPECT_EQ(Str(*status, "rejects_by_reason[12]"), "1");
+  EXPECT_EQ(Str(*status, "rejects_by_reason[17]"), "1");  // the frame: bad measurement
 
   // And what we sent, as Java read it: the query's nested keys and booleans, the closure's kernel.
   const Fields* sent_query = LastOn(spy_output, "JV_QUERY");

@@ -5,6 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "slamd/camera_info_t.hpp"
+#include "slamd/frame_observations_t.hpp"
 #include "slamd/key_t.hpp"
 #include "slamd/landmark_observation_t.hpp"
 #include "slamd/loop_closure_t.hpp"
@@ -147,6 +149,59 @@ inline slamd::query_t Query() {
   m.want_marginals = true;
   m.want_joint_marginal = true;
   m.map_robot = "alpha";
+  return m;
+}
+
+// A pinhole camera (model 1) or a stereo pair (model 4) of robot "alpha", 640 x 480.
+inline slamd::camera_info_t CameraInfoMessage(int model = 1) {
+  slamd::camera_info_t m;
+  m.utime = 1700000000000000;
+  m.robot = "alpha";
+  m.camera_id = 1;
+  m.from_pose_index = 0;
+  m.model = static_cast<std::int8_t>(model);
+  m.intrinsics = {400.0, 410.0, 0.0, 320.0, 240.0};
+  if (model == 2) m.intrinsics = {400.0, 410.0, 0.0, 320.0, 240.0, -0.1, 0.01, 1e-3, -1e-3};
+  if (model == 3) m.intrinsics = {400.0, -0.1, 0.01};
+  if (model == 4) m.intrinsics.push_back(0.12);
+  m.num_intrinsics = static_cast<int>(m.intrinsics.size());
+  const std::vector<double> q = UnitQuaternion();
+  for (int i = 0; i < 3; ++i) m.body_t_camera[i] = 0.1 * (i + 1);
+  for (int i = 0; i < 4; ++i) m.body_q_camera[i] = q[i];
+  m.width = 640;
+  m.height = 480;
+  return m;
+}
+
+// Three features of a mono (kind 1) or stereo (kind 2) frame of "alpha" pose 5, camera 1, one
+// sigma each (or, with `covariance`, a covariance each).
+inline slamd::frame_observations_t FrameMessage(int kind = 1, bool covariance = false) {
+  slamd::frame_observations_t m;
+  m.utime = 1700000000000000;
+  m.robot = "alpha";
+  m.pose_index = 5;
+  m.camera_id = 1;
+  m.kind = static_cast<std::int8_t>(kind);
+  m.landmark_namespace = 0;
+  m.landmark_ids = {10, 11, 42};
+  m.num_features = 3;
+  m.values = kind == 1
+                 ? std::vector<double>{100.5, 200.25, 320.0, 240.0, 10.0, 470.0}
+                 : std::vector<double>{100.5, 90.5, 200.25, 320.0, 318.0, 240.0, 10.0, 9.0, 470.0};
+  m.num_values = static_cast<int>(m.values.size());
+  const int dim = kind == 1 ? 2 : 3;
+  if (covariance) {
+    for (int k = 0; k < 3; ++k) {
+      const std::vector<double> c = SpdCovariance(dim, 0.5 + k);
+      m.covariance.insert(m.covariance.end(), c.begin(), c.end());
+    }
+  } else {
+    m.sigmas = {0.5, 1.0, 2.0};
+  }
+  m.num_sigmas = static_cast<int>(m.sigmas.size());
+  m.num_covariance = static_cast<int>(m.covariance.size());
+  m.robust_kernel = "huber";
+  m.robust_parameter = 1.345;
   return m;
 }
 

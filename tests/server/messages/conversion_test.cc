@@ -228,6 +228,84 @@ TEST(Convert, QueryRoundTripsExactly) {
   EXPECT_EQ(back.map_robot, msg.map_robot);
 }
 
+TEST(Convert, CameraInfoOfEveryModelRoundTrips) {
+  for (int model = 1; model <= 4; ++model) {
+    const auto msg = CameraInfoMessage(model);
+    const auto c = Convert(msg);
+    ASSERT_TRUE(c.ok()) << c.verdict().message;
+    const CameraModel& camera = c.value().camera;
+    EXPECT_EQ(camera.stereo(), model == 4);
+    EXPECT_EQ(static_cast<int>(camera.calibration.index()), model == 4 ? 0 : model - 1);
+    const Eigen::VectorXd k =
+        std::visit([](const auto& K) { return Eigen::VectorXd(K.vector()); }, camera.calibration);
+    for (int i = 0; i < k.size(); ++i) EXPECT_EQ(k[i], msg.intrinsics[i]) << "model " << model;
+    // The mount: camera (0, 0, 1) in the body frame is R·e_z + t.
+    const Eigen::Quaterniond q(msg.body_q_camera[0], msg.body_q_camera[1], msg.body_q_camera[2],
+                               msg.body_q_camera[3]);
+    const core::Point3 t(msg.body_t_camera[0], msg.body_t_camera[1], msg.body_t_camera[2]);
+    EXPECT_LT((camera.body_P_camera.TransformFrom(core::Point3(0, 0, 1)) -
+               (q.normalized() * core::Point3(0, 0, 1) + t))
+                  .norm(),
+              1e-12);
+    slamd::camera_info_t back;
+    ToLcm(c.value(), &back);
+    EXPECT_EQ(back.model, msg.model);
+    ASSERT_EQ(back.intrinsics.size(), msg.intrinsics.size());
+    for (std::size_t i = 0; i < back.intrinsics.size(); ++i) {
+      EXPECT_EQ(back.intrinsics[i], msg.intrinsics[i]);
+    }
+    for (int i = 0; i < 4; ++i) EXPECT_NEAR(back.body_q_camera[i], msg.body_q_camera[i], 1e-12);
+    EXPECT_EQ(back.width, msg.width);
+    EXPECT_EQ(back.height, msg.height);
+  }
+}
+
+TEST(Convert, FrameObservationsKeepEachFeaturesPixelAndNoise) {
+  for (const bool covariance : {false, true}) {
+    for (int kind = 1; kind <= 2; ++kind) {
+      const auto msg = FrameMessage(kind, covariance);
+      const auto c = Convert(msg);
+      ASSERT_TRUE(c.ok()) << c.verdict().message;
+      const FrameObservations& f = c.value();
+      ASSERT_EQ(f.features.size(), 3u);
+      EXPECT_EQ(f.stereo, kind == 2);
+      const int dim = kind == 1 ? 2 : 3;
+      for (int k = 0; k < 3; ++k) {
+        const FrameFeature& feature = f.features[k];
+        EXPECT_EQ(feature.landmark_id, static_cast<std::uint64_t>(msg.landmark_ids[k]));
+        EXPECT_EQ(feature.index, k);
+        EXPECT_EQ(feature.uv.x(), msg.values[dim * k]);
+        EXPECT_EQ(feature.uv.y(), msg.values[dim * k + dim - 1]);  // v last
+        if (kind == 2) {
+          EXPECT_EQ(feature.u_right, msg.values[dim * k + 1]);
+        }
+        const Eigen::MatrixXd C = feature.noise.Covariance();
+        for (int i = 0; i < dim; ++i) {
+          for (int j = 0; j < dim; ++j) {
+            const double expected = covariance ? msg.covariance[k * dim * dim + i * dim + j]
+                                               : (i == j ? msg.sigmas[k] * msg.sigmas[k] : 0.0);
+            EXPECT_NEAR(C(i, j), expected, 1e-12);
+          }
+        }
+      }
+      slamd::frame_observations_t back;
+      ToLcm(f, &back);
+      EXPECT_EQ(back.landmark_ids, msg.landmark_ids);
+      EXPECT_EQ(back.values, msg.values);
+      ASSERT_EQ(back.sigmas.size(), msg.sigmas.size());
+      for (std::size_t i = 0; i < back.sigmas.size(); ++i) {
+        EXPECT_NEAR(back.sigmas[i], msg.sigmas[i], 1e-12);
+      }
+      ASSERT_EQ(back.covariance.size(), msg.covariance.size());
+      for (std::size_t i = 0; i < back.covariance.size(); ++i) {
+        EXPECT_NEAR(back.covariance[i], msg.covariance[i], 1e-12);
+      }
+      EXPECT_EQ(back.robust_kernel, "huber");
+      EXPECT_EQ(back.robust_parameter, msg.robust_parameter);
+    }
+  }
+}
+
 TEST(Convert, RejectedMessageGivesTheVerdictOnly) {
   auto msg = Odometry2();
   msg.covariance[0] = -1.0;
