@@ -34,6 +34,8 @@
 #include "core/base/status.h"
 #include "core/io/dataset.h"
 #include "server/transport/channels.h"
+#include "slamd/camera_info_t.hpp"
+#include "slamd/frame_observations_t.hpp"
 #include "slamd/landmark_observation_t.hpp"
 #include "slamd/loop_closure_t.hpp"
 #include "slamd/odometry_t.hpp"
@@ -42,8 +44,9 @@
 namespace slamd::clients {
 
 // One inbound message of slamd.
-using RobotMessage = std::variant<slamd::prior_t, slamd::odometry_t, slamd::loop_closure_t,
-                                  slamd::landmark_observation_t>;
+using RobotMessage =
+    std::variant<slamd::prior_t, slamd::odometry_t, slamd::loop_closure_t,
+                 slamd::landmark_observation_t, slamd::camera_info_t, slamd::frame_observations_t>;
 
 struct DatasetMessageOptions {
   // Robot name: 1..64 chars of [A-Za-z0-9_.-] (checked).

@@ -9,7 +9,10 @@
 #include <set>
 
 #include "clients/slamctl/commands.h"
+#include "clients/slamctl/plot_reconstruction.h"
+#include "clients/slamctl/reconstruction_messages.h"
 #include "core/io/dataset.h"
+#include "core/io/sfm_io.h"
 
 namespace slamd::clients {
 namespace replay {
@@ -73,6 +76,15 @@ std::vector<ReplayItem> DatasetItems(const ReplayOptions& opt, std::set<std::str
     if (!robots->insert(name).second) {
       Usage("two datasets are both robot '" + name + "': name them with --robot");
     }
+    if (plot::IsReconstructionPath(opt.sources[i])) {  // BAL or COLMAP: camera by camera
+      core::Result<core::Reconstruction> r = core::ReadReconstruction(opt.sources[i]);
+      if (!r.ok()) Failure(r.status().ToString());
+      core::Result<std::vector<StepMessages>> steps = MakeReconstructionMessages(
+          *r, {.robot = name, .anchor_sigma = opt.anchor_sigma > 0 ? opt.anchor_sigma : 1e-3});
+      if (!steps.ok()) Failure(opt.sources[i] + ": " + steps.status().message());
+      datasets.push_back(RobotDataset{name, std::move(steps).value()});
+      continue;
+    }
     core::ReadOptions read;
     read.isam_noise = opt.isam_noise == "covariance"
                           ? core::ReadOptions::IsamNoise::kCovariance
@@ -121,10 +133,12 @@ void RegisterReplay(CLI::App& app) {
       "Stream datasets (one robot each) or an LCM event log into a running slamd, paced, and "
       "report what it made of them (sent, rejected, final chi2, latency)");
   cmd->add_option("source", opt->sources,
-                  "Datasets (g2o 2D/3D, TORO .graph, iSAM .txt) or one LCM event log (detected "
-                  "by its magic number)")
+                  "Datasets (g2o 2D/3D, TORO .graph, iSAM .txt), reconstructions (a BAL file or a "
+                  "COLMAP text model's directory: camera by camera, as camera_info_t, odometry_t "
+                  "and frame_observations_t), or one LCM event log (detected by its magic "
+                  "number)")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->check(CLI::ExistingPath);
   cmd->add_option("--robot", opt->robots,
                   "Robot name of each dataset, in order (repeat; default: the file stems)");
   cmd->add_option("--inter-robot", opt->inter_robot,

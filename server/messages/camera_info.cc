@@ -36,6 +36,14 @@ bool CameraModel::operator==(const CameraModel& o) const {
          width == o.width && height == o.height;
 }
 
+bool CameraModel::Inside(double u, double v) const {
+  if (std::holds_alternative<core::Cal3Bundler>(calibration)) {
+    u += 0.5 * width;
+    v += 0.5 * height;
+  }
+  return u >= 0 && u < width && v >= 0 && v < height;
+}
+
 Verdict Validate(const slamd::camera_info_t& msg, const Limits& limits) {
   SLAMD_RETURN_IF_REJECTED(CheckUtime("camera_info_t.utime", msg.utime));
   SLAMD_RETURN_IF_REJECTED(

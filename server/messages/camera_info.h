@@ -30,7 +30,9 @@ struct CameraModel {
   int height = 0;
 
   bool stereo() const { return baseline > 0.0; }
-  bool Inside(double u, double v) const { return u >= 0 && u < width && v >= 0 && v < height; }
+  // Whether pixel (u, v) lies in the image: [0, width) x [0, height), or for Cal3Bundler, whose
+  // pixels are measured from the image centre (BAL's), [-width/2, width/2) x [-height/2, ...).
+  bool Inside(double u, double v) const;
   bool operator==(const CameraModel& o) const;
 };
 

@@ -9,7 +9,10 @@
 //     and the same result;
 //  3. two robots with inter-robot closures (--inter-robot): the joint optimum;
 //  4. a fresh slamd, `slamctl replay input_M3500_g2o.g2o --fast`: nothing lost or rejected, and
-//     the settled chi2 is the batch optimum to 1e-4.
+//     the settled chi2 is the batch optimum to 1e-4;
+//  5. a fresh slamd, `slamctl replay` of a simulated camera world (`slamctl sim camera-object`,
+//     its COLMAP model) camera by camera: nothing rejected, and the settled chi2 is the batch
+//     optimum of the graph the same messages make in an in-process estimator, to 1e-4.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <unistd.h>
@@ -22,12 +25,16 @@
 #include <string>
 #include <vector>
 
+#include "clients/slamctl/reconstruction_messages.h"
 #include "core/io/dataset.h"
+#include "core/io/sfm_io.h"
 #include "server/transport/lcm_bus.h"
 #include "server/transport/typed_subscribe.h"
 #include "slamd/status_t.hpp"
 #include "tests/testing/datasets.h"
+#include "tests/testing/files.h"
 #include "tests/testing/processes.h"
+#include "tests/testing/stream_estimator.h"
 
 namespace slamd::server {
 namespace {
@@ -250,6 +257,32 @@ TEST(ServerReplayNetnsTest, DatasetLogAndFastReplays) {
     // Coalesced updates, then idle refinement: the batch optimum (BENCHMARKS.md) to 1e-4.
     constexpr double kM3500Optimum = 137.9129509;
     EXPECT_NEAR(JsonNumber(run.out, "final_chi2"), kM3500Optimum, 1e-4 * kM3500Optimum) << run.out;
+  }
+
+  // 5. A camera world, camera by camera: frames, landmarks entering as they are determined.
+  {
+    const testing::TempDir dir("slamd_camera_world_");
+    const CommandRun sim =
+        Slamctl(&observer,
+                {"sim", "camera-object", "-o", dir.path(), "--cameras", "20", "--points", "300",
+                 "--init-sigma-camera", "0.01", "--init-sigma-rotation", "0.001", "--seed", "4"});
+    ASSERT_EQ(sim.exit_code, 0) << sim.out;
+    const std::string model = dir.File("colmap");
+    Slamd slamd(&observer, config);
+    ASSERT_TRUE(slamd.listening);
+    const CommandRun run = Slamctl(&observer, {"replay", model, "--robot", "cam", "--fast",
+                                               "--json", "-q", "--lcm-url", kUrl});
+    EXPECT_EQ(run.exit_code, 0) << run.out;
+    EXPECT_EQ(JsonNumber(run.out, "server_received"), JsonNumber(run.out, "sent")) << run.out;
+    EXPECT_EQ(JsonNumber(run.out, "rejected"), 0) << run.out;
+    EXPECT_EQ(JsonNumber(run.out, "poses_acknowledged"), 20) << run.out;
+    EXPECT_NE(run.out.find("\"settled\": true"), std::string::npos) << run.out;
+    const auto steps = clients::MakeReconstructionMessages(core::ReadReconstruction(model).value(),
+                                                           {.robot = "cam"});
+    ASSERT_TRUE(steps.ok()) << steps.status().message();
+    const testing::StreamedEstimator local = testing::StreamSteps(*steps);
+    const double optimum = testing::BatchOptimumChi2(*local.estimator);
+    EXPECT_NEAR(JsonNumber(run.out, "final_chi2"), optimum, 1e-4 * optimum) << run.out;
   }
 }
 
