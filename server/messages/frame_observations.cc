@@ -41,9 +41,12 @@ Verdict FeatureNoise(const F& msg, int k, int dim, const Limits& limits,
     return CheckCovariance(Indexed("covariance", k * dim * dim), c, dim, limits, noise);
   }
   const double sigma = msg.sigmas[msg.num_sigmas == 1 ? 0 : k];
-  if (!(sigma > 0.0) || !(sigma * sigma >= limits.min_variance)) {
+  if (!(sigma > 0.0) || !(sigma * sigma >= limits.min_variance) ||
+      !(sigma <= limits.max_abs_value)) {
     return Reject(RejectReason::kBadMeasurement, Indexed("sigmas", msg.num_sigmas == 1 ? 0 : k),
-                  "sigma " + FormatNumber(sigma) + " px is not a positive standard deviation");
+                  "sigma " + FormatNumber(sigma) + " px is outside [" +
+                      FormatNumber(std::sqrt(limits.min_variance)) + ", " +
+                      FormatNumber(limits.max_abs_value) + "]");
   }
   if (noise) *noise = core::NoiseModel::Isotropic(dim, sigma).value();
   return {};

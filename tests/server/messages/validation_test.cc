@@ -496,6 +496,12 @@ std::vector<Case> FrameCases() {
           "ZeroSigma", mono, [](M& m) { m.sigmas[1] = 0.0; }, R::kBadMeasurement,
           "frame_observations_t.sigmas[1]: sigma 0"),
       Make<M>(
+          "HugeSigma", mono, [](M& m) { m.sigmas[2] = 1e300; }, R::kBadMeasurement,
+          "frame_observations_t.sigmas[2]: sigma 1e+300 px is outside"),
+      Make<M>(
+          "NegativeSigma", mono, [](M& m) { m.sigmas[0] = -3.0; }, R::kBadMeasurement,
+          "frame_observations_t.sigmas[0]: sigma -3 px is outside"),
+      Make<M>(
           "IndefiniteCovariance", full, [](M& m) { m.covariance[7] = -0.2; },
           R::kCovarianceNotPositiveDefinite, "frame_observations_t.covariance[4]"),
       Make<M>(
