@@ -86,6 +86,10 @@ void PrintSummary(const ReplayOptions& opt, const ReplayTracker& tracker, double
         .Add("p90", lat.p90_ms)
         .Add("p99", lat.p99_ms)
         .Add("max", lat.max_ms);
+    // A field of the latest status_t; -1 when none came.
+    auto FromStatus = [&](auto slamd::status_t::*field) {
+      return tracker.last_status() ? static_cast<long long>(*tracker.last_status().*field) : -1LL;
+    };
     JsonWriter j;
     j.Add("sent", static_cast<long long>(tracker.sent()))
         .Add("rejected", static_cast<long long>(tracker.rejected()))
@@ -97,13 +101,12 @@ void PrintSummary(const ReplayOptions& opt, const ReplayTracker& tracker, double
         .Add("settled", settled)
         .Add("answered", answered)
         .Add("poses_acknowledged", lat.count)
-        .Add("server_received",
-             tracker.last_status()
-                 ? static_cast<long long>(tracker.last_status()->messages_received)
-                 : -1LL)
-        .Add("update_sequence", tracker.last_status()
-                                    ? static_cast<long long>(tracker.last_status()->update_sequence)
-                                    : -1LL);
+        .Add("server_received", FromStatus(&slamd::status_t::messages_received))
+        .Add("update_sequence", FromStatus(&slamd::status_t::update_sequence))
+        // Camera landmarks the server holds undetermined, and has dropped (its totals).
+        .Add("landmark_tracks", FromStatus(&slamd::status_t::landmark_tracks))
+        .Add("track_observations", FromStatus(&slamd::status_t::track_observations))
+        .Add("landmarks_dropped", FromStatus(&slamd::status_t::landmarks_dropped));
     std::printf("%s\n", j.str().c_str());
     std::fflush(stdout);
     return;
@@ -124,6 +127,13 @@ void PrintSummary(const ReplayOptions& opt, const ReplayTracker& tracker, double
                 static_cast<long long>(s.num_variables), static_cast<long long>(s.num_factors));
   } else {
     std::printf("final chi2  (no status_t from the server)\n");
+  }
+  if (tracker.last_status() && (tracker.last_status()->landmark_tracks > 0 ||
+                                tracker.last_status()->landmarks_dropped > 0)) {
+    const slamd::status_t& s = *tracker.last_status();
+    std::printf("landmarks   %d waiting to be determined (%d observations), %lld dropped\n",
+                s.landmark_tracks, s.track_observations,
+                static_cast<long long>(s.landmarks_dropped));
   }
   std::printf("settled     %s\n", settled ? "yes" : "no (settle timeout)");
   std::printf(

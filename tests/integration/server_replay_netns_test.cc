@@ -276,6 +276,7 @@ TEST(ServerReplayNetnsTest, DatasetLogAndFastReplays) {
     EXPECT_EQ(JsonNumber(run.out, "server_received"), JsonNumber(run.out, "sent")) << run.out;
     EXPECT_EQ(JsonNumber(run.out, "rejected"), 0) << run.out;
     EXPECT_EQ(JsonNumber(run.out, "poses_acknowledged"), 20) << run.out;
+    EXPECT_EQ(JsonNumber(run.out, "landmarks_dropped"), 0) << run.out;
     EXPECT_NE(run.out.find("\"settled\": true"), std::string::npos) << run.out;
     const auto steps = clients::MakeReconstructionMessages(core::ReadReconstruction(model).value(),
                                                            {.robot = "cam"});
