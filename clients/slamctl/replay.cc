@@ -11,6 +11,7 @@
 #include "clients/slamctl/commands.h"
 #include "clients/slamctl/plot_reconstruction.h"
 #include "clients/slamctl/reconstruction_messages.h"
+#include "clients/slamctl/sim_camera_world.h"
 #include "core/io/dataset.h"
 #include "core/io/sfm_io.h"
 
@@ -41,6 +42,10 @@ void CheckOptions(ReplayOptions* opt, bool is_log) {
   const int modes = (opt->rate_hz > 0) + opt->fast + opt->lockstep;
   if (modes > 1) Usage("choose one of --rate, --fast and --lockstep");
   if (opt->window < 1) Usage("--window must be >= 1");
+  if (!opt->stereo.empty() &&
+      (opt->sources.size() != 1 || !plot::IsReconstructionPath(opt->sources[0]))) {
+    Usage("--stereo goes with one reconstruction (a BAL file or a COLMAP model's directory)");
+  }
   if (const core::Status ok = CheckChannelPrefix(opt->connection.channel_prefix); !ok.ok()) {
     Usage(ok.message());
   }
@@ -79,8 +84,17 @@ std::vector<ReplayItem> DatasetItems(const ReplayOptions& opt, std::set<std::str
     if (plot::IsReconstructionPath(opt.sources[i])) {  // BAL or COLMAP: camera by camera
       core::Result<core::Reconstruction> r = core::ReadReconstruction(opt.sources[i]);
       if (!r.ok()) Failure(r.status().ToString());
-      core::Result<std::vector<StepMessages>> steps = MakeReconstructionMessages(
-          *r, {.robot = name, .anchor_sigma = opt.anchor_sigma > 0 ? opt.anchor_sigma : 1e-3});
+      ReconstructionMessageOptions options{
+          .robot = name, .anchor_sigma = opt.anchor_sigma > 0 ? opt.anchor_sigma : 1e-3};
+      if (!opt.stereo.empty()) {
+        core::Result<sim::StereoFile> stereo = sim::ReadStereoFile(opt.stereo);
+        if (!stereo.ok()) Failure(stereo.status().message());
+        options.baseline = stereo->baseline;
+        for (const sim::StereoObservation& s : stereo->stereo) {
+          options.stereo.push_back({s.observation, s.uuv});
+        }
+      }
+      core::Result<std::vector<StepMessages>> steps = MakeReconstructionMessages(*r, options);
       if (!steps.ok()) Failure(opt.sources[i] + ": " + steps.status().message());
       datasets.push_back(RobotDataset{name, std::move(steps).value()});
       continue;
@@ -145,6 +159,10 @@ void RegisterReplay(CLI::App& app) {
                   "Inter-robot loop closures: lines 'INTER_SE2 robotA idxA robotB idxB dx dy dθ "
                   "+6 info' or 'INTER_SE3 ... x y z qx qy qz qw +21 info'; each is sent once both "
                   "poses were")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--stereo", opt->stereo,
+                  "Reconstruction: its stereo measurements (stereo.txt of `slamctl sim --stereo`), "
+                  "sent as stereo features of a stereo camera")
       ->check(CLI::ExistingFile);
   cmd->add_option("--channels", opt->channels_regex,
                   "LCM log: also re-publish events whose channel fully matches this regex "

@@ -22,6 +22,7 @@ struct ReplayOptions {
   std::vector<std::string> sources;
   std::vector<std::string> robots;  // --robot, one per dataset
   std::string inter_robot;
+  std::string stereo;          // --stereo: a reconstruction's stereo.txt (slamctl sim --stereo)
   std::string channels_regex;  // --channels: extra log channels to re-publish
   Pacing pacing = Pacing::kFast;
   double rate_hz = 0.0;

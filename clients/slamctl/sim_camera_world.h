@@ -137,4 +137,13 @@ core::Reconstruction AsBal(const core::Reconstruction& r);
 core::Status WriteCameraWorld(const CameraWorld& world, CameraFormat format, const std::string& dir,
                               std::vector<std::string>* written);
 
+// stereo.txt read back: the baseline [m] and the measurements in observation order.
+struct StereoFile {
+  double baseline = 0.0;
+  std::vector<StereoObservation> stereo;
+};
+// kNotFound when the file cannot be opened; kInvalidArgument naming the line that does not
+// parse (the format is in the file's '#' header).
+core::Result<StereoFile> ReadStereoFile(const std::string& path);
+
 }  // namespace slamd::clients::sim

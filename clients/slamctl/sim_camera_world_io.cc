@@ -1,5 +1,8 @@
 // Writing a camera world: the problem and the ground truth as BAL files and COLMAP text models
-// (core/io/sfm_io.h), outliers.txt and stereo.txt.
+// (core/io/sfm_io.h), outliers.txt and stereo.txt; reading stereo.txt back.
+#include <cmath>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -86,6 +89,39 @@ core::Status WriteCameraWorld(const CameraWorld& world, CameraFormat format, con
     written->push_back("stereo.txt");
   }
   return core::Status::Ok();
+}
+
+core::Result<StereoFile> ReadStereoFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return core::NotFound(path + ": cannot open");
+  StereoFile file;
+  bool calibrated = false;
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    std::istringstream words(line);
+    std::string kind;
+    if (!(words >> kind) || kind[0] == '#') continue;
+    const std::string where = path + ":" + std::to_string(number) + ": ";
+    if (kind == "CALIBRATION") {
+      double fx, fy, cx, cy, sigma;
+      if (!(words >> fx >> fy >> cx >> cy >> file.baseline >> sigma) || !(file.baseline > 0)) {
+        return core::InvalidArgument(where + "expected CALIBRATION fx fy cx cy BASELINE SIGMA");
+      }
+      calibrated = true;
+    } else if (kind == "STEREO") {
+      StereoObservation s;
+      int image, point;
+      if (!(words >> s.observation >> image >> point >> s.uuv[0] >> s.uuv[1] >> s.uuv[2]) ||
+          s.observation < 0 || !s.uuv.allFinite()) {
+        return core::InvalidArgument(where + "expected STEREO OBSERVATION IMAGE POINT uL uR v");
+      }
+      file.stereo.push_back(s);
+    } else {
+      return core::InvalidArgument(where + "unknown line '" + kind + "'");
+    }
+  }
+  if (!calibrated) return core::InvalidArgument(path + ": no CALIBRATION line");
+  return file;
 }
 
 }  // namespace slamd::clients::sim

@@ -36,7 +36,7 @@ struct LandmarkInitializationParams {
   int min_views = 2;                 // >= 2: views needed when no stereo view places it
   double min_parallax_deg = 1.0;     // >= 0, < 180
   double max_reprojection_px = 4.0;  // > 0
-  double min_disparity_px = 1.0;     // > 0: a stereo view places the point above this
+  double min_disparity_px = 10.0;    // > 0: a stereo view places the point above this
 
   Status Validate() const;
 };

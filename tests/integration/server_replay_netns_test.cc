@@ -11,8 +11,9 @@
 //  4. a fresh slamd, `slamctl replay input_M3500_g2o.g2o --fast`: nothing lost or rejected, and
 //     the settled chi2 is the batch optimum to 1e-4;
 //  5. a fresh slamd, `slamctl replay` of a simulated camera world (`slamctl sim camera-object`,
-//     its COLMAP model) camera by camera: nothing rejected, and the settled chi2 is the batch
-//     optimum of the graph the same messages make in an in-process estimator, to 1e-4.
+//     its COLMAP model) camera by camera, mono (--fast) and stereo (--stereo, 30 frames/s):
+//     nothing rejected or dropped, and the settled chi2 is the batch optimum of the graph the
+//     same messages make in an in-process estimator, to 1e-4.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <unistd.h>
@@ -26,6 +27,7 @@
 #include <vector>
 
 #include "clients/slamctl/reconstruction_messages.h"
+#include "clients/slamctl/sim_camera_world.h"
 #include "core/io/dataset.h"
 #include "core/io/sfm_io.h"
 #include "server/transport/lcm_bus.h"
@@ -259,27 +261,55 @@ TEST(ServerReplayNetnsTest, DatasetLogAndFastReplays) {
     EXPECT_NEAR(JsonNumber(run.out, "final_chi2"), kM3500Optimum, 1e-4 * kM3500Optimum) << run.out;
   }
 
-  // 5. A camera world, camera by camera: frames, landmarks entering as they are determined.
-  {
+  // 5. Camera worlds, camera by camera: frames, landmarks entering as they are determined; a
+  // mono one as fast as the server takes it, a stereo one at 30 frames/s.
+  for (const bool stereo : {false, true}) {
+    SCOPED_TRACE(stereo ? "stereo" : "mono");
     const testing::TempDir dir("slamd_camera_world_");
-    const CommandRun sim =
-        Slamctl(&observer,
-                {"sim", "camera-object", "-o", dir.path(), "--cameras", "20", "--points", "300",
-                 "--init-sigma-camera", "0.01", "--init-sigma-rotation", "0.001", "--seed", "4"});
+    std::vector<std::string> sim_args = {"sim",
+                                         "camera-object",
+                                         "-o",
+                                         dir.path(),
+                                         "--cameras",
+                                         "20",
+                                         "--points",
+                                         "300",
+                                         "--init-sigma-camera",
+                                         "0.01",
+                                         "--init-sigma-rotation",
+                                         "0.001",
+                                         "--seed",
+                                         "4"};
+    if (stereo) sim_args.insert(sim_args.end(), {"--stereo", "--baseline", "0.6"});
+    const CommandRun sim = Slamctl(&observer, sim_args);
     ASSERT_EQ(sim.exit_code, 0) << sim.out;
     const std::string model = dir.File("colmap");
     Slamd slamd(&observer, config);
     ASSERT_TRUE(slamd.listening);
-    const CommandRun run = Slamctl(&observer, {"replay", model, "--robot", "cam", "--fast",
-                                               "--json", "-q", "--lcm-url", kUrl});
+    std::vector<std::string> replay_args = {"replay", model, "--robot",   "cam",
+                                            "--json", "-q",  "--lcm-url", kUrl};
+    if (stereo) {
+      replay_args.insert(replay_args.end(), {"--stereo", dir.File("stereo.txt"), "--rate", "30"});
+    } else {
+      replay_args.push_back("--fast");
+    }
+    const CommandRun run = Slamctl(&observer, replay_args);
     EXPECT_EQ(run.exit_code, 0) << run.out;
     EXPECT_EQ(JsonNumber(run.out, "server_received"), JsonNumber(run.out, "sent")) << run.out;
     EXPECT_EQ(JsonNumber(run.out, "rejected"), 0) << run.out;
     EXPECT_EQ(JsonNumber(run.out, "poses_acknowledged"), 20) << run.out;
     EXPECT_EQ(JsonNumber(run.out, "landmarks_dropped"), 0) << run.out;
     EXPECT_NE(run.out.find("\"settled\": true"), std::string::npos) << run.out;
-    const auto steps = clients::MakeReconstructionMessages(core::ReadReconstruction(model).value(),
-                                                           {.robot = "cam"});
+    // The batch optimum of the graph the same messages make in an in-process estimator.
+    clients::ReconstructionMessageOptions options{.robot = "cam"};
+    if (stereo) {
+      const auto file = clients::sim::ReadStereoFile(dir.File("stereo.txt"));
+      ASSERT_TRUE(file.ok()) << file.status().message();
+      options.baseline = file->baseline;
+      for (const auto& s : file->stereo) options.stereo.push_back({s.observation, s.uuv});
+    }
+    const auto steps =
+        clients::MakeReconstructionMessages(core::ReadReconstruction(model).value(), options);
     ASSERT_TRUE(steps.ok()) << steps.status().message();
     const testing::StreamedEstimator local = testing::StreamSteps(*steps);
     const double optimum = testing::BatchOptimumChi2(*local.estimator);

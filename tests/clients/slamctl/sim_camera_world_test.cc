@@ -223,6 +223,21 @@ TEST(SimCameraWorldTest, WrittenFilesReadBack) {
   ASSERT_EQ(stereo.size(), world.stereo.size() + 1);
   EXPECT_EQ(stereo.front(), "CALIBRATION 500 500 320 240 0.5 1");
   EXPECT_EQ(stereo[1].rfind("STEREO " + std::to_string(world.stereo[0].observation) + " ", 0), 0u);
+  // ReadStereoFile gives back what was written.
+  core::Result<StereoFile> read = ReadStereoFile(dir.File("stereo.txt"));
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  EXPECT_EQ(read->baseline, 0.5);
+  ASSERT_EQ(read->stereo.size(), world.stereo.size());
+  for (std::size_t i = 0; i < world.stereo.size(); ++i) {
+    EXPECT_EQ(read->stereo[i].observation, world.stereo[i].observation);
+    EXPECT_LT((read->stereo[i].uuv - world.stereo[i].uuv).norm(), 1e-9);
+  }
+  // A line that does not parse is named.
+  std::ofstream(dir.File("bad.txt")) << "CALIBRATION 500 500 320 240 0.5 1\nSTEREO 1 2 x\n";
+  const core::Result<StereoFile> bad = ReadStereoFile(dir.File("bad.txt"));
+  EXPECT_EQ(bad.status().code(), core::StatusCode::kInvalidArgument);
+  EXPECT_NE(bad.status().message().find("bad.txt:2:"), std::string::npos) << bad.status().message();
+  EXPECT_EQ(ReadStereoFile(dir.File("missing.txt")).status().code(), core::StatusCode::kNotFound);
 }
 
 // From the perturbed initial guess, bundle adjustment reaches the noise level: no worse than the

@@ -57,7 +57,7 @@ struct Seen {
 
 // A frame of `robot` at pose `index` (body at `body`) seeing `points`, noise-free.
 Inbound Frame(const std::string& robot, std::uint64_t index, const Pose3& body,
-              const std::vector<Seen>& points, bool stereo = false, double baseline = 0.12,
+              const std::vector<Seen>& points, bool stereo = false, double baseline = 0.5,
               LandmarkNamespace ns = LandmarkNamespace::kRobot) {
   FrameObservations f{.utime = 4,
                       .robot = robot,
@@ -127,7 +127,7 @@ TEST(CameraLandmarks, AMonoLandmarkWaitsForParallaxThenEntersTriangulated) {
 
 TEST(CameraLandmarks, OneStereoViewDeterminesALandmark) {
   auto e = Make();
-  ASSERT_TRUE(e->Process(Robot("r", 1, 0.12)).status.ok());
+  ASSERT_TRUE(e->Process(Robot("r", 1, 0.5)).status.ok());
   const ProcessResult r = e->Process({Frame("r", 0, BodyPose(0), {{3, kP3}}, true)});
   ASSERT_TRUE(r.status.ok());
   EXPECT_TRUE(r.rejections.empty());
@@ -228,7 +228,7 @@ TEST(CameraLandmarks, AFrameWaitsForItsCameraAndPose) {
   ProcessResult r = e->Process({Frame("r", 0, BodyPose(0), {{3, kP3}}, true)});
   EXPECT_TRUE(r.rejections.empty());
   EXPECT_EQ(e->held_messages(), 1);
-  r = e->Process({Camera("r", 0.12)});
+  r = e->Process({Camera("r", 0.5)});
   EXPECT_EQ(e->held_messages(), 0);
   EXPECT_TRUE(InGraph(*e, L(3)));
 }
@@ -266,7 +266,7 @@ TEST(CameraLandmarks, RobotsShareLandmarksOfTheMapNamespace) {
 
 TEST(CameraLandmarks, CamerasTracksAndProjectionsSurviveASnapshot) {
   auto e = Make();
-  ASSERT_TRUE(e->Process(Robot("r", 2, 0.12)).status.ok());
+  ASSERT_TRUE(e->Process(Robot("r", 2, 0.5)).status.ok());
   // Landmark 2 enters (stereo, with projection factors); landmark 1 waits in its track.
   ASSERT_TRUE(e->Process({Frame("r", 0, BodyPose(0), {{2, kP2}}, true)}).status.ok());
   ASSERT_TRUE(e->Process({Frame("r", 0, BodyPose(0), {{1, kP1}})}).status.ok());
