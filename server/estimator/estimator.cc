@@ -371,7 +371,7 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
     if (++h.waited > params_.max_hold_updates) {
       Reject(h.message, RejectReason::kOutOfOrderTimeout,
              std::string(MessageTypeName(h.message)) +
-                 ": the pose it needs did not arrive within " +
+                 ": the pose (or camera) it needs did not arrive within " +
                  std::to_string(params_.max_hold_updates) + " updates",
              &result);
     } else {
