@@ -93,6 +93,18 @@ std::vector<Inbound> StateMessages() {
                0});
   m.push_back({OdometryMeasurement{7, "s", 0, 1, core::Pose2(1, 0, 0), noise}, 0});   // held
   m.push_back({OdometryMeasurement{11, "r", 7, 8, core::Pose2(1, 0, 0), noise}, 0});  // held
+  // A camera robot: its camera, and a frame whose landmark waits in its track (one view).
+  m.push_back({PriorMeasurement{12, "c", 0, PriorKind::kPose3, core::Pose3(),
+                                core::NoiseModel::Isotropic(6, 0.01).value()},
+               0});
+  m.push_back({Convert(t::CameraInfoMessage(1)).value(), 0});
+  std::get<CameraInfo>(m.back().measurement).robot = "c";
+  std::get<CameraInfo>(m.back().measurement).camera_id = 0;
+  FrameObservations frame = Convert(t::FrameMessage(1)).value();
+  frame.robot = "c";
+  frame.pose_index = 0;
+  frame.camera_id = 0;
+  m.push_back({frame, 0});
   return m;
 }
 
