@@ -68,6 +68,12 @@ core::Result<std::vector<StepMessages>> MakeReconstructionMessages(
     of_image[r.observations[i].image].push_back(static_cast<int>(i));
   }
 
+  // Each intrinsics' camera, once: the size of a BAL camera comes from a pass over the pixels.
+  std::vector<server::CameraModel> cameras;
+  for (std::size_t k = 0; k < r.intrinsics.size(); ++k) {
+    cameras.push_back(CameraOf(r, static_cast<int>(k), stereo ? o.baseline : 0.0));
+  }
+
   std::vector<StepMessages> out;
   int last_intrinsics = -1;
   for (std::size_t i = 0; i < r.images.size(); ++i) {
@@ -78,14 +84,12 @@ core::Result<std::vector<StepMessages>> MakeReconstructionMessages(
       server::ToLcm(value, &lcm);
       step.messages.emplace_back(std::move(lcm));
     };
-    if (image.intrinsics != last_intrinsics &&
-        (last_intrinsics < 0 ||
-         !(CameraOf(r, image.intrinsics, 0.0) == CameraOf(r, last_intrinsics, 0.0)))) {
+    if (last_intrinsics < 0 || !(cameras[image.intrinsics] == cameras[last_intrinsics])) {
       add(server::CameraInfo{.utime = utime,
                              .robot = o.robot,
                              .camera_id = 0,
                              .from_pose_index = i,
-                             .camera = CameraOf(r, image.intrinsics, stereo ? o.baseline : 0.0)},
+                             .camera = cameras[image.intrinsics]},
           slamd::camera_info_t{});
     }
     last_intrinsics = image.intrinsics;

@@ -276,8 +276,9 @@ void Estimator::Reject(const Inbound& in, RejectReason reason, std::string messa
 }
 
 void Estimator::AgeTracks(ProcessResult* result) {
-  for (auto& [key, track] :
+  for (auto& dropped :
        tracks_.Age(params_.landmark_max_wait_updates, params_.max_track_observations)) {
+    LandmarkTracks::Track& track = dropped.second;
     ++counters_.landmarks_dropped;
     const bool full = track.waited <= params_.landmark_max_wait_updates;
     const FrameObservations& first = track.observations.front();

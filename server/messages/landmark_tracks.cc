@@ -52,16 +52,16 @@ void LandmarkTracks::Erase(core::Key landmark) {
 }
 
 void LandmarkTracks::Rollback() {
-  // Newest first, so that each key ends at the state it had before its first change.
-  for (auto it = before_.rbegin(); it != before_.rend(); ++it) {
-    const auto current = tracks_.find(it->first);
+  // One record per key (Remember): each key back to its state before the batch.
+  for (auto& [key, before] : before_) {
+    const auto current = tracks_.find(key);
     if (current != tracks_.end()) {
       observations_ -= static_cast<int>(current->second.observations.size());
       tracks_.erase(current);
     }
-    if (it->second) {
-      observations_ += static_cast<int>(it->second->observations.size());
-      tracks_.emplace(it->first, std::move(*it->second));
+    if (before) {
+      observations_ += static_cast<int>(before->observations.size());
+      tracks_.emplace(key, std::move(*before));
     }
   }
   before_.clear();

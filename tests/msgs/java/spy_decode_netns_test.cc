@@ -44,6 +44,7 @@
 #include "slamd/status_t.hpp"
 #include "slamd/variable_t.hpp"
 #include "tests/msgs/java/lcm_fields.h"
+#include "tests/msgs/java/spy_output.h"
 #include "tests/testing/datasets.h"
 #include "tests/testing/processes.h"
 

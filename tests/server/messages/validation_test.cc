@@ -1,5 +1,6 @@
 // Every stateless rejection reason of every inbound type (one case per reason per type where it
-// applies), acceptance of good messages, and Limits::Validate.
+// applies; the camera types' in camera_validation_test.cc), acceptance of good messages, and
+// Limits::Validate.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,55 +12,13 @@
 
 #include "server/messages/inbound.h"
 #include "tests/server/ingest/test_messages.h"
+#include "tests/server/messages/rejection_cases.h"
 
 namespace slamd::server {
 namespace {
 
-using namespace testing;  // NOLINT: the example messages
-using R = RejectReason;
-
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr std::int64_t kTooBig = std::int64_t{1} << 48;
-
-struct Case {
-  std::string name;
-  std::function<Verdict()> run;  // builds a good message, breaks one thing, validates it
-  R reason;
-  std::string message_part;  // must appear in the message (the field, usually)
-};
-
-void PrintTo(const Case& c, std::ostream* os) { *os << c.name; }
-
-template <typename Msg>
-Case Make(std::string name, Msg good, std::function<void(Msg&)> mutate, R reason,
-          std::string part) {
-  return Case{std::move(name),
-              [good, mutate] {
-                Msg m = good;
-                mutate(m);
-                return Validate(m);
-              },
-              reason, std::move(part)};
-}
-
-// Row-major covariance helpers for the covariance reasons.
-template <typename Msg>
-void Asymmetric(Msg& m) {
-  m.covariance[1] += 1e-3;  // (0, 1) differs from (1, 0) by 10 % of the largest entry
-}
-template <typename Msg>
-void Indefinite(Msg& m) {
-  const int d = static_cast<int>(std::lround(std::sqrt(m.num_covariance)));
-  m.covariance[(d - 1) * d + (d - 1)] = -0.2;
-}
-template <typename Msg>
-void IllConditioned(Msg& m) {
-  const int d = static_cast<int>(std::lround(std::sqrt(m.num_covariance)));
-  std::fill(m.covariance.begin(), m.covariance.end(), 0.0);
-  for (int i = 0; i < d; ++i) m.covariance[i * d + i] = 1.0;
-  m.covariance[0] = 1e-13;  // condition number 1e13 > 1e12 (core alone would accept up to 1e14)
-}
+using namespace testing;          // NOLINT: the example messages
+using namespace rejection_cases;  // NOLINT: Case, Make, RejectionTest
 
 std::vector<Case> OdometryCases() {
   using M = slamd::odometry_t;
@@ -414,104 +373,6 @@ std::vector<Case> QueryCases() {
   };
 }
 
-std::vector<Case> CameraInfoCases() {
-  using M = slamd::camera_info_t;
-  const M c = CameraInfoMessage(1), stereo = CameraInfoMessage(4);
-  return {
-      Make<M>(
-          "CameraIdOutOfRange", c, [](M& m) { m.camera_id = 256; }, R::kIndexOutOfRange,
-          "camera_info_t.camera_id: 256"),
-      Make<M>(
-          "Model5", c, [](M& m) { m.model = 5; }, R::kBadKind, "camera_info_t.model: 5"),
-      Make<M>(
-          "IntrinsicsOfAnotherModel", c,
-          [](M& m) {
-            m.intrinsics.push_back(0.1);
-            m.num_intrinsics = 6;
-          },
-          R::kSizeMismatch, "camera_info_t.num_intrinsics"),
-      Make<M>(
-          "IntrinsicNaN", c, [](M& m) { m.intrinsics[3] = kNaN; }, R::kNotFinite,
-          "camera_info_t.intrinsics[3]"),
-      Make<M>(
-          "NegativeFocal", c, [](M& m) { m.intrinsics[1] = -400.0; }, R::kBadMeasurement,
-          "camera_info_t.intrinsics[1]: focal length -400"),
-      Make<M>(
-          "ZeroBaseline", stereo, [](M& m) { m.intrinsics[5] = 0.0; }, R::kBadMeasurement,
-          "camera_info_t.intrinsics[5]: baseline 0"),
-      Make<M>(
-          "MountNotUnit", c, [](M& m) { m.body_q_camera[0] *= 1.1; }, R::kQuaternionNotUnit,
-          "camera_info_t.body_q_camera"),
-      Make<M>(
-          "MountInfinite", c, [](M& m) { m.body_t_camera[2] = kInf; }, R::kNotFinite,
-          "camera_info_t.body_t_camera[2]"),
-      Make<M>(
-          "ZeroWidth", c, [](M& m) { m.width = 0; }, R::kBadMeasurement,
-          "camera_info_t.width: 0 px"),
-  };
-}
-
-std::vector<Case> FrameCases() {
-  using M = slamd::frame_observations_t;
-  const M mono = FrameMessage(1), stereo = FrameMessage(2), full = FrameMessage(1, true);
-  return {
-      Make<M>(
-          "BadRobot", mono, [](M& m) { m.robot = "a b"; }, R::kBadName,
-          "frame_observations_t.robot"),
-      Make<M>(
-          "Kind3", mono, [](M& m) { m.kind = 3; }, R::kBadKind, "frame_observations_t.kind: 3"),
-      Make<M>(
-          "Namespace2", mono, [](M& m) { m.landmark_namespace = 2; }, R::kBadKind,
-          "frame_observations_t.landmark_namespace"),
-      Make<M>(
-          "NoFeatures", mono,
-          [](M& m) {
-            m.num_features = 0;
-            m.landmark_ids.clear();
-          },
-          R::kTooManyElements, "frame_observations_t.num_features: 0"),
-      Make<M>(
-          "ValuesOfAnotherKind", mono, [](M& m) { m.kind = 2; }, R::kSizeMismatch,
-          "frame_observations_t.num_values"),
-      Make<M>(
-          "LandmarkIdTooBig", mono, [](M& m) { m.landmark_ids[2] = kTooBig; }, R::kIndexOutOfRange,
-          "frame_observations_t.landmark_ids[2]"),
-      Make<M>(
-          "LandmarkTwice", mono, [](M& m) { m.landmark_ids[2] = 10; }, R::kDuplicate,
-          "frame_observations_t.landmark_ids[2]: landmark 10 is also feature 0"),
-      Make<M>(
-          "PixelNaN", mono, [](M& m) { m.values[3] = kNaN; }, R::kNotFinite,
-          "frame_observations_t.values[3]"),
-      Make<M>(
-          "NegativeDisparity", stereo, [](M& m) { m.values[4] = 330.0; }, R::kBadMeasurement,
-          "frame_observations_t.values[4]: u_right 330 exceeds u_left 320"),
-      Make<M>(
-          "TwoSigmasForThreeFeatures", mono,
-          [](M& m) {
-            m.sigmas.pop_back();
-            m.num_sigmas = 2;
-          },
-          R::kSizeMismatch, "frame_observations_t.num_sigmas: 2"),
-      Make<M>(
-          "ZeroSigma", mono, [](M& m) { m.sigmas[1] = 0.0; }, R::kBadMeasurement,
-          "frame_observations_t.sigmas[1]: sigma 0"),
-      Make<M>(
-          "HugeSigma", mono, [](M& m) { m.sigmas[2] = 1e300; }, R::kBadMeasurement,
-          "frame_observations_t.sigmas[2]: sigma 1e+300 px is outside"),
-      Make<M>(
-          "NegativeSigma", mono, [](M& m) { m.sigmas[0] = -3.0; }, R::kBadMeasurement,
-          "frame_observations_t.sigmas[0]: sigma -3 px is outside"),
-      Make<M>(
-          "IndefiniteCovariance", full, [](M& m) { m.covariance[7] = -0.2; },
-          R::kCovarianceNotPositiveDefinite, "frame_observations_t.covariance[4]"),
-      Make<M>(
-          "UnknownKernel", mono, [](M& m) { m.robust_kernel = "tukey"; }, R::kUnknownRobustKernel,
-          "frame_observations_t.robust_kernel"),
-  };
-}
-
-class RejectionTest : public ::testing::TestWithParam<Case> {};
-
 TEST_P(RejectionTest, RejectsWithReasonNamingTheField) {
   const Case& c = GetParam();
   const Verdict v = c.run();
@@ -520,8 +381,6 @@ TEST_P(RejectionTest, RejectsWithReasonNamingTheField) {
   EXPECT_NE(v.message.find(c.message_part), std::string::npos)
       << "message '" << v.message << "' lacks '" << c.message_part << "'";
 }
-
-std::string CaseName(const ::testing::TestParamInfo<Case>& info) { return info.param.name; }
 
 INSTANTIATE_TEST_SUITE_P(Odometry, RejectionTest, ::testing::ValuesIn(OdometryCases()), CaseName);
 INSTANTIATE_TEST_SUITE_P(LandmarkObservation, RejectionTest, ::testing::ValuesIn(LandmarkCases()),
@@ -532,10 +391,6 @@ INSTANTIATE_TEST_SUITE_P(Prior, RejectionTest, ::testing::ValuesIn(PriorCases())
 INSTANTIATE_TEST_SUITE_P(RemoveFactor, RejectionTest, ::testing::ValuesIn(RemoveFactorCases()),
                          CaseName);
 INSTANTIATE_TEST_SUITE_P(Query, RejectionTest, ::testing::ValuesIn(QueryCases()), CaseName);
-INSTANTIATE_TEST_SUITE_P(CameraInfo, RejectionTest, ::testing::ValuesIn(CameraInfoCases()),
-                         CaseName);
-INSTANTIATE_TEST_SUITE_P(FrameObservations, RejectionTest, ::testing::ValuesIn(FrameCases()),
-                         CaseName);
 
 // Every stateless reason (2..18; 1 is the transport's decode error) is exercised above.
 TEST(RejectionCoverage, EveryStatelessReasonIsTested) {
@@ -565,14 +420,6 @@ TEST(Accepts, GoodMessagesOfEveryKind) {
     EXPECT_TRUE(Validate(RemoveFactor(target)).ok()) << Validate(RemoveFactor(target)).message;
   }
   EXPECT_TRUE(Validate(Query()).ok()) << Validate(Query()).message;
-  for (int model = 1; model <= 4; ++model) {
-    EXPECT_TRUE(Validate(CameraInfoMessage(model)).ok())
-        << Validate(CameraInfoMessage(model)).message;
-  }
-  for (const auto& m :
-       {FrameMessage(1), FrameMessage(2), FrameMessage(1, true), FrameMessage(2, true)}) {
-    EXPECT_TRUE(Validate(m).ok()) << Validate(m).message;
-  }
 }
 
 TEST(Accepts, BoundaryValues) {
