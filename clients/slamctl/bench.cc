@@ -251,6 +251,9 @@ void RegisterBench(CLI::App& app) {
          "--wildfire", opt->isam2.wildfire_threshold,
          "isam2: partial back-substitution threshold (0: solve every clique below a change)")
       ->capture_default_str();
+  cmd->add_flag("--trust-region", opt->isam2.trust_region.enabled,
+                "isam2: end every update with Powell's dog leg instead of the Gauss-Newton step "
+                "(the chi2 never rises above the linearisation point's; O(graph) per update)");
   cmd->add_option("--batch-every", opt->isam2.batch_every,
                   "isam2: relinearise and re-eliminate everything every N updates (0: never)")
       ->capture_default_str();

@@ -57,6 +57,8 @@ class Isam2 {
   // kErrorFloor x the threshold counts as that floor in the prediction.
   static constexpr double kStaleScreen = 0.25;
   static constexpr double kErrorFloor = 0.01;
+  // Trust region: a model decrease below this x (1 + cost) is round-off (Gauss-Newton taken).
+  static constexpr double kNegligibleDecrease = 1e-12;
 
   // kInvalidArgument (naming the field) when params are invalid.
   static Result<std::unique_ptr<Isam2>> Create(const Isam2Params& params = {});
@@ -74,8 +76,8 @@ class Isam2 {
   // Gauss-Newton step through the tree; its back-substitution is partial with a threshold of
   // kRefineWildfire x refine_threshold (a full solve would make every round O(variables), which on
   // a large, nearly converged map costs far more than the few cliques that still move). A round
-  // that would raise chi2 is still taken (there is no line search yet). The server calls this
-  // when no message has come for a while (refine.idle_s).
+  // that would raise chi2 is still taken, unless Isam2Params::trust_region is on. The server calls
+  // this when no message has come for a while (refine.idle_s).
   struct RefineResult {
     Status status;
     int rounds = 0;
@@ -186,6 +188,12 @@ class Isam2 {
   // Aborts while a back-substitution is pending: `what` needs all of δ or changes the solver.
   void CheckNoPendingSolve(const char* what) const;
   Status LinearizeFactor(int index);
+  // 9. Isam2Params::trust_region: replaces the Gauss-Newton δ by the dog-leg step (dogleg.h)
+  // that lowers the (robust) cost at θ ⊕ δ below the cost at θ, adapting radius_.
+  Isam2Result::TrustRegion TrustRegionStep();
+  // Σ chi2 (robust: Σ cost, Factor::Cost) of the current factors at θ ⊕ step (at θ when step is
+  // null).
+  double SumAt(const Eigen::VectorXd* step, bool robust) const;
   // Restores the state before the current update (after a numerical failure).
   void Rollback();
 
@@ -217,6 +225,9 @@ class Isam2 {
   std::array<int, kNumVariableTypes> rotation_begin_;
   std::vector<int> offsets_;                // δ offsets per var id (size n + 1)
   Eigen::VectorXd delta_;                   // solution of the linearised system (tail unused)
+  double radius_;                           // trust-region radius (Isam2Params::trust_region)
+  Eigen::VectorXd gauss_newton_, gradient_, cauchy_, step_;  // TrustRegionStep's vectors
+  std::vector<double> dogleg_scratch_;
   std::vector<FactorPtr> factors_;          // by factor index; null once removed
   std::vector<JacobianFactor> linearized_;  // cached linearisation of each factor at θ
   // Linearisation-error screen (FindStaleLinearizations): per factor κ_f, or -1 before its

@@ -25,6 +25,8 @@ Status Isam2Params::Validate() const {
   SLAMD_PARAM_CHECK(Isam2Params, wildfire_threshold, >=, 0.0);
   SLAMD_PARAM_CHECK(Isam2Params, refine_threshold, >, 0.0);
   SLAMD_PARAM_CHECK(Isam2Params, refine_max_variables, >=, 0);
+  SLAMD_PARAM_CHECK(Isam2Params, trust_region.initial_radius, >, 0.0);
+  SLAMD_PARAM_CHECK(Isam2Params, trust_region.min_radius, >, 0.0);
   SLAMD_PARAM_CHECK(Isam2Params, threads, >=, 1);
   SLAMD_PARAM_CHECK(Isam2Params, batch_every, >=, 0);
   return elimination.Validate();

@@ -70,6 +70,23 @@ struct Isam2Params {
   // soak), and a message that came meanwhile waited for it. 0 = no limit. >= 0.
   int refine_max_variables = 2048;
 
+  // Trust region: with `enabled`, every update ends with Powell's dog leg (core/isam/dogleg.h)
+  // instead of the plain Gauss-Newton step: δ is cut back to the trust-region radius along the
+  // dog-leg path until the cost (robust kernels applied) at θ ⊕ δ is below the cost at θ, and
+  // the radius adapts to how well the linear model predicted the decrease. Gauss-Newton
+  // diverges where new variables are weakly determined (a camera's own calibration, a landmark
+  // seen at little parallax); the dog leg does not, at the price of a full back-substitution,
+  // the gradient and one or more cost evaluations per update: O(variables + factors), where
+  // Gauss-Newton's update touches only the top of the tree. The radius is a Euclidean norm over
+  // δ in the variables' own units.
+  struct TrustRegion {
+    bool enabled = false;
+    double initial_radius = 1.0;  // > 0
+    // Below this radius the update keeps δ = 0 (the estimate is θ). > 0.
+    double min_radius = 1e-9;
+  };
+  TrustRegion trust_region = {};
+
   // Threads for the slowest steps, which relinearise most of the graph and re-eliminate the
   // whole tree: they relinearise factors (when there are 512+ per thread) and eliminate
   // independent subtrees in parallel (Eliminator, when the work is large enough). Results do not

@@ -73,6 +73,13 @@ struct Isam2Result {
   // Cliques back-substituted (with solve_first: by Update; FinishBackSubstitution counts the rest).
   int solved_cliques = 0;
   bool batch_step = false;
+  // Isam2Params::trust_region: the radius after this update, the dog-leg steps tried (each a chi2
+  // evaluation) and whether δ is the Gauss-Newton step.
+  struct TrustRegion {
+    double radius = 0.0;
+    int attempts = 0;
+    bool gauss_newton = false;
+  } trust_region;
   // Seconds per step of the update (numbered as in isam2.cc).
   struct Seconds {
     double add = 0.0;          // 1-2: checks, new variables and factors, linearisation
@@ -83,6 +90,7 @@ struct Isam2Result {
     double order = 0.0;        // 6: constrained COLAMD
     double eliminate = 0.0;    // 7: dense elimination and re-attaching orphans
     double solve = 0.0;        // 8: partial back-substitution (with solve_first: its first part)
+    double trust_region = 0.0;  // 9: the dog leg (Isam2Params::trust_region)
     double total = 0.0;
   } seconds;
 

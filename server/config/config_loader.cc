@@ -89,6 +89,7 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   if (i.has_refine_max_variables()) p->isam2.refine_max_variables = i.refine_max_variables();
   if (i.has_batch_every()) p->isam2.batch_every = i.batch_every();
   if (i.has_threads()) p->isam2.threads = i.threads();
+  if (i.has_trust_region()) p->isam2.trust_region.enabled = i.trust_region();
   const proto::JournalConfig& j = config.journal();
   if (j.has_sync()) {
     p->journal.sync = j.sync() == proto::JournalConfig::ALWAYS     ? SyncPolicy::kAlways
@@ -234,6 +235,8 @@ std::string DefaultConfigText() {
       << "  # periodic full relinearisation, 0 = never\n"
       << "  threads: " << d.isam2.threads
       << "  # for the large steps (relinearising, eliminating subtrees), >= 1\n"
+      << "  trust_region: " << (d.isam2.trust_region.enabled ? "true" : "false")
+      << "  # dog-leg steps: no divergence on weakly seen landmarks, O(map) per update\n"
       << "}\n\n"
       << "estimator {\n"
       << "  new_robot_anchor: "

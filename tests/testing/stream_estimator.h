@@ -22,8 +22,9 @@ struct StreamedEstimator {
 };
 
 // One Process per step; every message must convert (stateless validation).
-inline StreamedEstimator StreamSteps(const std::vector<clients::StepMessages>& steps) {
-  StreamedEstimator s{server::Estimator::Create({.chi2_interval_s = 0.0}, {}).value(), {}, 0};
+inline StreamedEstimator StreamSteps(const std::vector<clients::StepMessages>& steps,
+                                     const core::Isam2Params& isam2 = {}) {
+  StreamedEstimator s{server::Estimator::Create({.chi2_interval_s = 0.0}, isam2).value(), {}, 0};
   for (const clients::StepMessages& step : steps) {
     std::vector<server::Inbound> batch;
     for (const clients::RobotMessage& m : step.messages) {

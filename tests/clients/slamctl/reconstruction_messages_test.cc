@@ -55,6 +55,16 @@ TEST(ReconstructionMessages, AMonoWorldStreamsInAndSettlesAtTheBatchOptimum) {
   ExpectSettlesAtTheBatchOptimum(*s.estimator);
 }
 
+TEST(ReconstructionMessages, WithTheTrustRegionAMonoWorldSettlesAtTheBatchOptimum) {
+  const auto steps = MakeReconstructionMessages(World(false).initial, {.robot = "cam"});
+  ASSERT_TRUE(steps.ok()) << steps.status().message();
+  core::Isam2Params isam2;
+  isam2.trust_region.enabled = true;
+  testing::StreamedEstimator s = testing::StreamSteps(*steps, isam2);
+  EXPECT_TRUE(s.rejections.empty());
+  ExpectSettlesAtTheBatchOptimum(*s.estimator);
+}
+
 TEST(ReconstructionMessages, AStereoWorldStreamsInAndSettlesAtTheBatchOptimum) {
   const sim::CameraWorld world = World(true);
   ReconstructionMessageOptions options{.robot = "cam", .baseline = 0.6};

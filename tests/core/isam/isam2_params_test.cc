@@ -62,6 +62,8 @@ TEST(Isam2ParamsTest, EachViolationNamesTheField) {
       {{.refine_threshold = 0.0}, "refine_threshold"},
       {{.refine_max_variables = -1}, "refine_max_variables"},
       {{.batch_every = -2}, "batch_every"},
+      {{.trust_region = {.initial_radius = 0.0}}, "trust_region.initial_radius"},
+      {{.trust_region = {.min_radius = -1.0}}, "trust_region.min_radius"},
       {{.threads = 0}, "threads"},
       {{.elimination = {.relative_pivot_tolerance = 2.0}}, "relative_pivot_tolerance"},
   };

@@ -1,0 +1,44 @@
+// Powell's dog leg on the linear model a Bayes tree holds, for Isam2's trust-region step
+// (Isam2Params::trust_region; the dog leg in iSAM2 as in Rosen, Kaess & Leonard, "RISE: An
+// Incremental Trust-Region Method for Robust Online Sparse Least-Squares Estimation", T-RO 2014).
+//
+// The tree's conditionals R_c δ_F + S_c δ_S = d_c stack into one upper-triangular system
+// R δ = d, and the linearised chi2 around the linearisation point is, up to a constant,
+//     m(δ) = |R δ − d|²                      (chi2 units: no ½),
+// minimised by the Gauss-Newton step R⁻¹d (back-substitution). Its steepest-descent direction at
+// δ = 0 is g = Rᵀd, and the model's minimum along it (the Cauchy point) is (|g|² / |R g|²) g.
+// The dog-leg step follows the path 0 → Cauchy point → Gauss-Newton step and stops at the
+// trust-region radius; a step is judged by the ratio of the actual decrease of the nonlinear
+// chi2 to the decrease m(0) − m(δ) = 2 dᵀRδ − |Rδ|² the model predicts.
+//
+// Each function visits every live clique once: O(size of the tree).
+#pragma once
+
+#include <Eigen/Core>
+#include <span>
+#include <vector>
+
+#include "core/inference/bayes_tree.h"
+
+namespace slamd::core {
+
+// g = Rᵀd over the stacked δ layout (var_offsets as in back_substitution.h).
+void TreeGradient(const BayesTree& tree, std::span<const int> var_offsets, Eigen::VectorXd* g,
+                  std::vector<double>* scratch);
+
+// For a vector v in the stacked layout: |R v|² and dᵀ R v.
+struct TreeModelTerms {
+  double quadratic = 0.0;
+  double linear = 0.0;
+  // The decrease of m from 0 to v.
+  double Decrease() const { return 2.0 * linear - quadratic; }
+};
+TreeModelTerms ModelTerms(const BayesTree& tree, std::span<const int> var_offsets,
+                          const Eigen::VectorXd& v, std::vector<double>* scratch);
+
+// The point of the dog-leg path 0 → cauchy → gauss_newton at distance `radius` from 0 (or
+// gauss_newton itself when it lies within the radius). *step may not alias the inputs.
+void DoglegPoint(const Eigen::VectorXd& gauss_newton, const Eigen::VectorXd& cauchy, double radius,
+                 Eigen::VectorXd* step);
+
+}  // namespace slamd::core

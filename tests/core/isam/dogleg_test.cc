@@ -1,0 +1,127 @@
+// The dog leg on the Bayes tree (core/isam/dogleg.h) against the dense system it summarises, and
+// Isam2 with its trust region (Isam2Params::trust_region).
+#include "core/isam/dogleg.h"
+
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <random>
+
+#include "core/batch/batch_solver.h"
+#include "core/isam/isam2.h"
+#include "tests/testing/example_graphs.h"
+#include "tests/testing/solver_checks.h"
+
+namespace slamd::core {
+namespace {
+
+std::unique_ptr<Isam2> MakeTrustRegionIsam2(bool enabled) {
+  Isam2Params params;
+  params.trust_region.enabled = enabled;
+  Result<std::unique_ptr<Isam2>> isam = Isam2::Create(params);
+  EXPECT_TRUE(isam.ok()) << isam.status().ToString();
+  return std::move(isam).value();
+}
+
+// The whitened Jacobian of every factor at the solver's linearisation point, with the columns in
+// the solver's δ layout (variables by slot).
+Eigen::MatrixXd DenseJacobian(const Isam2& isam, std::vector<int>* offsets) {
+  const Values& theta = isam.linearization_point();
+  offsets->assign(1, 0);
+  for (int v = 0; v < static_cast<int>(theta.size()); ++v) {
+    offsets->push_back(offsets->back() + TangentDim(theta.TypeAt(v)));
+  }
+  std::vector<JacobianFactor> rows;
+  int num_rows = 0;
+  for (const FactorPtr& f : isam.Factors()) {
+    std::vector<int> ids;
+    for (Key key : f->keys()) ids.push_back(theta.SlotOf(key));
+    JacobianFactor& jf = rows.emplace_back();
+    EXPECT_TRUE(jf.Linearize(*f, theta, ids).ok());
+    num_rows += jf.rows();
+  }
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(num_rows, offsets->back());
+  int row = 0;
+  for (const JacobianFactor& jf : rows) {
+    for (int k = 0; k < jf.num_vars(); ++k) {
+      a.block(row, (*offsets)[jf.var(k)], jf.rows(), jf.dim(k)) = jf.A(k);
+    }
+    row += jf.rows();
+  }
+  return a;
+}
+
+TEST(DoglegTest, GradientAndModelTermsAreThoseOfTheDenseSystem) {
+  const testing::ExampleProblem p = testing::MakePlanarProblem(25, 5, 11);
+  std::unique_ptr<Isam2> isam = MakeTrustRegionIsam2(false);
+  for (const testing::ExampleStep& step : testing::StreamByPose(p)) {
+    ASSERT_TRUE(isam->Update(step.factors, step.values, {.force_full_solve = true}).status.ok());
+  }
+  std::vector<int> offsets;
+  const Eigen::MatrixXd a = DenseJacobian(*isam, &offsets);
+  const int n = offsets.back();
+  // The Gauss-Newton step δ solves RᵀR δ = Rᵀd with RᵀR = AᵀA: so Rᵀd = AᵀA δ, and for any v
+  // dᵀRv = δᵀAᵀA v, |Rv|² = |Av|², whatever the sign convention of b.
+  Eigen::VectorXd delta(n);
+  for (int v = 0; v + 1 < static_cast<int>(offsets.size()); ++v) {
+    for (int j = offsets[v]; j < offsets[v + 1]; ++j) delta[j] = isam->Delta(v)[j - offsets[v]];
+  }
+  std::vector<double> scratch;
+  Eigen::VectorXd g;
+  TreeGradient(isam->tree(), offsets, &g, &scratch);
+  const Eigen::VectorXd expected_g = a.transpose() * (a * delta);
+  EXPECT_LT((g - expected_g).norm(), 1e-8 * expected_g.norm());
+
+  std::mt19937 rng(3);
+  std::normal_distribution<double> normal;
+  Eigen::VectorXd v(n);
+  for (int j = 0; j < n; ++j) v[j] = normal(rng);
+  const TreeModelTerms terms = ModelTerms(isam->tree(), offsets, v, &scratch);
+  EXPECT_NEAR(terms.quadratic, (a * v).squaredNorm(), 1e-8 * terms.quadratic);
+  const double linear = (a * delta).dot(a * v);
+  EXPECT_NEAR(terms.linear, linear, 1e-8 * std::abs(linear) + 1e-9);
+  // The model's decrease is largest at the Gauss-Newton step, where it is |Rδ|².
+  const TreeModelTerms at_gn = ModelTerms(isam->tree(), offsets, delta, &scratch);
+  EXPECT_NEAR(at_gn.Decrease(), (a * delta).squaredNorm(), 1e-8 * at_gn.quadratic);
+  EXPECT_GT(at_gn.Decrease(), ModelTerms(isam->tree(), offsets, 0.5 * delta, &scratch).Decrease());
+}
+
+TEST(DoglegTest, PointsLieOnThePathAtTheRadius) {
+  const Eigen::Vector3d gn(4.0, 0.0, 0.0), cauchy(1.0, 1.0, 0.0);
+  Eigen::VectorXd step;
+  DoglegPoint(gn, cauchy, 10.0, &step);  // the Gauss-Newton step within the radius
+  EXPECT_EQ(step, Eigen::VectorXd(gn));
+  DoglegPoint(gn, cauchy, 0.5, &step);  // short of the Cauchy point: along the gradient
+  EXPECT_NEAR(step.norm(), 0.5, 1e-12);
+  EXPECT_NEAR(step[0], step[1], 1e-12);
+  DoglegPoint(gn, cauchy, 3.0, &step);  // on the second leg, at the radius
+  EXPECT_NEAR(step.norm(), 3.0, 1e-12);
+  const Eigen::Vector3d leg = gn - cauchy;
+  const double tau = (step - cauchy).dot(leg) / leg.squaredNorm();
+  EXPECT_GT(tau, 0.0);
+  EXPECT_LT(tau, 1.0);
+  EXPECT_LT((step - cauchy - tau * leg).norm(), 1e-12);
+}
+
+TEST(Isam2TrustRegionTest, SettlesToTheBatchOptimumLikeGaussNewton) {
+  for (const bool planar : {true, false}) {
+    const testing::ExampleProblem p =
+        planar ? testing::MakePlanarProblem(40, 8, 5) : testing::MakeSpatialProblem(30, 5);
+    std::unique_ptr<Isam2> isam = MakeTrustRegionIsam2(true);
+    for (const testing::ExampleStep& step : testing::StreamByPose(p)) {
+      const Isam2Result r = isam->Update(step.factors, step.values);
+      ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+      EXPECT_GE(r.trust_region.attempts, 1);
+      EXPECT_GT(r.trust_region.radius, 0.0);
+    }
+    for (int k = 0; k < 20; ++k)
+      ASSERT_TRUE(isam->Update({}, {}, {.force_full = true}).status.ok());
+    const BatchResult batch = Optimize(p.graph, p.initial, {.relative_tolerance = 1e-12});
+    ASSERT_TRUE(batch.status.ok());
+    EXPECT_NEAR(isam->Chi2(), batch.summary.final_chi2, 1e-4 * batch.summary.final_chi2);
+    EXPECT_LT(testing::MaxDifference(isam->CalculateEstimate(), batch.values), 1e-4);
+  }
+}
+
+}  // namespace
+}  // namespace slamd::core
