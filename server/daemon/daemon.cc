@@ -4,12 +4,12 @@
 
 #include <algorithm>
 #include <chrono>
-#include <filesystem>
 
 #include "core/base/check.h"
 #include "core/base/thread_name.h"
 #include "core/base/timing.h"
 #include "server/estimator/recovery.h"
+#include "server/journal/file_util.h"
 #include "server/messages/inbound.h"
 #include "server/messages/wire_values.h"
 #include "server/publish/replies.h"
@@ -66,10 +66,16 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
     if (!made.ok()) return made.status();
     estimator = std::move(made).value();
   } else {
-    std::error_code ec;
-    std::filesystem::create_directories(params.data_dir, ec);
-    if (ec) {
-      return core::IoError("data_dir '" + params.data_dir + "': " + ec.message());
+    bool loose = false;
+    if (const core::Status made = internal::CreateDataDirectory(params.data_dir, &loose);
+        !made.ok()) {
+      return core::IoError("data_dir '" + params.data_dir + "': " + made.message());
+    }
+    if (loose) {
+      log->warn(
+          "data_dir '{}' is open to group or others: the journal and snapshots in it are "
+          "owner-only (0600), the directory slamd creates is 0700",
+          params.data_dir);
     }
     core::Result<RecoveryResult> recovered =
         Recover(params.data_dir, params.estimator, params.isam2, params.salvage);

@@ -1,6 +1,7 @@
 #include "server/journal/file_util.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -48,6 +49,32 @@ std::string DirName(const std::string& path) {
   if (slash == std::string::npos) return ".";
   if (slash == 0) return "/";
   return path.substr(0, slash);
+}
+
+core::Status CreateDataDirectory(const std::string& dir, bool* loose) {
+  if (dir.empty()) return core::InvalidArgument("data directory: empty path");
+  struct stat st {};
+  if (::stat(dir.c_str(), &st) == 0) {
+    if (!S_ISDIR(st.st_mode)) return core::IoError("data directory " + dir + ": not a directory");
+    if (loose != nullptr) *loose = (st.st_mode & 0077) != 0;
+    return core::Status::Ok();
+  }
+  if (errno != ENOENT) {
+    return core::IoError("data directory " + dir + ": " + ErrnoDescription(errno));
+  }
+  if (const std::string parent = DirName(dir); parent != dir && parent != "." && parent != "/") {
+    SLAMD_RETURN_IF_ERROR(CreateDataDirectory(parent, nullptr));
+  }
+  // mkdir applies the umask; the mode is set again so that a permissive umask cannot widen it.
+  if (::mkdir(dir.c_str(), kDataDirMode) != 0 && errno != EEXIST) {
+    return core::IoError("cannot create data directory " + dir + ": " + ErrnoDescription(errno));
+  }
+  if (::chmod(dir.c_str(), kDataDirMode) != 0) {
+    return core::IoError("cannot set the mode of data directory " + dir + ": " +
+                         ErrnoDescription(errno));
+  }
+  if (loose != nullptr) *loose = false;
+  return core::Status::Ok();
 }
 
 core::Status SyncDirectory(const std::string& dir) {

@@ -15,6 +15,15 @@ std::string ErrnoDescription(int err);
 // The directory part of a path ("." when there is none).
 std::string DirName(const std::string& path);
 
+// Journal segments and snapshots hold every robot's data: owner-only, as is the data directory
+// slamd creates for them.
+inline constexpr unsigned kDataFileMode = 0600;
+inline constexpr unsigned kDataDirMode = 0700;
+
+// Creates `dir` and its missing parents; the ones it creates get kDataDirMode. An existing
+// directory is left as it is; *loose (if not null) is set when group or others can enter it.
+core::Status CreateDataDirectory(const std::string& dir, bool* loose);
+
 // fsync of a directory, so a created, renamed or removed entry in it is durable.
 core::Status SyncDirectory(const std::string& dir);
 

@@ -41,7 +41,7 @@ core::Result<std::unique_ptr<JournalWriter>> JournalWriter::Open(
   SLAMD_RETURN_IF_ERROR(options.Validate());
   // No O_APPEND: every write is a pwrite at offset_, which stays correct after truncating a
   // partial record (and Linux ignores pwrite's offset on O_APPEND files).
-  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, internal::kDataFileMode);
   if (fd < 0) {
     return core::IoError("cannot open journal " + path + ": " + internal::ErrnoDescription(errno));
   }

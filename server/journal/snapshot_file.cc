@@ -75,7 +75,8 @@ core::Status WriteAndSync(const std::string& path, int64_t sequence, std::string
   const uint32_t crc = Crc32cExtend(Crc32c(header + 16, 16), bytes.data(), bytes.size());
   internal::PutLe32(MaskCrc32c(crc), header + 12);
 
-  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  const int fd =
+      ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, internal::kDataFileMode);
   if (fd < 0) {
     return core::IoError("cannot create snapshot " + path + ": " +
                          internal::ErrnoDescription(errno));

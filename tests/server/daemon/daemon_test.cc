@@ -98,6 +98,16 @@ TEST(DaemonTest, AlwaysJournalQueuesMessagesThatArrivedTogetherTogether) {
     {
       auto bus = LcmBus::Create({.url = "memq://"}).value();
       auto daemon = Daemon::Create(p, bus.get()).value();
+      // The data directory slamd made is owner-only, as is every file in it.
+      EXPECT_EQ(std::filesystem::status(dir).permissions(), std::filesystem::perms::owner_all);
+      int files = 0;
+      for (const auto& file : std::filesystem::directory_iterator(dir)) {
+        ++files;
+        EXPECT_EQ(file.status().permissions() & std::filesystem::perms::all,
+                  std::filesystem::perms::owner_read | std::filesystem::perms::owner_write)
+            << file.path();
+      }
+      EXPECT_GE(files, 1);  // the journal
       ASSERT_TRUE(Publish(*bus, "SLAMD_PRIOR", Prior()).ok());
       for (int i = 0; i < 3; ++i) {
         ASSERT_TRUE(Publish(*bus, "SLAMD_ODOMETRY", Odo(i, i + 1)).ok());

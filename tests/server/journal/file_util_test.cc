@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <stdlib.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -55,6 +56,41 @@ TEST(FileUtilTest, PwriteAllOnAReadOnlyFdNamesPathOffsetAndCause) {
   EXPECT_EQ(written, 0u);
   EXPECT_NE(s.message().find("thing to /dev/null at offset 42"), std::string::npos) << s.message();
   EXPECT_NE(s.message().find("Bad file descriptor"), std::string::npos) << s.message();
+}
+
+TEST(FileUtilTest, CreateDataDirectoryMakesOwnerOnlyDirectoriesAndReportsLooseOnes) {
+  std::string root = ::testing::TempDir() + "/data_dir_XXXXXX";
+  ASSERT_NE(::mkdtemp(root.data()), nullptr);
+  ASSERT_EQ(::chmod(root.c_str(), 0755), 0);
+  const std::string nested = root + "/a/b";
+  const mode_t old = ::umask(0);
+  bool loose = true;
+  const core::Status made = CreateDataDirectory(nested, &loose);
+  ::umask(old);
+  ASSERT_TRUE(made.ok()) << made.ToString();
+  EXPECT_FALSE(loose);
+  struct stat st {};
+  for (const std::string& d : {root + "/a", nested}) {
+    ASSERT_EQ(::stat(d.c_str(), &st), 0);
+    EXPECT_EQ(st.st_mode & 0777, 0700u) << d;
+  }
+  // An existing directory is left as it is, and said to be open to others.
+  ASSERT_TRUE(CreateDataDirectory(root, &loose).ok());
+  EXPECT_TRUE(loose);
+  ASSERT_EQ(::stat(root.c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 0777, 0755u);
+  // A file in the way.
+  const std::string file = root + "/file";
+  const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT, 0600);
+  ASSERT_GE(fd, 0);
+  ::close(fd);
+  const core::Status refused = CreateDataDirectory(file, nullptr);
+  EXPECT_FALSE(refused.ok());
+  EXPECT_NE(refused.message().find("not a directory"), std::string::npos) << refused.ToString();
+  ::rmdir(nested.c_str());
+  ::rmdir((root + "/a").c_str());
+  ::unlink(file.c_str());
+  ::rmdir(root.c_str());
 }
 
 }  // namespace

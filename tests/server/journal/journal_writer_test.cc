@@ -320,5 +320,15 @@ TEST_F(JournalWriterTest, DiskFullWhileCreatingLeavesNoHalfHeader) {
   EXPECT_EQ(FileSize(), 0);
 }
 
+TEST_F(JournalWriterTest, TheJournalIsOwnerOnlyWhateverTheUmask) {
+  const mode_t old = ::umask(0);
+  auto w = MustOpen(path_);
+  ::umask(old);
+  ASSERT_NE(w, nullptr);
+  struct stat st {};
+  ASSERT_EQ(::stat(path_.c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 0777, 0600u);
+}
+
 }  // namespace
 }  // namespace slamd::server

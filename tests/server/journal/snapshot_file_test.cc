@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 #include <stdlib.h>
+#include <sys/stat.h>
 
 #include <filesystem>
 #include <fstream>
@@ -172,6 +173,14 @@ TEST_F(SnapshotFileTest, FailedWriteLeavesExistingSnapshotsAndNoTemporary) {
   EXPECT_NE(r.status().message().find("missing"), std::string::npos);
   EXPECT_EQ(Sequences(), (std::vector<int64_t>{1}));
   EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), 1);
+}
+
+TEST_F(SnapshotFileTest, SnapshotsAreOwnerOnlyWhateverTheUmask) {
+  const mode_t old = ::umask(0);
+  auto path = WriteSnapshotFile(dir_, 1, "state", {.keep = 2});
+  ::umask(old);
+  ASSERT_TRUE(path.ok()) << path.status().ToString();
+  EXPECT_EQ(fs::status(*path).permissions(), fs::perms::owner_read | fs::perms::owner_write);
 }
 
 }  // namespace
