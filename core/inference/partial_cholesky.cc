@@ -1,5 +1,7 @@
 #include "core/inference/partial_cholesky.h"
 
+#include <cblas.h>
+
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
@@ -11,6 +13,10 @@ namespace {
 // columns are factored unblocked and the trailing matrix gets one Eigen rank-k update per panel.
 constexpr int kUnblockedMaxSize = 64;
 constexpr int kPanel = 32;
+// A trailing update at least this wide goes to the BLAS's dsyrk (Debian's OpenBLAS picks kernels
+// for the CPU's vector width at run time: AVX2/AVX-512 with FMA where this build targets SSE2),
+// a smaller one to Eigen, for which the call and the BLAS's blocking cost more than they save.
+constexpr int kBlasMinSize = 64;
 
 // Applies columns x[0..w) (already final L columns, with multipliers a[q] = x[q][c]) to column c
 // of the lower triangle, rows [c, n). Each entry receives the updates in increasing column order,
@@ -118,10 +124,15 @@ int PartialCholeskyLower(double* M, int n, int ld, int k, double* ref, double to
     if (failed >= 0) return failed;
     const int rest = n - c1;
     if (rest == 0) break;
-    Eigen::Map<Eigen::MatrixXd, 0, Stride> trailing(M + static_cast<long>(c1) * ld + c1, rest, rest,
-                                                    Stride(ld));
-    Eigen::Map<const Eigen::MatrixXd, 0, Stride> panel(M + static_cast<long>(c0) * ld + c1, rest,
-                                                       c1 - c0, Stride(ld));
+    double* trailing_data = M + static_cast<long>(c1) * ld + c1;
+    const double* panel_data = M + static_cast<long>(c0) * ld + c1;
+    if (rest >= kBlasMinSize) {
+      cblas_dsyrk(CblasColMajor, CblasLower, CblasNoTrans, rest, c1 - c0, -1.0, panel_data, ld, 1.0,
+                  trailing_data, ld);
+      continue;
+    }
+    Eigen::Map<Eigen::MatrixXd, 0, Stride> trailing(trailing_data, rest, rest, Stride(ld));
+    Eigen::Map<const Eigen::MatrixXd, 0, Stride> panel(panel_data, rest, c1 - c0, Stride(ld));
     trailing.selfadjointView<Eigen::Lower>().rankUpdate(panel, -1.0);
   }
   return -1;

@@ -3,7 +3,8 @@
 //   build/tests/core_kernels_bench [--benchmark_filter=REGEX]
 // ReEliminateAll/<dataset> relinearises and re-eliminates a whole development dataset
 // (Isam2UpdateOptions::force_full, 1 thread), as the largest relinearisation steps do; the
-// counters are the medians of its phases (ms).
+// counters are the medians of its phases (ms). PartialCholesky/n/k: the dense clique kernel's
+// rate (GFLOPs counter).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -13,6 +14,7 @@
 
 #include "core/factors/between_factor.h"
 #include "core/factors/prior_factor.h"
+#include "core/inference/partial_cholesky.h"
 #include "core/io/dataset.h"
 #include "core/isam/isam2.h"
 
@@ -40,6 +42,44 @@ void BM_LinearizeBetweenPose3(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_LinearizeBetweenPose3);
+
+// The dense kernel of clique elimination (core/inference/partial_cholesky.h): k of n columns of
+// a symmetric positive-definite matrix eliminated in place, as a clique with k frontal and n - k
+// separator (+ right-hand side) scalars is. Counter GFLOPs: Σ_{j<k} (n - j)² flops (each column
+// updates the trailing lower triangle, a multiply and a subtraction per entry) per second.
+void BM_PartialCholesky(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const int k = static_cast<int>(state.range(1));
+  const Eigen::MatrixXd a = Eigen::MatrixXd::Random(n, n);
+  const Eigen::MatrixXd spd = a * a.transpose() + n * Eigen::MatrixXd::Identity(n, n);
+  Eigen::MatrixXd m(n, n);
+  std::vector<double> ref(n);
+  double flops = 0.0;
+  for (int j = 0; j < k; ++j) flops += static_cast<double>(n - j) * (n - j);
+  for (auto _ : state) {
+    state.PauseTiming();
+    m = spd;
+    std::fill(ref.begin(), ref.end(), 1.0);
+    state.ResumeTiming();
+    if (internal::PartialCholeskyLower(m.data(), n, n, k, ref.data(), 0.0) >= 0) {
+      state.SkipWithError("not positive definite");
+      return;
+    }
+    benchmark::DoNotOptimize(m.data());
+  }
+  state.counters["GFLOPs"] =
+      benchmark::Counter(flops * 1e-9, benchmark::Counter::kIsIterationInvariantRate);
+}
+// Cliques as iSAM2 makes them: a few poses over a separator (k = n / 2), and the root of a dense
+// 3D graph (k = n).
+BENCHMARK(BM_PartialCholesky)
+    ->Args({48, 24})
+    ->Args({128, 64})
+    ->Args({256, 128})
+    ->Args({512, 256})
+    ->Args({512, 512})
+    ->Args({1024, 1024})
+    ->Unit(benchmark::kMicrosecond);
 
 double Median(std::vector<double> v) {
   std::sort(v.begin(), v.end());

@@ -81,7 +81,8 @@ INSTANTIATE_TEST_SUITE_P(Sizes, PartialCholeskyTest,
                          ::testing::Values(std::pair{1, 1}, std::pair{4, 0}, std::pair{4, 4},
                                            std::pair{7, 3}, std::pair{13, 3}, std::pair{64, 20},
                                            std::pair{65, 1}, std::pair{100, 31}, std::pair{100, 64},
-                                           std::pair{130, 97}, std::pair{130, 130}));
+                                           std::pair{130, 97}, std::pair{130, 130},
+                                           std::pair{300, 200}));
 
 // The unblocked kernel applies several columns per pass over a target column but keeps each
 // entry's update order, so on sparse input (structural zeros, also mixed inside a group of
