@@ -223,7 +223,7 @@ core::Result<LiveScene> BuildLiveScene(const std::vector<slamd::map_t>& pages,
                                                 : std::max<int>(1, static_cast<int>((n + 49) / 50));
 
     PlotRobot out;
-    out.name = name;
+    out.name = name.empty() ? "shared map" : name;
     out.trajectory.reserve(n);
     out.landmarks.reserve(landmarks->size());
     // Adds the entry's position (and its ellipse when wanted and its covariance is present).

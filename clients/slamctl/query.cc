@@ -77,11 +77,13 @@ void RegisterQuery(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "query", "Ask slamd for estimates, marginal covariances and maps of some variables");
   cmd->add_option("key", opt->keys,
-                  "Variables: ROBOT:xN (pose) or ROBOT:lN (landmark); xN / lN with --robot");
+                  "Variables: ROBOT:xN (pose) or ROBOT:lN (landmark); xN / lN with --robot; mN "
+                  "(landmark of the map all robots share)");
   cmd->add_option("--robot", opt->robot, "Robot of keys written without one");
   cmd->add_flag("--cov", opt->cov, "Also each key's marginal covariance");
   cmd->add_flag("--joint", opt->joint, "Also the joint covariance of all keys (at most 10)");
-  cmd->add_option("--map", opt->map_robot, "Also ROBOT's whole map ('*': every robot's)");
+  cmd->add_option("--map", opt->map_robot,
+                  "Also ROBOT's whole map ('*': every robot's and the shared map's)");
   cmd->add_option("--client", opt->client, "Client name echoed by the server")
       ->capture_default_str();
   cmd->add_option("--timeout", opt->timeout_s, "Longest wait for the reply [s]")

@@ -66,20 +66,27 @@ core::Result<server::WireKey> ParseKey(const std::string& text, const std::strin
   const auto bad = [&](const std::string& why) {
     return core::InvalidArgument("key '" + text + "': " + why +
                                  " (expected ROBOT:xN for a pose or ROBOT:lN for a landmark, or "
-                                 "xN / lN with --robot)");
+                                 "xN / lN with --robot; mN for a landmark of the shared map)");
   };
   server::WireKey key;
   std::string local = text;
-  if (const size_t colon = text.rfind(':'); colon != std::string::npos) {
-    key.robot = text.substr(0, colon);
-    local = text.substr(colon + 1);
+  const size_t colon = text.rfind(':');
+  if (colon == std::string::npos && text.starts_with('m')) {
+    key.kind = server::KeyKind::kMapLandmark;  // robot "": the shared map
   } else {
-    if (default_robot.empty()) return bad("no robot");
-    key.robot = default_robot;
+    if (colon != std::string::npos) {
+      key.robot = text.substr(0, colon);
+      local = text.substr(colon + 1);
+    } else if (default_robot.empty()) {
+      return bad("no robot");
+    } else {
+      key.robot = default_robot;
+    }
+    if (!IsValidRobotName(key.robot)) return bad("robot name needs 1..64 chars of [A-Za-z0-9_.-]");
+    if (local.size() < 2 || (local[0] != 'x' && local[0] != 'l')) return bad("no x or l index");
+    key.kind = local[0] == 'x' ? server::KeyKind::kPose : server::KeyKind::kLandmark;
   }
-  if (!IsValidRobotName(key.robot)) return bad("robot name needs 1..64 chars of [A-Za-z0-9_.-]");
-  if (local.size() < 2 || (local[0] != 'x' && local[0] != 'l')) return bad("no x or l index");
-  key.kind = local[0] == 'x' ? server::KeyKind::kPose : server::KeyKind::kLandmark;
+  if (local.size() < 2) return bad("no index");
   const std::string digits = local.substr(1);
   if (digits.find_first_not_of("0123456789") != std::string::npos)
     return bad("index is not a number");
@@ -91,6 +98,7 @@ core::Result<server::WireKey> ParseKey(const std::string& text, const std::strin
 }
 
 std::string WireKeyToString(const std::string& robot, std::int8_t kind, std::int64_t index) {
+  if (kind == slamd::key_t::KIND_MAP_LANDMARK) return "m" + std::to_string(index);
   return robot + ":" + (kind == slamd::key_t::KIND_LANDMARK ? "l" : "x") + std::to_string(index);
 }
 

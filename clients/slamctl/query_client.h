@@ -3,7 +3,8 @@
 // fake server on InProcessBus.
 //
 // Keys are written ROBOT:xN (pose N) or ROBOT:lN (landmark N); with a default robot (--robot),
-// plain xN / lN. The robot name follows slamd's rule (1..64 chars of [A-Za-z0-9_.-]).
+// plain xN / lN; mN is landmark N of the map all robots share. The robot name follows slamd's
+// rule (1..64 chars of [A-Za-z0-9_.-]).
 #pragma once
 
 #include <cstdint>
@@ -22,7 +23,7 @@ namespace slamd::clients {
 
 // InvalidArgument naming the key and the expected form.
 core::Result<server::WireKey> ParseKey(const std::string& text, const std::string& default_robot);
-// "robot:x12".
+// "robot:x12", "robot:l3", or "m7" (a landmark of the shared map).
 std::string WireKeyToString(const std::string& robot, std::int8_t kind, std::int64_t index);
 
 struct QueryAnswer {

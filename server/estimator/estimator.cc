@@ -513,9 +513,12 @@ core::Result<Variable> Estimator::PoseEstimate(const std::string& robot,
 }
 
 std::optional<Key> Estimator::KeyOf(const WireKey& key) const {
-  const auto id = registry_.Find(key.robot);
-  if (!id || key.index > core::kMaxKeyIndex) return std::nullopt;
-  const Key k = MakeKey(key.kind == KeyKind::kPose ? 'x' : 'l', key.index, *id);
+  if (key.index > core::kMaxKeyIndex) return std::nullopt;
+  const auto id = key.kind == KeyKind::kMapLandmark ? std::optional<std::uint8_t>(0)
+                                                    : registry_.Find(key.robot);
+  if (!id) return std::nullopt;
+  const char symbol = key.kind == KeyKind::kPose ? 'x' : key.kind == KeyKind::kLandmark ? 'l' : 'm';
+  const Key k = MakeKey(symbol, key.index, *id);
   if (!isam_->linearization_point().Contains(k)) return std::nullopt;
   return k;
 }

@@ -33,7 +33,7 @@ enum class RemoveTarget : std::int8_t {
   kLoopClosure = 3,
   kPrior = 4
 };
-enum class KeyKind : std::int8_t { kPose = 1, kLandmark = 2 };
+enum class KeyKind : std::int8_t { kPose = 1, kLandmark = 2, kMapLandmark = 3 };
 
 // A relative pose: Pose2 for 2D messages, Pose3 for 3D ones.
 using RelativePose = std::variant<core::Pose2, core::Pose3>;
@@ -44,7 +44,7 @@ struct BearingRange {
   double range = 0.0;
 };
 
-// A variable named as on the wire (slamd.key_t).
+// A variable named as on the wire (slamd.key_t): robot "" for a shared map landmark.
 struct WireKey {
   std::string robot;
   KeyKind kind = KeyKind::kPose;

@@ -10,6 +10,7 @@ namespace {
 using K = ::slamd::key_t;
 static_assert(static_cast<int>(KeyKind::kPose) == K::KIND_POSE);
 static_assert(static_cast<int>(KeyKind::kLandmark) == K::KIND_LANDMARK);
+static_assert(static_cast<int>(KeyKind::kMapLandmark) == K::KIND_MAP_LANDMARK);
 
 using internal::CheckCount;
 using internal::CheckIndex;
@@ -33,10 +34,18 @@ Verdict Validate(const slamd::query_t& msg, const Limits& limits) {
   for (size_t i = 0; i < msg.keys.size(); ++i) {
     const slamd::key_t& key = msg.keys[i];
     const std::string field = "query_t.keys[" + std::to_string(i) + "]";
-    SLAMD_RETURN_IF_REJECTED(CheckName(field + ".robot", key.robot, limits.max_robot_name_length));
-    SLAMD_RETURN_IF_REJECTED(CheckKindRange((field + ".kind").c_str(), key.kind,
-                                            slamd::key_t::KIND_POSE, slamd::key_t::KIND_LANDMARK,
-                                            "1 (pose), 2 (landmark)"));
+    SLAMD_RETURN_IF_REJECTED(CheckKindRange(
+        (field + ".kind").c_str(), key.kind, slamd::key_t::KIND_POSE,
+        slamd::key_t::KIND_MAP_LANDMARK, "1 (pose), 2 (landmark), 3 (map landmark)"));
+    if (key.kind == slamd::key_t::KIND_MAP_LANDMARK) {
+      if (!key.robot.empty()) {
+        return Reject(RejectReason::kUnusedFieldSet, field + ".robot",
+                      "'" + key.robot + "' for a map landmark, which belongs to no robot (\"\")");
+      }
+    } else {
+      SLAMD_RETURN_IF_REJECTED(
+          CheckName(field + ".robot", key.robot, limits.max_robot_name_length));
+    }
     SLAMD_RETURN_IF_REJECTED(CheckIndex(field + ".index", key.index));
   }
   if (msg.want_joint_marginal && msg.num_keys > limits.max_joint_marginal_keys) {

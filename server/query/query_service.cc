@@ -20,6 +20,7 @@ class Deadline {
 };
 
 std::string WireKeyName(const WireKey& k) {
+  if (k.kind == KeyKind::kMapLandmark) return "map landmark m" + std::to_string(k.index);
   return k.robot + ":" + (k.kind == KeyKind::kPose ? "x" : "l") + std::to_string(k.index);
 }
 
@@ -81,12 +82,19 @@ std::vector<RobotMap> CollectMaps(Estimator& estimator, const std::string& robot
     slot[id] = maps.size();
     maps.push_back({.robot = registry.Name(id)});
   }
+  // Every robot's map comes with the shared map's landmarks ('m' keys of robot id 0, which no
+  // robot has) as a map of robot "".
+  const bool shared = robot == "*";
+  if (shared) {
+    slot[0] = maps.size();
+    maps.push_back({.robot = "", .is3d = true});
+  }
   if (maps.empty()) return maps;
   if (marginals) estimator.ComputeAllMarginals();
   const core::Isam2& solver = estimator.solver();
   for (core::Key key : solver.linearization_point().keys()) {
     const auto it = slot.find(core::KeyRobot(key));
-    if (it == slot.end()) continue;
+    if (it == slot.end() || (it->first == 0 && core::KeySymbol(key) != 'm')) continue;
     RobotMap& map = maps[it->second];
     MapEntry entry{.index = core::KeyIndex(key), .value = solver.CalculateEstimate(key)};
     if (marginals) {
@@ -100,6 +108,7 @@ std::vector<RobotMap> CollectMaps(Estimator& estimator, const std::string& robot
     if (is_pose) map.is3d = std::holds_alternative<core::Pose3>(entry.value);
     (is_pose ? map.poses : map.landmarks).push_back(std::move(entry));
   }
+  if (shared && maps.back().landmarks.empty()) maps.pop_back();
   for (RobotMap& map : maps) {
     const auto by_index = [](const MapEntry& a, const MapEntry& b) { return a.index < b.index; };
     std::sort(map.poses.begin(), map.poses.end(), by_index);

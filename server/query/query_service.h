@@ -47,8 +47,9 @@ struct RobotMap {
   std::vector<MapEntry> landmarks = {};  // by landmark id
 };
 
-// The maps of `robot` (a name) or of every robot ("*"), in registration order; an unknown robot
-// gives none. With `marginals`, every variable's covariance (one pass over the Bayes tree); a
+// The maps of `robot` (a name) or of every robot ("*"), in registration order, then (for "*")
+// the shared map's landmarks as the map of robot "" when there are any; an unknown robot gives
+// none. With `marginals`, every variable's covariance (one pass over the Bayes tree); a
 // budget overrun leaves the rest without and sets *partial.
 std::vector<RobotMap> CollectMaps(Estimator& estimator, const std::string& robot, bool marginals,
                                   double budget_s, bool* partial);

@@ -28,6 +28,14 @@ TEST(QueryClientTest, ParsesKeys) {
   }
   EXPECT_TRUE(ParseKey("bot:x281474976710655", "").ok());
   EXPECT_EQ(WireKeyToString("a", slamd::key_t::KIND_LANDMARK, 4), "a:l4");
+  k = ParseKey("m7", "r");  // the shared map's landmark 7: no robot
+  ASSERT_TRUE(k.ok()) << k.status().message();
+  EXPECT_EQ(k->robot, "");
+  EXPECT_EQ(k->kind, server::KeyKind::kMapLandmark);
+  EXPECT_EQ(k->index, 7u);
+  EXPECT_FALSE(ParseKey("m", "").ok());
+  EXPECT_FALSE(ParseKey("m7x", "").ok());
+  EXPECT_EQ(WireKeyToString("", slamd::key_t::KIND_MAP_LANDMARK, 7), "m7");
   EXPECT_GT(RandomRequestId(), 0);
 }
 

@@ -9,6 +9,7 @@
 #include "core/geometry/camera.h"
 #include "server/estimator/estimator.h"
 #include "server/snapshot/state_codec.h"
+#include "tests/server/estimator/camera_test_messages.h"
 #include "tests/server/estimator/estimator_test_messages.h"
 
 namespace slamd::server {
@@ -18,75 +19,8 @@ using core::Point3;
 using core::Pose3;
 using core::Rot3;
 using estimator_test::Make;
+using namespace camera_test;  // NOLINT: the camera messages of these tests
 using ::slamd::testing::Noise;
-
-const core::Cal3_S2 kCamK(400.0, 400.0, 0.0, 320.0, 240.0);
-// The camera looks along the body's x axis (camera z = body x, x = -body y, y = -body z).
-const Pose3 kMount(Rot3((core::Matrix3() << 0, 0, 1, -1, 0, 0, 0, -1, 0).finished()),
-                   Point3(0.1, 0.0, 0.2));
-
-// Robot pose i: i * 0.5 m along y (sideways to the camera), heading x.
-Pose3 BodyPose(std::uint64_t i) { return Pose3(Rot3(), Point3(0.0, 0.5 * i, 0.0)); }
-
-Inbound PriorAt0(const std::string& robot, const Pose3& p = BodyPose(0)) {
-  return {PriorMeasurement{1, robot, 0, PriorKind::kPose3, p, Noise(6, 1e-3)}, 0};
-}
-// Odometry from pose `from` at `a` to pose `to` at `b`, noise-free.
-Inbound Odo3(const std::string& robot, std::uint64_t from, std::uint64_t to, const Pose3& a,
-             const Pose3& b) {
-  return {OdometryMeasurement{2, robot, from, to, a.Inverse() * b, Noise(6, 1e-3)}, 0};
-}
-
-Inbound Camera(const std::string& robot, double baseline = 0.0, std::uint64_t from = 0) {
-  return {CameraInfo{.utime = 3,
-                     .robot = robot,
-                     .camera_id = 0,
-                     .from_pose_index = from,
-                     .camera = {.calibration = kCamK,
-                                .baseline = baseline,
-                                .body_P_camera = kMount,
-                                .width = 640,
-                                .height = 480}},
-          0};
-}
-
-struct Seen {
-  std::uint64_t id;
-  Point3 point;
-};
-
-// A frame of `robot` at pose `index` (body at `body`) seeing `points`, noise-free.
-Inbound Frame(const std::string& robot, std::uint64_t index, const Pose3& body,
-              const std::vector<Seen>& points, bool stereo = false, double baseline = 0.5,
-              LandmarkNamespace ns = LandmarkNamespace::kRobot) {
-  FrameObservations f{.utime = 4,
-                      .robot = robot,
-                      .pose_index = index,
-                      .camera_id = 0,
-                      .stereo = stereo,
-                      .landmark_namespace = ns,
-                      .features = {},
-                      .robust = {}};
-  const Pose3 camera = body * kMount;
-  for (const Seen& s : points) {
-    FrameFeature feature{.landmark_id = s.id,
-                         .uv = {},
-                         .noise = Noise(stereo ? 3 : 2, 1.0),
-                         .index = static_cast<int>(f.features.size())};
-    if (stereo) {
-      const core::Vector3 uuv =
-          core::ProjectStereo(camera, core::Cal3_S2Stereo(kCamK, baseline), s.point).uuv;
-      feature.uv = core::Vector2(uuv[0], uuv[2]);
-      feature.u_right = uuv[1];
-    } else {
-      feature.uv = core::Project(camera, kCamK, s.point).uv;
-    }
-    f.features.push_back(feature);
-  }
-  return {f, 0};
-}
-
-const Point3 kP1(6.0, 0.4, 0.3), kP2(5.0, -0.6, -0.2), kP3(8.0, 1.0, 0.5);
 
 bool InGraph(const Estimator& e, core::Key key) {
   return e.solver().linearization_point().Contains(key);
@@ -95,13 +29,6 @@ core::Key L(std::uint64_t id) { return core::MakeKey('l', id, 'a'); }
 
 Point3 LandmarkEstimate(const Estimator& e, core::Key key) {
   return std::get<Point3>(e.solver().CalculateEstimate(key));
-}
-
-// A robot with a camera, poses 0..n-1 (prior and odometry), in one batch.
-std::vector<Inbound> Robot(const std::string& robot, int n, double baseline = 0.0) {
-  std::vector<Inbound> batch = {Camera(robot, baseline), PriorAt0(robot)};
-  for (int i = 1; i < n; ++i) batch.push_back(Odo3(robot, i - 1, i, BodyPose(i - 1), BodyPose(i)));
-  return batch;
 }
 
 TEST(CameraLandmarks, AMonoLandmarkWaitsForParallaxThenEntersTriangulated) {
@@ -262,6 +189,9 @@ TEST(CameraLandmarks, RobotsShareLandmarksOfTheMapNamespace) {
   const core::Key shared = core::MakeKey('m', 7, 0);
   ASSERT_TRUE(InGraph(*e, shared));
   EXPECT_LT((LandmarkEstimate(*e, shared) - kP1).norm(), 1e-6);
+  // On the wire it is the map landmark 7 of no robot, not a landmark of either robot.
+  EXPECT_EQ(e->KeyOf({.robot = "", .kind = KeyKind::kMapLandmark, .index = 7}), shared);
+  EXPECT_EQ(e->KeyOf({.robot = "a", .kind = KeyKind::kLandmark, .index = 7}), std::nullopt);
 }
 
 TEST(CameraLandmarks, CamerasTracksAndProjectionsSurviveASnapshot) {

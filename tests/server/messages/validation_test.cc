@@ -364,7 +364,11 @@ std::vector<Case> QueryCases() {
           "KeyRobotTooLong", q, [](M& m) { m.keys[2].robot = std::string(65, 'k'); },
           R::kStringTooLong, "query_t.keys[2].robot"),
       Make<M>(
-          "KeyKind3", q, [](M& m) { m.keys[0].kind = 3; }, R::kBadKind, "query_t.keys[0].kind: 3"),
+          "KeyKind4", q, [](M& m) { m.keys[0].kind = 4; }, R::kBadKind, "query_t.keys[0].kind: 4"),
+      Make<M>(
+          "MapLandmarkWithARobot", q,
+          [](M& m) { m.keys[0].kind = slamd::key_t::KIND_MAP_LANDMARK; }, R::kUnusedFieldSet,
+          "query_t.keys[0].robot: 'alpha' for a map landmark"),
       Make<M>(
           "KeyIndexNegative", q, [](M& m) { m.keys[2].index = -7; }, R::kIndexOutOfRange,
           "query_t.keys[2].index"),

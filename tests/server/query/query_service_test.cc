@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/server/estimator/camera_test_messages.h"
+
 namespace slamd::server {
 namespace {
 
@@ -100,6 +102,38 @@ TEST(QueryServiceTest, MapsOfOneOrEveryRobotSortedWithMarginals) {
   ASSERT_EQ(maps.size(), 1u);
   EXPECT_EQ(maps[0].poses[0].covariance.size(), 0);
   EXPECT_TRUE(CollectMaps(*e, "nobody", true, 1.0, &partial).empty());
+}
+
+TEST(QueryServiceTest, LandmarksOfTheSharedMapAnswerAndMapAsRobotNone) {
+  auto e = Estimator::Create({.chi2_interval_s = 0.0}, {}).value();
+  std::vector<Inbound> batch = camera_test::Robot("a", 1);
+  batch.push_back(camera_test::Camera("b"));
+  batch.push_back(camera_test::PriorAt0("b", camera_test::BodyPose(1)));
+  ASSERT_TRUE(e->Process(batch).status.ok());
+  for (const auto& [robot, pose] : {std::pair{"a", 0}, std::pair{"b", 1}}) {
+    const Inbound frame =
+        camera_test::Frame(robot, 0, camera_test::BodyPose(pose), {{7, camera_test::kP1}}, false,
+                           0.0, LandmarkNamespace::kMap);
+    ASSERT_TRUE(e->Process({frame}).status.ok());
+  }
+  QueryRequest q{.client = "c", .request_id = 1};
+  q.keys = {{"", KeyKind::kMapLandmark, 7}, {"", KeyKind::kMapLandmark, 8}};
+  const QueryAnswer a = AnswerQuery(*e, q, 1.0);
+  ASSERT_EQ(a.results.size(), 2u);
+  ASSERT_TRUE(a.results[0].found);
+  EXPECT_LT((std::get<core::Point3>(a.results[0].value) - camera_test::kP1).norm(), 1e-6);
+  EXPECT_FALSE(a.results[1].found);
+
+  bool partial = true;
+  std::vector<RobotMap> maps = CollectMaps(*e, "*", false, 1.0, &partial);
+  ASSERT_EQ(maps.size(), 3u);
+  EXPECT_EQ(maps[2].robot, "");
+  EXPECT_TRUE(maps[2].is3d);
+  EXPECT_TRUE(maps[2].poses.empty());
+  ASSERT_EQ(maps[2].landmarks.size(), 1u);
+  EXPECT_EQ(maps[2].landmarks[0].index, 7u);
+  EXPECT_TRUE(maps[0].landmarks.empty());  // not robot a's
+  EXPECT_TRUE(CollectMaps(*e, "a", false, 1.0, &partial)[0].landmarks.empty());
 }
 
 }  // namespace
