@@ -84,6 +84,22 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   if (rl.has_error_threshold()) {
     p->isam2.relinearization.error_threshold = rl.error_threshold();
   }
+  if (rl.has_calibration_threshold()) {
+    p->isam2.relinearization.calibration_threshold = rl.calibration_threshold();
+  }
+  if (rl.has_other_threshold()) p->isam2.relinearization.other_threshold = rl.other_threshold();
+  for (const proto::Isam2Config::Relinearization::TypeThreshold& t : rl.per_type()) {
+    using Kind = proto::Isam2Config::Relinearization::TypeThreshold;
+    const core::EntryKind kind = t.kind() == Kind::TRANSLATION   ? core::EntryKind::kTranslation
+                                 : t.kind() == Kind::ROTATION    ? core::EntryKind::kRotation
+                                 : t.kind() == Kind::CALIBRATION ? core::EntryKind::kCalibration
+                                                                 : core::EntryKind::kOther;
+    p->isam2.relinearization.per_type.push_back(
+        {.type = t.type(),
+         .kind = kind,
+         .threshold = t.has_threshold() ? t.threshold()
+                                        : core::Isam2Params{}.relinearization.other_threshold});
+  }
   if (i.has_wildfire_threshold()) p->isam2.wildfire_threshold = i.wildfire_threshold();
   if (i.has_refine_threshold()) p->isam2.refine_threshold = i.refine_threshold();
   if (i.has_refine_max_variables()) p->isam2.refine_max_variables = i.refine_max_variables();
@@ -224,6 +240,13 @@ std::string DefaultConfigText() {
       << "    max_variables: " << rl.max_variables << "  # per update, 0 = no limit\n"
       << "    error_threshold: " << Num(rl.error_threshold)
       << "  # or a factor's linearisation error exceeds this [sigmas], 0 = off, >= 0\n"
+      << "    calibration_threshold: " << Num(rl.calibration_threshold)
+      << "  # calibration entries [px; none for distortion], > 0\n"
+      << "    other_threshold: " << Num(rl.other_threshold) << "  # any other entry, > 0\n"
+      << "    # per_type { type: \"Point3\" kind: TRANSLATION threshold: 0.01 }  # one kind of "
+         "entry "
+         "of one\n"
+      << "    # variable type at its own threshold (kind: TRANSLATION ROTATION CALIBRATION OTHER)\n"
       << "  }\n"
       << "  wildfire_threshold: " << Num(d.isam2.wildfire_threshold)
       << "  # partial back-substitution\n"

@@ -99,6 +99,29 @@ TEST(ConfigLoaderTest, OutOfRangeFieldNamesLineAndField) {
       << r.status().message();
 }
 
+TEST(ConfigLoaderTest, PerTypeRelinearizationThresholds) {
+  const core::Result<ServerParams> p = ParseConfigText(R"(
+isam2 { relinearization {
+  calibration_threshold: 2 other_threshold: 0.3
+  per_type { type: "Point3" kind: TRANSLATION threshold: 0.01 }
+  per_type { type: "Cal3DS2" kind: CALIBRATION threshold: 0.5 }
+} })");
+  ASSERT_TRUE(p.ok()) << p.status().ToString();
+  const core::Isam2Params::Relinearization& r = p->isam2.relinearization;
+  EXPECT_EQ(r.calibration_threshold, 2.0);
+  EXPECT_EQ(r.other_threshold, 0.3);
+  ASSERT_EQ(r.per_type.size(), 2u);
+  EXPECT_EQ(r.ThresholdOf(core::kVariableType<core::Point3>, core::EntryKind::kTranslation), 0.01);
+  EXPECT_EQ(r.ThresholdOf(core::kVariableType<core::Pose3>, core::EntryKind::kTranslation), 0.1);
+  EXPECT_EQ(r.ThresholdOf(core::kVariableType<core::Cal3DS2>, core::EntryKind::kCalibration), 0.5);
+  // An unknown type is named, with its line.
+  const core::Result<ServerParams> q = ParseConfigText(
+      "isam2 {\n  relinearization {\n    per_type { type: \"Point4\" }\n  }\n}\n", "c");
+  ASSERT_FALSE(q.ok());
+  EXPECT_NE(q.status().message().find("unknown variable type 'Point4'"), std::string::npos)
+      << q.status().message();
+}
+
 TEST(ConfigLoaderTest, ValueOutOfTypeRangeAndBadEnumAreParseErrors) {
   const core::Result<ServerParams> p = ParseConfigText("queue { depth: 99999999999 }", "c");
   ASSERT_FALSE(p.ok());
