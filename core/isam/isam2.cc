@@ -234,21 +234,16 @@ Isam2Result::TrustRegion Isam2::TrustRegionStep() {
   TreeGradient(tree_, offsets_, &gradient_, &dogleg_scratch_);
   const double g2 = gradient_.squaredNorm();
   const double rg2 = ModelTerms(tree_, offsets_, gradient_, &dogleg_scratch_).quadratic;
-  if (!(g2 > 0.0) || !(rg2 > 0.0)) {  // at the model's minimum: the Gauss-Newton step is 0
-    out.radius = radius_;
+  const double gain = ModelTerms(tree_, offsets_, gauss_newton, &dogleg_scratch_).Decrease();
+  const double cost_theta = SumAt(nullptr, true);
+  out.radius = radius_;
+  // θ at the model's minimum (g = 0), or nothing to gain beyond round-off: the Gauss-Newton step,
+  // unjudged, since round-off would decide the comparison and shrink the radius for nothing.
+  if (!(g2 > 0.0) || !(rg2 > 0.0) || !(gain > kNegligibleDecrease * (1.0 + cost_theta))) {
     out.gauss_newton = true;
     return out;
   }
   cauchy_ = (g2 / rg2) * gradient_;
-  const double cost_theta = SumAt(nullptr, true);
-  // Nothing to gain (θ is already at the model's minimum, up to round-off): the Gauss-Newton step,
-  // unjudged, since round-off would decide the comparison and shrink the radius for nothing.
-  const double gain = ModelTerms(tree_, offsets_, gauss_newton, &dogleg_scratch_).Decrease();
-  if (!(gain > kNegligibleDecrease * (1.0 + cost_theta))) {
-    out.radius = radius_;
-    out.gauss_newton = true;
-    return out;
-  }
   const Isam2Params::TrustRegion& p = params_.trust_region;
   while (true) {
     DoglegPoint(gauss_newton, cauchy_, radius_, &step_);
@@ -258,10 +253,10 @@ Isam2Result::TrustRegion Isam2::TrustRegionStep() {
     const double rho = predicted > 0.0 ? actual / predicted : -1.0;
     const double step_norm = step_.norm();
     // Powell's rule (Nocedal & Wright, Alg. 4.1): grow on a good prediction at the boundary,
-    // shrink on a poor one.
+    // shrink on a poor one (a NaN ratio too, so that the loop ends).
     if (rho > 0.75 && step_norm >= 0.99 * radius_) {
       radius_ *= 2.0;
-    } else if (rho < 0.25) {
+    } else if (!(rho >= 0.25)) {
       radius_ = 0.25 * std::min(radius_, step_norm);
     }
     if (std::isfinite(actual) && actual > 0.0 && rho > 0.0) {
