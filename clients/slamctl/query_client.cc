@@ -98,8 +98,9 @@ core::Result<server::WireKey> ParseKey(const std::string& text, const std::strin
 }
 
 std::string WireKeyToString(const std::string& robot, std::int8_t kind, std::int64_t index) {
-  if (kind == slamd::key_t::KIND_MAP_LANDMARK) return "m" + std::to_string(index);
-  return robot + ":" + (kind == slamd::key_t::KIND_LANDMARK ? "l" : "x") + std::to_string(index);
+  return server::WireKeyName({.robot = robot,
+                              .kind = static_cast<server::KeyKind>(kind),
+                              .index = static_cast<std::uint64_t>(index)});
 }
 
 std::int64_t RandomRequestId() {

@@ -183,11 +183,15 @@ void Isam2::CheckNoPendingSolve(const char* what) const {
 
 Values Isam2::CalculateEstimate() const {
   CheckNoPendingSolve("CalculateEstimate");
-  Values estimate = theta_;
-  for (int v = 0; v < static_cast<int>(estimate.size()); ++v) {
-    RetractInPlace(&estimate.MutableVariableAt(v), delta_.data() + offsets_[v]);
+  return RetractedBy(delta_);
+}
+
+Values Isam2::RetractedBy(const Eigen::VectorXd& step) const {
+  Values out = theta_;
+  for (int v = 0; v < static_cast<int>(out.size()); ++v) {
+    RetractInPlace(&out.MutableVariableAt(v), step.data() + offsets_[v]);
   }
-  return estimate;
+  return out;
 }
 
 Variable Isam2::CalculateEstimate(Key key) const {
@@ -213,12 +217,8 @@ double Isam2::Chi2() const {
 
 double Isam2::SumAt(const Eigen::VectorXd* step, bool robust) const {
   // No copy of the factor graph: one pass over the live factors.
-  Values at = theta_;
-  if (step != nullptr) {
-    for (int v = 0; v < static_cast<int>(at.size()); ++v) {
-      RetractInPlace(&at.MutableVariableAt(v), step->data() + offsets_[v]);
-    }
-  }
+  Values retracted;
+  const Values& at = step != nullptr ? (retracted = RetractedBy(*step)) : theta_;
   double chi2 = 0.0;
   for (const FactorPtr& f : factors_) {
     if (f) chi2 += robust ? f->Cost(at) : f->Chi2(at);

@@ -194,6 +194,8 @@ class Isam2 {
   // Σ chi2 (robust: Σ cost, Factor::Cost) of the current factors at θ ⊕ step (at θ when step is
   // null).
   double SumAt(const Eigen::VectorXd* step, bool robust) const;
+  // θ ⊕ step (step in δ's layout).
+  Values RetractedBy(const Eigen::VectorXd& step) const;
   // Restores the state before the current update (after a numerical failure).
   void Rollback();
 

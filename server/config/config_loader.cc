@@ -94,11 +94,9 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
                                  : t.kind() == Kind::ROTATION    ? core::EntryKind::kRotation
                                  : t.kind() == Kind::CALIBRATION ? core::EntryKind::kCalibration
                                                                  : core::EntryKind::kOther;
-    p->isam2.relinearization.per_type.push_back(
-        {.type = t.type(),
-         .kind = kind,
-         .threshold = t.has_threshold() ? t.threshold()
-                                        : core::Isam2Params{}.relinearization.other_threshold});
+    core::Isam2Params::Relinearization::TypeThreshold threshold{.type = t.type(), .kind = kind};
+    if (t.has_threshold()) threshold.threshold = t.threshold();
+    p->isam2.relinearization.per_type.push_back(threshold);
   }
   if (i.has_wildfire_threshold()) p->isam2.wildfire_threshold = i.wildfire_threshold();
   if (i.has_refine_threshold()) p->isam2.refine_threshold = i.refine_threshold();

@@ -6,6 +6,7 @@
 
 #include "core/base/thread_name.h"
 #include "core/factors/factor_registry.h"
+#include "server/messages/frame_observations.h"
 #include "server/snapshot/estimator_state.h"
 
 namespace slamd::server {
@@ -275,7 +276,9 @@ void Estimator::Reject(const Inbound& in, RejectReason reason, std::string messa
   result->rejections.push_back({in, Verdict{reason, std::move(message)}});
 }
 
-void Estimator::AgeTracks(ProcessResult* result) {
+void Estimator::CommitCamerasAndTracks(ProcessResult* result) {
+  cameras_.Commit();
+  tracks_.Commit();
   for (auto& dropped :
        tracks_.Age(params_.landmark_max_wait_updates, params_.max_track_observations)) {
     LandmarkTracks::Track& track = dropped.second;
@@ -393,9 +396,7 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
   }
   if (s.factors.size() == 0 && s.values.empty()) {
     // Applied without factors (a camera_info_t, features that joined tracks): nothing to undo.
-    cameras_.Commit();
-    tracks_.Commit();
-    AgeTracks(&result);
+    CommitCamerasAndTracks(&result);
     result.applied += static_cast<int>(applied.size());
     counters_.applied += static_cast<std::int64_t>(applied.size());
     PublishSnapshot(false);
@@ -419,9 +420,7 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
     PublishSnapshot(false);
     return;
   }
-  cameras_.Commit();
-  tracks_.Commit();
-  AgeTracks(&result);
+  CommitCamerasAndTracks(&result);
   for (const auto& [position, id, first] : s.ids) {
     applied_[id] = static_cast<int>(solver_index_.size());
     applied_factors_.push_back({id, first, s.factors[position]->dim()});
@@ -514,11 +513,14 @@ core::Result<Variable> Estimator::PoseEstimate(const std::string& robot,
 
 std::optional<Key> Estimator::KeyOf(const WireKey& key) const {
   if (key.index > core::kMaxKeyIndex) return std::nullopt;
-  const auto id = key.kind == KeyKind::kMapLandmark ? std::optional<std::uint8_t>(0)
-                                                    : registry_.Find(key.robot);
-  if (!id) return std::nullopt;
-  const char symbol = key.kind == KeyKind::kPose ? 'x' : key.kind == KeyKind::kLandmark ? 'l' : 'm';
-  const Key k = MakeKey(symbol, key.index, *id);
+  Key k;
+  if (key.kind == KeyKind::kMapLandmark) {
+    k = MapLandmarkKey(key.index);
+  } else {
+    const auto id = registry_.Find(key.robot);
+    if (!id) return std::nullopt;
+    k = MakeKey(key.kind == KeyKind::kPose ? 'x' : 'l', key.index, *id);
+  }
   if (!isam_->linearization_point().Contains(k)) return std::nullopt;
   return k;
 }

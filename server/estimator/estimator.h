@@ -230,8 +230,9 @@ class Estimator {
                const Inbound& in, Staged* s);
   void Touch(std::uint8_t robot, const Inbound& in, Staged* s);
   void Reject(const Inbound& in, RejectReason reason, std::string message, ProcessResult* result);
-  // Ages the landmark tracks by one update; rejects those dropped (never determined).
-  void AgeTracks(ProcessResult* result);
+  // The batch stands: keeps its cameras and track changes, ages the landmark tracks by one
+  // update and rejects those dropped (never determined).
+  void CommitCamerasAndTracks(ProcessResult* result);
   void PublishSnapshot(bool bump);
   // Options for every update from messages (the deferral), and what follows an update.
   core::Isam2UpdateOptions UpdateOptions() const;

@@ -53,4 +53,10 @@ struct WireKey {
   bool operator==(const WireKey&) const = default;
 };
 
+// "robot:x12" (a pose), "robot:l3" (a landmark) or "m7" (a landmark of the shared map).
+inline std::string WireKeyName(const WireKey& k) {
+  if (k.kind == KeyKind::kMapLandmark) return "m" + std::to_string(k.index);
+  return k.robot + ":" + (k.kind == KeyKind::kPose ? "x" : "l") + std::to_string(k.index);
+}
+
 }  // namespace slamd::server

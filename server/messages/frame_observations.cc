@@ -248,7 +248,7 @@ void ToLcm(const FrameObservations& m, slamd::frame_observations_t* out) {
 }
 
 Key LandmarkKey(const FrameObservations& m, std::uint64_t landmark_id, std::uint8_t robot) {
-  return m.landmark_namespace == LandmarkNamespace::kMap ? core::MakeKey('m', landmark_id, 0)
+  return m.landmark_namespace == LandmarkNamespace::kMap ? MapLandmarkKey(landmark_id)
                                                          : core::MakeKey('l', landmark_id, robot);
 }
 

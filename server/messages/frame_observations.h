@@ -62,6 +62,11 @@ void ToLcm(const FrameObservations& m, slamd::frame_observations_t* out);
 
 // The landmark key of a feature of `m` (robot: the id of m.robot).
 core::Key LandmarkKey(const FrameObservations& m, std::uint64_t landmark_id, std::uint8_t robot);
+// Landmark `id` of the map namespace: symbol 'm' of robot id 0, which no robot has.
+inline constexpr char kMapLandmarkSymbol = 'm';
+inline core::Key MapLandmarkKey(std::uint64_t id) {
+  return core::MakeKey(kMapLandmarkSymbol, id, 0);
+}
 // "landmark 17 of robot 'a'" or "map landmark 17", for messages.
 std::string LandmarkName(const FrameObservations& m, std::uint64_t landmark_id);
 // m with only feature `k` (a track's observation; a rejection naming that feature).

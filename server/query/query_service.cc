@@ -4,6 +4,8 @@
 #include <chrono>
 #include <map>
 
+#include "server/messages/frame_observations.h"
+
 namespace slamd::server {
 namespace {
 
@@ -18,11 +20,6 @@ class Deadline {
  private:
   std::chrono::steady_clock::time_point end_;
 };
-
-std::string WireKeyName(const WireKey& k) {
-  if (k.kind == KeyKind::kMapLandmark) return "map landmark m" + std::to_string(k.index);
-  return k.robot + ":" + (k.kind == KeyKind::kPose ? "x" : "l") + std::to_string(k.index);
-}
 
 }  // namespace
 
@@ -94,7 +91,9 @@ std::vector<RobotMap> CollectMaps(Estimator& estimator, const std::string& robot
   const core::Isam2& solver = estimator.solver();
   for (core::Key key : solver.linearization_point().keys()) {
     const auto it = slot.find(core::KeyRobot(key));
-    if (it == slot.end() || (it->first == 0 && core::KeySymbol(key) != 'm')) continue;
+    if (it == slot.end() || (it->first == 0 && core::KeySymbol(key) != kMapLandmarkSymbol)) {
+      continue;
+    }
     RobotMap& map = maps[it->second];
     MapEntry entry{.index = core::KeyIndex(key), .value = solver.CalculateEstimate(key)};
     if (marginals) {
