@@ -66,7 +66,8 @@ void BenchAppend(const std::vector<Step>& steps, const std::string& dir, server:
                  int max_steps) {
   fs::remove_all(dir);
   fs::create_directories(dir);
-  auto journal = Take(server::Journal::Open(dir, {.sync_policy = policy, .interval_ms = 50}, 0));
+  auto journal = Take(
+      server::Journal::Open(dir, {.writer = {.sync_policy = policy, .interval_ms = 50}}, {}, 0));
   const int n = std::min<int>(max_steps, static_cast<int>(steps.size()));
   std::int64_t messages = 0;
   const auto t0 = Clock::now();
@@ -169,7 +170,8 @@ void RunBench(const JournalBenchOptions& opt) {
   p.log_level = "warn";
   fs::remove_all(p.data_dir);
   fs::create_directories(p.data_dir);
-  const std::string journal_path = server::JournalPath(p.data_dir);
+  // The session's journal is one segment (far below journal.segment_bytes).
+  const std::string journal_path = server::JournalSegmentPath(p.data_dir, 0);
   const int snapshot_at = std::max<int>(0, static_cast<int>(steps.size()) - opt.tail);
   {
     server::InProcessBus bus;
@@ -207,7 +209,7 @@ void RunBench(const JournalBenchOptions& opt) {
       std::ifstream in(journal_path, std::ios::binary);
       std::string bytes(static_cast<size_t>(end), '\0');
       in.read(bytes.data(), end);
-      std::ofstream(server::JournalPath(dir), std::ios::binary) << bytes;
+      std::ofstream(server::JournalSegmentPath(dir, 0), std::ios::binary) << bytes;
     }
     const Timed t = TimeRecover(dir, p);
     std::printf("recover journal only: %7lld messages %6lld updates %9lld bytes: %.3f s\n",

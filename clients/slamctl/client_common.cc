@@ -57,17 +57,19 @@ std::string FormatStatus(const slamd::status_t& s) {
       "update %lld  robots %d  variables %lld  factors %lld  %s  rebuilds %lld\n"
       "messages: received %lld  accepted %lld  rejected %lld  decode errors %lld\n"
       "queue %d / %d (peak %d)  update latency p50 %.2f ms  p90 %.2f ms  p99 %.2f ms  max %.2f ms\n"
-      "publish latency p50 %.2f ms  p99 %.2f ms  journal %lld records, %lld bytes\n"
+      "publish latency p50 %.2f ms  p99 %.2f ms  journal %lld records, %lld bytes "
+      "(%lld on disk in %d segments)\n"
       "chi2 %.6g  residual dimension %lld  (chi2/dim %.4g)\n",
       static_cast<long long>(s.update_sequence), s.num_robots,
       static_cast<long long>(s.num_variables), static_cast<long long>(s.num_factors),
       s.settled ? "settled" : "refining", static_cast<long long>(s.rebuilds),
-      static_cast<long long>(s.messages_received),
-      static_cast<long long>(s.messages_accepted), static_cast<long long>(s.messages_rejected),
-      static_cast<long long>(s.decode_errors), s.queue_depth, s.queue_capacity, s.queue_peak,
-      s.update_latency_p50_us / 1e3, s.update_latency_p90_us / 1e3, s.update_latency_p99_us / 1e3,
-      s.update_latency_max_us / 1e3, s.publish_latency_p50_us / 1e3, s.publish_latency_p99_us / 1e3,
-      static_cast<long long>(s.journal_records), static_cast<long long>(s.journal_bytes), s.chi2,
+      static_cast<long long>(s.messages_received), static_cast<long long>(s.messages_accepted),
+      static_cast<long long>(s.messages_rejected), static_cast<long long>(s.decode_errors),
+      s.queue_depth, s.queue_capacity, s.queue_peak, s.update_latency_p50_us / 1e3,
+      s.update_latency_p90_us / 1e3, s.update_latency_p99_us / 1e3, s.update_latency_max_us / 1e3,
+      s.publish_latency_p50_us / 1e3, s.publish_latency_p99_us / 1e3,
+      static_cast<long long>(s.journal_records), static_cast<long long>(s.journal_bytes),
+      static_cast<long long>(s.journal_disk_bytes), s.journal_segments, s.chi2,
       static_cast<long long>(s.residual_dimension),
       s.residual_dimension > 0 ? s.chi2 / static_cast<double>(s.residual_dimension) : 0.0);
   out = buf;
@@ -115,6 +117,8 @@ JsonWriter StatusJson(const slamd::status_t& s) {
       .Add("publish_latency_p99_us", static_cast<long long>(s.publish_latency_p99_us))
       .Add("journal_records", static_cast<long long>(s.journal_records))
       .Add("journal_bytes", static_cast<long long>(s.journal_bytes))
+      .Add("journal_disk_bytes", static_cast<long long>(s.journal_disk_bytes))
+      .Add("journal_segments", s.journal_segments)
       .Add("chi2", s.chi2)
       .Add("residual_dimension", static_cast<long long>(s.residual_dimension))
       .Add("settled", static_cast<bool>(s.settled));

@@ -1,7 +1,8 @@
-// slamctl journal inspect FILE [--json] [--salvage]
-// slamctl journal export FILE -o DIR [--salvage] [--no-g2o] [--no-lcm-log]
+// slamctl journal inspect DATA_DIR|FILE [--json] [--salvage]
+// slamctl journal export DATA_DIR|FILE -o DIR [--salvage] [--no-g2o] [--no-lcm-log]
 // slamctl journal bench DATASET (bench_journal.h)
-// Read a slamd journal (<data_dir>/journal.slamdj) offline; see journal_export.h. The journal is
+// Read a slamd journal (a data directory's segments, or one segment file) offline; see
+// journal_export.h. The journal is
 // only read, never modified (a live slamd may keep appending: records after the file size seen
 // at open are not read).
 // Exit codes: 0 ok (inspect: also for a torn tail, which slamd repairs itself); 1 the file cannot
@@ -68,19 +69,19 @@ void RegisterJournal(CLI::App& app) {
   cmd->require_subcommand(1);
 
   CLI::App* inspect = cmd->add_subcommand(
-      "inspect", "Print the records of a journal file and how it ends (torn tail, corruption)");
-  inspect->add_option("FILE", opt->file, "journal file (<data_dir>/journal.slamdj)")
+      "inspect", "Print the records of a journal and how it ends (torn tail, corruption)");
+  inspect->add_option("PATH", opt->file, "a slamd data directory, or one journal segment file")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->check(CLI::ExistingPath);
   inspect->add_flag("--json", opt->json, "Print one JSON object");
   inspect->add_flag("--salvage", opt->salvage, "Skip corrupt regions in the middle");
   inspect->callback([opt] { RunInspect(*opt); });
 
   CLI::App* exp = cmd->add_subcommand(
       "export", "Export the journaled measurements as g2o (one file per robot) and an LCM log");
-  exp->add_option("FILE", opt->file, "journal file (<data_dir>/journal.slamdj)")
+  exp->add_option("PATH", opt->file, "a slamd data directory, or one journal segment file")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->check(CLI::ExistingPath);
   exp->add_option("-o,--output", opt->out_dir, "output directory (created if needed)")->required();
   exp->add_flag("--salvage", opt->salvage, "Skip corrupt regions in the middle");
   exp->add_flag("--no-g2o", opt->no_g2o, "Write no g2o files");

@@ -15,7 +15,7 @@
 
 #include "clients/slamctl/json_writer.h"
 #include "core/io/dataset.h"
-#include "server/journal/journal_reader.h"
+#include "server/journal/journal_segments.h"
 #include "server/messages/inbound_codec.h"
 #include "slamd_proto/journal.pb.h"
 
@@ -41,17 +41,20 @@ std::span<const std::uint8_t> Bytes(const std::string& s) {
 core::Status ReadRecords(const std::string& path, bool salvage, JournalInspection* out,
                          const std::function<void(const journal::JournalRecord&, std::int64_t,
                                                   std::int64_t)>& on_record) {
-  core::Result<std::unique_ptr<server::JournalReader>> opened =
-      server::JournalReader::Open(path, {.salvage = salvage});
+  core::Result<std::unique_ptr<server::SegmentedJournalReader>> opened =
+      server::SegmentedJournalReader::Open(path, {.salvage = salvage});
   SLAMD_RETURN_IF_ERROR(opened.status());
-  server::JournalReader& reader = *opened.value();
+  server::SegmentedJournalReader& reader = *opened.value();
   journal::JournalRecord record;
   std::int64_t offset = 0;
   server::JournalReadState state;
   while ((state = reader.Next(&record, &offset)) == server::JournalReadState::kRecord) {
     on_record(record, offset, reader.valid_end_offset() - offset);
   }
-  out->file_size = reader.file_size();
+  out->file_size = reader.end_offset();
+  out->disk_bytes = reader.disk_bytes();
+  out->segments = static_cast<int>(reader.segments().size());
+  out->first_offset = reader.first_offset();
   out->valid_end_offset = reader.valid_end_offset();
   out->skipped_bytes = reader.skipped_bytes();
   for (const server::SkippedRegion& s : reader.skipped_regions()) {
@@ -396,8 +399,9 @@ std::string FormatInspection(const JournalInspection& in) {
     for (const auto& [type, n] : in.messages_by_type) os << ' ' << type << '=' << n;
     os << '\n';
   }
-  os << "file size: " << in.file_size << " bytes; valid records end at " << in.valid_end_offset
-     << '\n';
+  os << "journal: offsets " << in.first_offset << ".." << in.file_size << " in " << in.segments
+     << " segment(s), " << in.disk_bytes << " bytes on disk; valid records end at "
+     << in.valid_end_offset << '\n';
   if (in.end == "torn tail") {
     os << "end: torn tail at offset " << in.torn_tail_offset << " (" << in.end_reason
        << "): slamd truncates it at the next start\n";
@@ -440,6 +444,9 @@ std::string InspectionJson(const JournalInspection& in) {
       .Add("rebuild_swaps", static_cast<long long>(in.rebuild_swaps))
       .Add("messages_by_type", by_type)
       .Add("file_size", static_cast<long long>(in.file_size))
+      .Add("first_offset", static_cast<long long>(in.first_offset))
+      .Add("disk_bytes", static_cast<long long>(in.disk_bytes))
+      .Add("segments", in.segments)
       .Add("valid_end_offset", static_cast<long long>(in.valid_end_offset))
       .Add("end", in.end)
       .Add("torn_tail_offset", static_cast<long long>(in.torn_tail_offset))

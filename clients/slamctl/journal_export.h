@@ -1,5 +1,6 @@
-// What `slamctl journal inspect|export` does with a slamd journal (server/journal, one file
-// `<data_dir>/journal.slamdj`), as a library so tests can call it.
+// What `slamctl journal inspect|export` does with a slamd journal (server/journal: a data
+// directory's segment files, or one of them), as a library so tests can call it. Offsets are
+// global (journal_segments.h): a journal whose older segments were deleted starts after 0.
 //
 // InspectJournal lists every record (frame offset, kind, sequence, LCM type, robot, frame size)
 // and how the file ends: clean, a torn tail (a crash mid-write; recovery truncates it) or
@@ -40,7 +41,7 @@
 namespace slamd::clients {
 
 struct JournalRecordInfo {
-  std::int64_t offset = 0;  // frame offset in the file [bytes]
+  std::int64_t offset = 0;  // frame offset in the journal [bytes]
   std::int64_t size = 0;    // frame size: header + payload [bytes]
   std::string kind = "";    // "message", "boundary", "refinement" or "rebuild" (swap)
   // message: its sequence; boundary and rebuild: the update sequence; refinement: 0.
@@ -57,7 +58,10 @@ struct JournalInspection {
   std::vector<JournalRecordInfo> records;
   std::int64_t messages = 0, boundaries = 0, refinements = 0, rebuild_swaps = 0;
   std::map<std::string, std::int64_t> messages_by_type;
-  std::int64_t file_size = 0;          // [bytes]
+  std::int64_t file_size = 0;     // where the journal ends [bytes]
+  std::int64_t first_offset = 0;  // where its oldest kept segment starts [bytes]
+  std::int64_t disk_bytes = 0;    // its segments' bytes [bytes]
+  int segments = 0;
   std::int64_t valid_end_offset = 0;   // end of the last valid record [bytes]
   std::string end;                     // "clean", "torn tail" or "corruption"
   std::int64_t torn_tail_offset = -1;  // when end == "torn tail"

@@ -116,6 +116,10 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   }
   if (j.has_snapshot_every_s()) p->journal.snapshot_every_s = j.snapshot_every_s();
   if (j.has_keep_snapshots()) p->journal.keep_snapshots = j.keep_snapshots();
+  if (j.has_segment_bytes()) p->journal.segment_bytes = j.segment_bytes();
+  if (j.has_delete_covered_segments()) {
+    p->journal.delete_covered_segments = j.delete_covered_segments();
+  }
   const proto::EstimatorConfig& e = config.estimator();
   if (e.has_new_robot_anchor()) {
     p->estimator.new_robot_anchor = static_cast<AnchorPolicy>(e.new_robot_anchor());
@@ -306,6 +310,10 @@ std::string DefaultConfigText() {
       << "  # 0 = not by count\n"
       << "  snapshot_every_s: " << Num(d.journal.snapshot_every_s) << "  # [s], 0 = not by time\n"
       << "  keep_snapshots: " << d.journal.keep_snapshots << "  # >= 1\n"
+      << "  segment_bytes: " << d.journal.segment_bytes
+      << "  # a new journal segment after this many [bytes]\n"
+      << "  delete_covered_segments: " << (d.journal.delete_covered_segments ? "true" : "false")
+      << "  # delete segments the oldest kept snapshot covers\n"
       << "}\n";
   return out.str();
 }

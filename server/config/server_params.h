@@ -3,6 +3,7 @@
 // config loader fills these in and calls Validate() once at startup.
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 #include "core/base/status.h"
@@ -81,6 +82,13 @@ struct ServerParams {
     double snapshot_every_s = 300.0;
     // Snapshots kept on disk (the newest and older ones, in case the newest is damaged); >= 1.
     int keep_snapshots = 2;
+    // The journal is a sequence of segment files; a new one starts after this many bytes
+    // [bytes]; >= 4096.
+    std::int64_t segment_bytes = std::int64_t{64} << 20;
+    // After each snapshot, delete the segments the oldest kept snapshot covers (recovery needs
+    // none of them), so the journal on disk stays bounded by what came after it. false keeps
+    // the whole history (an audit trail; `slamctl journal export` reads it).
+    bool delete_covered_segments = true;
   };
   Journal journal = {};
 

@@ -59,6 +59,7 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
   std::unique_ptr<Estimator> estimator;
   std::unique_ptr<Journal> journal;
   std::vector<Inbound> pending;
+  std::optional<JournalPosition> recovered_snapshot;  // its position, when one was loaded
   if (params.data_dir.empty()) {
     log->warn("no data_dir: accepted messages are not journaled and a restart starts empty");
     core::Result<std::unique_ptr<Estimator>> made =
@@ -95,10 +96,16 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
         r.replayed_updates, r.replayed_refinements, r.replayed_rebuild_swaps, r.pending.size());
     estimator = std::move(r.estimator);
     pending = std::move(r.pending);
-    core::Result<std::unique_ptr<Journal>> opened = Journal::Open(
-        params.data_dir,
-        {.sync_policy = params.journal.sync, .interval_ms = params.journal.sync_interval_ms},
-        r.last_sequence);
+    if (!r.snapshot_path.empty()) {
+      recovered_snapshot = JournalPosition{.last_message_sequence = r.snapshot_sequence,
+                                           .journal_offset = r.snapshot_journal_offset};
+    }
+    core::Result<std::unique_ptr<Journal>> opened =
+        Journal::Open(params.data_dir,
+                      {.writer = {.sync_policy = params.journal.sync,
+                                  .interval_ms = params.journal.sync_interval_ms},
+                       .segment_bytes = params.journal.segment_bytes},
+                      std::move(r.segments), r.last_sequence);
     if (!opened.ok()) return opened.status();
     journal = std::move(opened).value();
   }
@@ -115,9 +122,10 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
   }
   daemon->snapshot_ = daemon->estimator_->snapshot();
   if (daemon->journal_) {
-    daemon->snapshot_writer_ =
-        std::make_unique<SnapshotWriter>(params.data_dir, params.journal, daemon->log_,
-                                         daemon->snapshot_->update_sequence, SteadyMicros());
+    daemon->snapshot_writer_ = std::make_unique<SnapshotWriter>(
+        params.data_dir, params.journal, daemon->journal_.get(), daemon->log_,
+        daemon->snapshot_->update_sequence, recovered_snapshot ? &*recovered_snapshot : nullptr,
+        SteadyMicros());
   }
   SLAMD_RETURN_IF_ERROR(daemon->Subscribe());
   return daemon;

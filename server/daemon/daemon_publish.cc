@@ -174,6 +174,8 @@ void Daemon::PublishStatus(const EstimateSnapshot& snap) {
   out.publish_latency_p99_us = publish[1];
   out.journal_records = journal_ ? journal_->records() : 0;
   out.journal_bytes = journal_ ? journal_->durable_offset() : 0;
+  out.journal_disk_bytes = journal_ ? journal_->disk_bytes() : 0;
+  out.journal_segments = journal_ ? journal_->segments() : 0;
   out.chi2 = snap.chi2;
   out.residual_dimension = snap.residual_dimension;
   out.settled = snap.settled;

@@ -11,13 +11,17 @@
 namespace slamd::server {
 
 SnapshotWriter::SnapshotWriter(std::string data_dir, const ServerParams::Journal& params,
-                               std::shared_ptr<spdlog::logger> log, std::int64_t last_sequence,
+                               Journal* journal, std::shared_ptr<spdlog::logger> log,
+                               std::int64_t last_sequence, const JournalPosition* recovered,
                                std::int64_t now_us)
     : data_dir_(std::move(data_dir)),
       params_(params),
+      journal_(journal),
       log_(std::move(log)),
       last_sequence_(last_sequence),
-      last_us_(now_us) {}
+      last_us_(now_us) {
+  if (recovered) known_[recovered->journal_offset] = recovered->last_message_sequence;
+}
 
 SnapshotWriter::~SnapshotWriter() { Join(); }
 
@@ -51,11 +55,33 @@ void SnapshotWriter::Write(std::shared_ptr<const EstimatorState> state,
     if (path.ok()) {
       log_->info("snapshot {} ({} bytes, message {}) in {:.3f} s", path.value(), bytes.size(),
                  position.last_message_sequence, timer.Seconds());
+      known_[position.journal_offset] = position.last_message_sequence;
+      if (params_.delete_covered_segments) DeleteCoveredSegments();
     } else {
       log_->error("snapshot: {}", path.status().ToString());
     }
     busy_ = false;
   });
+}
+
+void SnapshotWriter::DeleteCoveredSegments() {
+  const core::Result<std::vector<SnapshotFileInfo>> kept = ListSnapshots(data_dir_);
+  if (!kept.ok() || kept.value().empty()) return;
+  // Forget the positions of snapshots no longer on disk.
+  std::map<std::int64_t, std::int64_t> still;
+  for (const SnapshotFileInfo& s : kept.value()) {
+    if (auto it = known_.find(s.sequence); it != known_.end()) still.insert(*it);
+  }
+  known_ = std::move(still);
+  const auto oldest = known_.find(kept.value().back().sequence);
+  if (oldest == known_.end()) return;  // its position is unknown: keep everything
+  const core::Result<int> deleted = journal_->DeleteCovered(oldest->second, oldest->first);
+  if (!deleted.ok()) {
+    log_->error("journal: {}", deleted.status().ToString());
+  } else if (deleted.value() > 0) {
+    log_->info("journal: deleted {} segment(s) covered by the snapshot at offset {}",
+               deleted.value(), oldest->first);
+  }
 }
 
 void SnapshotWriter::Join() {

@@ -1,17 +1,22 @@
 // SnapshotWriter: the daemon's snapshots. The estimator thread exports its state when one is due
 // (journal.snapshot_every_updates / _s) and hands it over; the writer's thread, slamd-snapshot,
 // encodes it and writes it atomically (server/journal/snapshot_file.h), keeping
-// journal.keep_snapshots. At most 5% of the time goes to snapshots: the next is due no sooner
-// than 20x the last one's export + write time, as on a large map both grow.
+// journal.keep_snapshots, then deletes the journal segments the oldest kept snapshot covers
+// (journal.delete_covered_segments). At most 5% of the time goes to snapshots: the next is due
+// no sooner than 20x the last one's export + write time, as on a large map both grow.
+// Deleting needs the position of the oldest kept snapshot: the writer knows those it wrote and
+// the one recovered at start; while an older one of unknown position is kept, nothing is deleted.
 #pragma once
 
 #include <atomic>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <thread>
 
 #include "server/config/server_params.h"
+#include "server/journal/journal.h"
 #include "server/snapshot/estimator_state.h"
 #include "server/snapshot/state_codec.h"
 
@@ -24,10 +29,11 @@ namespace slamd::server {
 class SnapshotWriter {
  public:
   // `last_sequence`: the update sequence of the state recovered at start (no snapshot is due
-  // before the estimate moves on from it). `now_us`: steady clock.
-  SnapshotWriter(std::string data_dir, const ServerParams::Journal& params,
+  // before the estimate moves on from it); `recovered`: the position of the snapshot recovery
+  // loaded (nullptr: none). `journal` outlives the writer. `now_us`: steady clock.
+  SnapshotWriter(std::string data_dir, const ServerParams::Journal& params, Journal* journal,
                  std::shared_ptr<spdlog::logger> log, std::int64_t last_sequence,
-                 std::int64_t now_us);
+                 const JournalPosition* recovered, std::int64_t now_us);
   ~SnapshotWriter();  // waits for the snapshot being written
   SnapshotWriter(const SnapshotWriter&) = delete;
   SnapshotWriter& operator=(const SnapshotWriter&) = delete;
@@ -42,8 +48,15 @@ class SnapshotWriter {
   void Join();
 
  private:
+  // On the writer's thread, after a snapshot is durable.
+  void DeleteCoveredSegments();
+
   std::string data_dir_;
   ServerParams::Journal params_;
+  Journal* journal_;
+  // The last message sequence of each snapshot whose position is known, by journal offset (the
+  // snapshot's file name). Only the writer's thread touches it once running.
+  std::map<std::int64_t, std::int64_t> known_;
   std::shared_ptr<spdlog::logger> log_;
   std::int64_t last_sequence_;  // of the last snapshot written (or recovered)
   std::int64_t last_us_;        // when it was due

@@ -1,10 +1,8 @@
 #include "server/estimator/recovery.h"
 
-#include <sys/stat.h>
-
 #include "core/base/timing.h"
-#include "server/journal/journal.h"
 #include "server/journal/journal_reader.h"
+#include "server/journal/journal_segments.h"
 #include "server/journal/snapshot_file.h"
 #include "server/messages/inbound_codec.h"
 #include "server/snapshot/estimator_state.h"
@@ -13,11 +11,6 @@
 
 namespace slamd::server {
 namespace {
-
-bool Exists(const std::string& path) {
-  struct stat st;
-  return ::stat(path.c_str(), &st) == 0;
-}
 
 std::string At(const std::string& path, std::int64_t offset) {
   return path + " at offset " + std::to_string(offset);
@@ -47,6 +40,7 @@ core::Result<RecoveryResult> Recover(const std::string& data_dir, const Estimato
     out.estimator = std::move(restored).value();
     out.snapshot_path = snapshot.value().info.path;
     out.snapshot_sequence = position.last_message_sequence;
+    out.snapshot_journal_offset = position.journal_offset;
     out.last_sequence = position.last_message_sequence;
   } else if (snapshot.status().code() == core::StatusCode::kNotFound) {
     core::Result<std::unique_ptr<Estimator>> made = Estimator::Create(params, isam2);
@@ -57,15 +51,25 @@ core::Result<RecoveryResult> Recover(const std::string& data_dir, const Estimato
   }
 
   // 2. The journal.
-  const std::string path = JournalPath(data_dir);
-  if (!Exists(path)) {
+  core::Result<std::unique_ptr<SegmentedJournalReader>> opened =
+      SegmentedJournalReader::Open(data_dir, {.salvage = salvage});
+  if (opened.status().code() == core::StatusCode::kNotFound) {
     out.seconds = timer.Seconds();
     return out;
   }
-  core::Result<std::unique_ptr<JournalReader>> opened =
-      JournalReader::Open(path, {.salvage = salvage});
   if (!opened.ok()) return opened.status();
-  JournalReader& reader = *opened.value();
+  SegmentedJournalReader& reader = *opened.value();
+  const std::string path = "journal " + data_dir;  // errors name global offsets in it
+  if (reader.first_offset() > position.journal_offset) {
+    // Segments are deleted only once a snapshot covers them; that snapshot is gone.
+    const std::string s = out.snapshot_path.empty()
+                              ? "no valid snapshot"
+                              : "the snapshot " + out.snapshot_path + " reaches only offset " +
+                                    std::to_string(position.journal_offset);
+    return core::DataLoss("journal " + data_dir + " starts at offset " +
+                          std::to_string(reader.first_offset()) +
+                          " (older segments were deleted as covered by snapshots), but " + s);
+  }
   // Rebuilds started in the replay catch up as their swap records say, not as threads run.
   out.estimator->SetReplaying(true);
   journal::JournalRecord record;
@@ -131,8 +135,11 @@ core::Result<RecoveryResult> Recover(const std::string& data_dir, const Estimato
   }
   out.salvaged_bytes = reader.skipped_bytes();
   if (out.torn_tail_offset >= 0) {
-    SLAMD_RETURN_IF_ERROR(TruncateTornTail(path, out.torn_tail_offset));
+    SLAMD_RETURN_IF_ERROR(
+        TruncateTornTail(reader.torn_tail_path(), reader.torn_tail_file_offset()));
   }
+  out.segments = reader.segments();
+  if (out.torn_tail_offset >= 0) out.segments.back().end = out.torn_tail_offset;
   out.estimator->SetReplaying(false);
   out.pending = std::move(collected);
   out.seconds = timer.Seconds();

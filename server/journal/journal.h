@@ -1,7 +1,13 @@
-// Journal: the daemon's write-ahead journal, one file `<data_dir>/journal.slamdj`, shared by the
-// intake thread (accepted messages) and the estimator thread (update boundaries, refinements,
-// commits). Thread-safe: one mutex around a JournalWriter (journal_writer.h has the format and
-// the sync policies).
+// Journal: the daemon's write-ahead journal, segment files in the data directory
+// (journal_segments.h), shared by the intake thread (accepted messages), the estimator thread
+// (update boundaries, refinements, commits) and the snapshot thread (deleting covered segments).
+// Thread-safe: one mutex around the JournalWriter of the newest segment (journal_writer.h has
+// the format and the sync policies).
+//
+// Segments: once the newest segment holds segment_bytes, the next record starts a new one; the
+// full one is synced first, so every segment but the newest is whole and durable. Offsets are
+// global (journal_segments.h). DeleteCovered removes the oldest segments a snapshot makes
+// unnecessary, so the journal on disk is bounded by what came after the oldest kept snapshot.
 //
 // Sequence numbers: accepted messages are numbered 1, 2, ... without gaps over the life of the
 // data directory; Open() continues after the last one recovery saw.
@@ -13,21 +19,32 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "core/base/status.h"
+#include "server/journal/journal_segments.h"
 #include "server/journal/journal_writer.h"
 
 namespace slamd::server {
 
-// The journal file of a data directory.
-std::string JournalPath(const std::string& data_dir);
+struct JournalOptions {
+  JournalWriterOptions writer = {};
+  // A new segment starts once the newest holds this many bytes [bytes]; >= 4096.
+  std::int64_t segment_bytes = std::int64_t{64} << 20;
+
+  core::Status Validate() const;  // "JournalOptions::segment_bytes = 0; violates >= 4096"
+};
 
 class Journal {
  public:
-  // Opens (or creates) the journal for appending; the caller recovered it first (a torn tail
-  // truncated). `last_sequence` is the last message sequence in the file (0 when new).
+  // Opens (or creates) the journal of `data_dir` for appending at the end of its newest segment;
+  // the caller recovered it first (a torn tail truncated). `segments`: what recovery read
+  // (SegmentedJournalReader::segments(); empty when there is no journal yet); `last_sequence`:
+  // the last message sequence in them (0 when new). A legacy journal.slamdj is renamed to the
+  // segment of base 0.
   static core::Result<std::unique_ptr<Journal>> Open(const std::string& data_dir,
-                                                     const JournalWriterOptions& options,
+                                                     const JournalOptions& options,
+                                                     std::vector<JournalSegment> segments,
                                                      std::int64_t last_sequence);
 
   // Appends one accepted message; returns its sequence number. IoError (disk full, ...) leaves
@@ -48,17 +65,33 @@ class Journal {
   // fdatasync now whatever the policy (shutdown).
   core::Status Sync();
 
-  std::int64_t offset() const;          // end of the last record [bytes]
-  std::int64_t durable_offset() const;  // synced up to here [bytes]
+  // Deletes the segments (never the newest) whose records a state at this position includes:
+  // the segment ends at or before `journal_offset` and its messages are all numbered up to
+  // `last_message_sequence`. Returns how many were deleted; IoError if one could not be.
+  core::Result<int> DeleteCovered(std::int64_t last_message_sequence, std::int64_t journal_offset);
+
+  std::int64_t offset() const;          // end of the last record (global) [bytes]
+  std::int64_t durable_offset() const;  // synced up to here (global) [bytes]
+  std::int64_t disk_bytes() const;      // the segments' bytes on disk [bytes]
+  int segments() const;                 // on disk, the newest included
   std::int64_t records() const;         // appended since Open
   std::int64_t last_sequence() const;
 
  private:
-  Journal(std::unique_ptr<JournalWriter> writer, std::int64_t last_sequence);
+  Journal(std::string data_dir, const JournalOptions& options, std::vector<JournalSegment> closed,
+          JournalSegment current, std::unique_ptr<JournalWriter> writer,
+          std::int64_t last_sequence);
   core::Status AppendLocked(const journal::JournalRecord& record);
+  // Syncs and closes the newest segment and opens the next.
+  core::Status StartSegmentLocked();
 
+  const std::string data_dir_;
+  const JournalOptions options_;
   mutable std::mutex mutex_;
+  std::vector<JournalSegment> closed_;  // whole, durable, oldest first (end filled)
+  JournalSegment current_;              // being appended to by writer_
   std::unique_ptr<JournalWriter> writer_;
+  std::int64_t records_ = 0;  // appended since Open, in all segments
   std::int64_t last_sequence_ = 0;
 };
 

@@ -4,7 +4,7 @@ namespace slamd::server {
 
 core::Result<JournalContents> ReadJournal(const std::string& path,
                                           const JournalReaderOptions& options) {
-  auto reader = JournalReader::Open(path, options);
+  auto reader = SegmentedJournalReader::Open(path, options);
   if (!reader.ok()) return reader.status();
   JournalContents out;
   journal::JournalRecord record;
@@ -19,7 +19,9 @@ core::Result<JournalContents> ReadJournal(const std::string& path,
   out.torn_tail_offset = (*reader)->torn_tail_offset();
   out.end_reason = (*reader)->end_reason();
   out.valid_end_offset = (*reader)->valid_end_offset();
-  out.file_size = (*reader)->file_size();
+  out.file_size = (*reader)->end_offset();
+  out.disk_bytes = (*reader)->disk_bytes();
+  out.segments = (*reader)->segments();
   out.skipped = (*reader)->skipped_regions();
   out.skipped_bytes = (*reader)->skipped_bytes();
   return out;

@@ -74,12 +74,14 @@ constexpr int kCrashSteps = 3500;
 constexpr int kKills = 12;
 
 // Refinement on with a tiny threshold, so "settled" means converged; snapshots every 300 updates
-// so restarts recover from snapshot + journal tail as well as from the journal alone.
+// so restarts recover from snapshot + journal tail as well as from the journal alone; journal
+// segments of 64 KiB, so kills land around segment changes and deletions of covered segments.
 constexpr const char* kConfig =
     "refine { enabled: true budget_s: 0.002 }\n"
     "isam2 { refine_threshold: 1e-10 }\n"
     "publish { status_rate_hz: 20 estimate_covariance: false }\n"
-    "journal { sync: ALWAYS snapshot_every_updates: 300 snapshot_every_s: 0 }\n"
+    "journal { sync: ALWAYS snapshot_every_updates: 300 snapshot_every_s: 0 segment_bytes: 65536 "
+    "}\n"
     "log_level: \"info\"\n";
 
 class TempDir {
@@ -230,7 +232,7 @@ void Kill(Server* s, int signal) {
 
 // How many of `step`'s messages are in the journal of `dir` (same channel, same bytes).
 int Journaled(const std::string& dir, const std::string& prefix, const StepMessages& step) {
-  core::Result<JournalContents> c = ReadJournal(JournalPath(dir));
+  core::Result<JournalContents> c = ReadJournal(dir);
   SLAMD_CHECK(c.ok()) << c.status().ToString();
   int n = 0;
   for (const WireMessage& m : step) {
@@ -473,6 +475,15 @@ TEST(ServerCrashNetnsTest, KilledServerRecoversToTheUninterruptedResult) {
   const std::string blog = ReadText(b.log);
   EXPECT_NE(blog.find("recovered"), std::string::npos) << blog.substr(0, 2000);
 
+  for (const Server* s : {&a, &b}) {
+    const JournalContents j = ReadJournal(s->data_dir).value();
+    std::printf("[ crash    ] %s journal: offsets %lld..%lld, %zu segment(s), %lld bytes on disk\n",
+                s->prefix.c_str(), static_cast<long long>(j.segments.front().base),
+                static_cast<long long>(j.file_size), j.segments.size(),
+                static_cast<long long>(j.disk_bytes));
+  }
+  // Snapshots covered the start of the uninterrupted run's journal: those segments are gone.
+  EXPECT_GT(ReadJournal(a.data_dir).value().segments.front().base, 0);
   const ServerParams params = ConfigParams(config);
   const auto r0 = Clock::now();
   const Recovered ra = RecoverAndConverge(a.data_dir, params);
@@ -505,7 +516,7 @@ TEST(ServerCrashNetnsTest, TornJournalTailAfterKillDuringBurst) {
   ASSERT_NO_FATAL_FAILURE(Start(config, client, &c));
   for (int k = 0; k < kBurst; ++k) ASSERT_NO_FATAL_FAILURE(client.Send(c, messages[k]));
   // Kill as soon as slamd has journaled something (a loaded machine may take a while to start).
-  const std::string journal_path = JournalPath(c.data_dir);
+  const std::string journal_path = JournalSegmentPath(c.data_dir, 0);
   const auto has_message = [&] {
     const core::Result<JournalContents> r = ReadJournal(journal_path);
     if (!r.ok()) return false;

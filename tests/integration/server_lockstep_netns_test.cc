@@ -170,7 +170,7 @@ TEST(ServerLockstepNetnsTest, PublishedEstimatesEqualOfflineIsam2UpdateByUpdate)
       origin[std::string(b.begin(), b.end())] = {k, i};
     }
   }
-  const core::Result<JournalContents> journal = ReadJournal(JournalPath((dir / "data").string()));
+  const core::Result<JournalContents> journal = ReadJournal((dir / "data").string());
   ASSERT_TRUE(journal.ok()) << journal.status().ToString();
 
   const ServerParams params = LoadConfigFile(config).value();

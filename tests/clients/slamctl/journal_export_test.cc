@@ -17,6 +17,7 @@
 #include "core/factors/relative_point_factor.h"
 #include "core/io/dataset.h"
 #include "server/journal/journal.h"
+#include "server/journal/read_journal.h"
 #include "server/messages/inbound.h"
 #include "slamd/landmark_observation_t.hpp"
 #include "slamd/loop_closure_t.hpp"
@@ -76,7 +77,9 @@ void Append(server::Journal& j, const std::string& channel, const char* type, co
 // retracted), robot "b" (3D odometry) and an a-b loop closure (not representable per robot).
 // Boundaries and a refinement in between. Returns the journal path.
 std::string WriteSession(const std::string& dir, std::vector<Written>* written) {
-  auto j = server::Journal::Open(dir, {.sync_policy = server::SyncPolicy::kNever}, 0).value();
+  auto j =
+      server::Journal::Open(dir, {.writer = {.sync_policy = server::SyncPolicy::kNever}}, {}, 0)
+          .value();
   using namespace server;
   slamd::prior_t prior;
   ToLcm(PriorMeasurement{1, "a", 0, PriorKind::kPose2, Pose2(1.0, 2.0, 0.5),
@@ -135,7 +138,7 @@ std::string WriteSession(const std::string& dir, std::vector<Written>* written) 
   Append(*j, "SLAMD_LOOP_CLOSURE", "loop_closure_t", ab, written);
   EXPECT_TRUE(j->AppendBoundary(2, 12, 7).ok());
   EXPECT_TRUE(j->Sync().ok());
-  return server::JournalPath(dir);
+  return server::JournalSegmentPath(dir, 0);
 }
 
 template <typename T>
@@ -307,6 +310,48 @@ TEST(JournalExportTest, InspectListsRecordsAndReportsATornTail) {
   EXPECT_EQ(run.exit_code, 0) << run.out;
   EXPECT_TRUE(fs::exists(out.str() + "/x/journal.lcmlog")) << run.out;
   EXPECT_TRUE(fs::exists(out.str() + "/x/a.g2o")) << run.out;
+}
+
+// A data directory whose journal spans segments, the oldest deleted: inspect and export read
+// them as one journal from where it starts, with global offsets; `slamctl journal inspect DIR`.
+TEST(JournalExportTest, ReadsAJournalOfSeveralSegments) {
+  TempDir dir;
+  fs::create_directories(dir.str());
+  std::vector<Written> written;
+  std::int64_t first_kept = 0;  // the first message of the second segment
+  {
+    auto j =
+        server::Journal::Open(
+            dir.str(),
+            {.writer = {.sync_policy = server::SyncPolicy::kNever}, .segment_bytes = 4096}, {}, 0)
+            .value();
+    for (int i = 0; i < 80; ++i) {
+      slamd::odometry_t odo;
+      ToLcm(server::OdometryMeasurement{i, "a", std::uint64_t(i), std::uint64_t(i + 1),
+                                        Pose2(1.0, 0.0, 0.1), Cov2(0.01, 0.02, 0.003)},
+            &odo);
+      Append(*j, "SLAMD_ODOMETRY", "odometry_t", odo, &written);
+    }
+    ASSERT_GT(j->segments(), 3);
+    ASSERT_TRUE(j->Sync().ok());
+    const server::JournalContents c = server::ReadJournal(dir.str()).value();
+    first_kept = c.segments[0].last_message_sequence + 1;
+    ASSERT_EQ(j->DeleteCovered(first_kept - 1, c.segments[1].base).value(), 1);
+  }
+  const JournalInspection in = InspectJournal(dir.str(), false).value();
+  EXPECT_EQ(in.end, "clean");
+  EXPECT_GT(in.first_offset, 0);
+  EXPECT_EQ(in.records.front().offset, in.first_offset + 16);
+  EXPECT_EQ(in.records.front().sequence, first_kept);
+  EXPECT_EQ(in.messages, 81 - first_kept);
+  EXPECT_LT(in.disk_bytes, in.file_size);
+  for (size_t i = 0; i + 1 < in.records.size(); ++i) {
+    EXPECT_GT(in.records[i + 1].offset, in.records[i].offset);
+  }
+  const testing::SlamctlRun run = testing::RunSlamctl("journal inspect " + dir.str() + " --json");
+  EXPECT_EQ(run.exit_code, 0) << run.out;
+  EXPECT_NE(run.out.find("\"segments\": " + std::to_string(in.segments)), std::string::npos)
+      << run.out.substr(0, 300);
 }
 
 TEST(JournalExportTest, CorruptionInTheMiddleIsReportedAndBadArgumentsExit2) {

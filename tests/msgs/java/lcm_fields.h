@@ -140,7 +140,8 @@ inline void Put(Fields& f, const std::string& path, const slamd::status_t& m) {
   PUT(rejects_by_reason), PUT(queue_depth), PUT(queue_peak), PUT(queue_capacity);
   PUT(update_latency_p50_us), PUT(update_latency_p90_us), PUT(update_latency_p99_us);
   PUT(update_latency_max_us), PUT(publish_latency_p50_us), PUT(publish_latency_p99_us);
-  PUT(journal_records), PUT(journal_bytes), PUT(chi2), PUT(residual_dimension), PUT_BOOL(settled);
+  PUT(journal_records), PUT(journal_bytes), PUT(journal_disk_bytes), PUT(journal_segments);
+  PUT(chi2), PUT(residual_dimension), PUT_BOOL(settled);
 }
 
 #undef PUT

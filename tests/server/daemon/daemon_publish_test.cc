@@ -298,7 +298,7 @@ TEST(DaemonTest, AlwaysJournalPublishesAnEstimateOnlyOnceItsMessagesAreDurable) 
     bus.daemon = nullptr;
   }
   // Message sequence 1 is the prior, 1 + k the odometry to pose k (one intake thread, FIFO bus).
-  const JournalContents journal = ReadJournal(dir + "/journal.slamdj").value();
+  const JournalContents journal = ReadJournal(dir).value();
   std::vector<std::int64_t> message_end(kPoses + 2, -1);
   for (size_t i = 0; i < journal.records.size(); ++i) {
     if (!journal.records[i].has_message()) continue;

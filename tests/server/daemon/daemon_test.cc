@@ -11,6 +11,7 @@
 #include <set>
 #include <thread>
 
+#include "server/journal/journal_segments.h"
 #include "server/journal/read_journal.h"
 #include "server/messages/inbound.h"
 #include "server/transport/in_process_bus.h"
@@ -241,6 +242,13 @@ TEST(DaemonTest, FullQueueRejectsAfterBlockingNeverDropsSilently) {
     EXPECT_EQ(s.residual_dimension, 6);
     if (journaled) {
       EXPECT_EQ(daemon->journal_for_tests()->last_sequence(), 2);
+      EXPECT_EQ(s.journal_segments, 1);
+      EXPECT_GT(s.journal_disk_bytes, 16);  // the header and the two messages at least
+      EXPECT_LE(
+          s.journal_disk_bytes,
+          static_cast<std::int64_t>(std::filesystem::file_size(dir + "/" + JournalSegmentName(0))));
+    } else {
+      EXPECT_EQ(s.journal_segments, 0);
     }
     daemon.reset();
     std::filesystem::remove_all(dir);

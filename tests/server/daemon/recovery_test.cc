@@ -12,6 +12,7 @@
 
 #include "server/daemon/daemon.h"
 #include "server/journal/journal.h"
+#include "server/journal/journal_segments.h"
 #include "server/journal/read_journal.h"
 #include "server/journal/snapshot_file.h"
 #include "server/messages/inbound.h"
@@ -201,7 +202,7 @@ TEST(RecoveryTest, RestartReproducesBackgroundRebuildSwapsExactly) {
   }
   EXPECT_GT(rebuilds, 0);
   int rounds = 0;
-  const core::Result<JournalContents> journal = ReadJournal(JournalPath(dir.str()));
+  const core::Result<JournalContents> journal = ReadJournal(dir.str());
   ASSERT_TRUE(journal.ok()) << journal.status().ToString();
   for (const journal::JournalRecord& r : journal.value().records) {
     if (r.has_rebuild_swap()) rounds += r.rebuild_swap().catch_up_rounds_size();
@@ -219,7 +220,8 @@ TEST(RecoveryTest, AcceptedButUnprocessedMessagesAreProcessedAtStart) {
   TempDir dir;
   fs::create_directories(dir.str());
   {
-    auto journal = Journal::Open(dir.str(), {.sync_policy = SyncPolicy::kNever}, 0).value();
+    auto journal =
+        Journal::Open(dir.str(), {.writer = {.sync_policy = SyncPolicy::kNever}}, {}, 0).value();
     const auto append = [&](const char* channel, const auto& msg) {
       std::vector<std::uint8_t> bytes(static_cast<size_t>(msg.getEncodedSize()));
       msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
@@ -256,15 +258,15 @@ TEST(RecoveryTest, AcceptedButUnprocessedMessagesAreProcessedAtStart) {
 TEST(RecoveryTest, TornTailIsTruncatedAndEverythingBeforeItRecovered) {
   TempDir dir;
   RecordSession(dir, 40, 5);
-  const std::string path = JournalPath(dir.str());
+  const std::string path = JournalSegmentPath(dir.str(), 0);
   const auto size = static_cast<std::int64_t>(fs::file_size(path));
   std::mt19937 cut_rng(11);
   for (int trial = 0; trial < 10; ++trial) {
     TempDir copy;
     fs::create_directories(copy.str());
-    fs::copy_file(path, JournalPath(copy.str()));
+    fs::copy_file(path, JournalSegmentPath(copy.str(), 0));
     const std::int64_t cut = 16 + static_cast<std::int64_t>(cut_rng() % (size - 16));
-    fs::resize_file(JournalPath(copy.str()), static_cast<std::uintmax_t>(cut));
+    fs::resize_file(JournalSegmentPath(copy.str(), 0), static_cast<std::uintmax_t>(cut));
     core::Result<RecoveryResult> r = Recover(copy.str(), {}, {}, false);
     ASSERT_TRUE(r.ok()) << r.status().ToString();
     EXPECT_LE(r.value().torn_tail_offset, cut);
@@ -288,7 +290,7 @@ TEST(RecoveryTest, CorruptionInTheMiddleStopsUnlessSalvaged) {
   InProcessBus bus;
   // Damage an update-boundary record in the middle (a lost boundary loses no message: its
   // messages join the next update).
-  const std::string path = JournalPath(dir.str());
+  const std::string path = JournalSegmentPath(dir.str(), 0);
   core::Result<JournalContents> contents = ReadJournal(path);
   ASSERT_TRUE(contents.ok());
   std::int64_t target = -1;
@@ -375,6 +377,64 @@ TEST_P(RecoveryRebuildTest, SnapshotPlusJournalEqualsFullReplay) {
 
 INSTANTIATE_TEST_SUITE_P(InlineAndBackground, RecoveryRebuildTest, ::testing::Bool());
 
+// Journal segments a kept snapshot covers are deleted as snapshots are written, so the disk holds
+// the journal since the oldest kept snapshot; recovery from what is left settles where the live
+// daemon settled, before and after a restart that carries on deleting. Without the snapshots
+// the deleted segments are missed: DataLoss, not a silent partial state.
+TEST(RecoveryTest, CoveredJournalSegmentsAreDeletedAndRecoveryStaysExact) {
+  TempDir dir;
+  ServerParams p = Params(dir.str());
+  p.journal.segment_bytes = 4096;
+  p.journal.snapshot_every_updates = 10;
+  p.journal.keep_snapshots = 1;  // the 5% rule leaves few snapshots in a run this short
+  p.isam2.refine_threshold = 1e-10;
+  p.isam2.wildfire_threshold = 0.0;  // settled means at the optimum, not within the wildfire
+  // Streams poses from..to, settles, stops; returns the settled estimate. A pause in the middle
+  // lets the 5% rule allow a snapshot after it, whatever the machine's speed.
+  const auto session = [&](int from, int to, unsigned seed) {
+    InProcessBus bus;
+    std::mt19937 rng(seed);
+    auto d = Daemon::Create(p, &bus).value();
+    const int mid = (from + 2 * to) / 3;
+    Stream(bus, *d, from, mid, rng);
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    Stream(bus, *d, mid, to, rng);
+    for (int k = 0; k < 1000 && !d->snapshot()->settled; ++k) d->StepEstimator(0.0);
+    EXPECT_TRUE(d->snapshot()->settled);
+    d->Stop();
+    return Estimate(*d);
+  };
+  const auto recovered = [&] {
+    core::Result<RecoveryResult> r = Recover(dir.str(), p.estimator, p.isam2, false);
+    EXPECT_TRUE(r.ok()) << r.status().ToString();
+    EXPECT_FALSE(r.value().snapshot_path.empty());
+    Estimator& e = *r.value().estimator;
+    EXPECT_TRUE(e.Refine(10.0).converged);
+    return e.solver().CalculateEstimate();
+  };
+  const auto first_base = [&] { return ListJournalSegments(dir.str()).value().front().base; };
+
+  const core::Values first = session(0, 150, 21);
+  ExpectSameValues(recovered(), first, 1e-8);
+  const std::int64_t deleted_up_to = first_base();
+  EXPECT_GT(deleted_up_to, 0);
+  const JournalContents left = ReadJournal(dir.str()).value();
+  EXPECT_LT(left.disk_bytes, left.file_size / 2);
+
+  // A restart carries on: new snapshots delete further segments.
+  const core::Values settled = session(150, 250, 22);
+  EXPECT_GT(first_base(), deleted_up_to);
+  ExpectSameValues(recovered(), settled, 1e-8);
+
+  const std::vector<SnapshotFileInfo> snapshots = ListSnapshots(dir.str()).value();
+  for (const SnapshotFileInfo& s : snapshots) fs::remove(s.path);
+  core::Result<RecoveryResult> lost = Recover(dir.str(), p.estimator, p.isam2, false);
+  ASSERT_FALSE(lost.ok());
+  EXPECT_EQ(lost.status().code(), core::StatusCode::kDataLoss);
+  EXPECT_NE(lost.status().message().find("older segments were deleted"), std::string::npos)
+      << lost.status().message();
+}
+
 // Snapshots take at most 5% of the time, whatever snapshot_every_updates asks: after one that
 // took t (export, encoding, writing), the next waits 20 t.
 TEST(RecoveryTest, SnapshotsTakeAtMostFivePercentOfTheTime) {
@@ -444,7 +504,7 @@ TEST(RecoveryTest, DiskFullRejectsThenResumes) {
   rlimit old{};
   ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old), 0);
   rlimit small = old;
-  small.rlim_cur = fs::file_size(JournalPath(dir.str()));
+  small.rlim_cur = fs::file_size(JournalSegmentPath(dir.str(), 0));
   ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &small), 0);
   const size_t before = rejects.size();
   Send(bus, 10, 15);

@@ -26,7 +26,7 @@ class JournalTest : public ::testing::Test {
   }
   void TearDown() override { std::filesystem::remove_all(dir_); }
   std::unique_ptr<Journal> Open(SyncPolicy policy) {
-    return Journal::Open(dir_, {.sync_policy = policy}, 0).value();
+    return Journal::Open(dir_, {.writer = {.sync_policy = policy}}, {}, 0).value();
   }
   static std::int64_t AppendOne(Journal* journal) {
     const std::vector<std::uint8_t> payload(64, 7);
@@ -47,7 +47,7 @@ TEST_F(JournalTest, CommitFollowsThePolicy) {
   ASSERT_TRUE(never->Sync().ok());
   EXPECT_EQ(never->durable_offset(), never->offset());
   never.reset();
-  std::filesystem::remove(JournalPath(dir_));
+  std::filesystem::remove(JournalSegmentPath(dir_, 0));
 
   auto always = Open(SyncPolicy::kAlways);
   AppendOne(always.get());
@@ -80,7 +80,7 @@ TEST_F(JournalTest, CommitWhileAnotherThreadAppendsCoversWhatCameBefore) {
   ASSERT_TRUE(journal->Sync().ok());
   EXPECT_EQ(journal->durable_offset(), journal->offset());
   EXPECT_EQ(journal->last_sequence(), appended.load());
-  const JournalContents contents = ReadJournal(JournalPath(dir_)).value();
+  const JournalContents contents = ReadJournal(dir_).value();
   EXPECT_EQ(contents.end, JournalReadState::kCleanEnd);
   ASSERT_EQ(static_cast<std::int64_t>(contents.records.size()), appended.load());
   for (size_t i = 0; i < contents.records.size(); ++i) {
