@@ -1,0 +1,126 @@
+#include "core/inference/node_removal.h"
+
+#include <Eigen/QR>
+#include <algorithm>
+#include <cmath>
+
+#include "core/base/key_slots.h"
+#include "core/factors/linear_container_factor.h"
+#include "core/factors/linearized_factor.h"
+
+namespace slamd::core {
+namespace {
+
+// A diagonal entry of R_MM this small relative to R's largest means the removed variables'
+// columns are dependent: their factors do not determine them.
+constexpr double kRankTolerance = 1e-10;
+
+}  // namespace
+
+Result<NodeRemoval> MarginalizeOut(std::span<const FactorPtr> factors, const Values& theta,
+                                   std::span<const Key> removed) {
+  if (removed.empty()) return InvalidArgument("MarginalizeOut: no variable to remove");
+  // Columns: the removed variables first (in the given order), then the blanket.
+  KeySlots column_of;  // key -> its position in `keys`
+  KeyVector keys;
+  std::vector<int> column{0};  // first column of keys[i]; column.back() = total
+  const auto add_key = [&](Key k) {
+    column_of.Insert(k, static_cast<int>(keys.size()));
+    keys.push_back(k);
+    column.push_back(column.back() + theta.DimAt(theta.SlotOf(k)));
+  };
+  for (Key k : removed) {
+    if (!theta.Contains(k))
+      return InvalidArgument("MarginalizeOut: unknown variable " + KeyToString(k));
+    if (column_of.Find(k) >= 0) {
+      return InvalidArgument("MarginalizeOut: " + KeyToString(k) + " listed twice");
+    }
+    add_key(k);
+  }
+  const int num_removed = static_cast<int>(keys.size());
+  const int removed_dim = column.back();
+
+  NodeRemoval out;
+  int rows = 0;
+  for (std::size_t i = 0; i < factors.size(); ++i) {
+    const FactorPtr& f = factors[i];
+    if (!f) continue;
+    const bool touches = std::any_of(f->keys().begin(), f->keys().end(), [&](Key k) {
+      const int at = column_of.Find(k);
+      return at >= 0 && at < num_removed;
+    });
+    if (!touches) continue;
+    out.removed_factors.push_back(static_cast<int>(i));
+    rows += f->dim();
+    for (Key k : f->keys()) {
+      if (column_of.Find(k) >= 0) continue;
+      if (!theta.Contains(k)) {
+        return InvalidArgument("MarginalizeOut: factor " + std::to_string(i) + " (" + f->Name() +
+                               ") has no value for " + KeyToString(k));
+      }
+      add_key(k);
+      out.blanket.push_back(k);
+    }
+  }
+  for (int i = 0; i < num_removed; ++i) {
+    if (std::none_of(out.removed_factors.begin(), out.removed_factors.end(), [&](int f) {
+          const KeyVector& fk = factors[f]->keys();
+          return std::find(fk.begin(), fk.end(), keys[i]) != fk.end();
+        })) {
+      return FailedPrecondition("MarginalizeOut: " + KeyToString(keys[i]) +
+                                " has no factor: nothing determines it");
+    }
+  }
+
+  // [J b], the factors stacked, in the columns above.
+  const int cols = column.back();
+  Eigen::MatrixXd jb = Eigen::MatrixXd::Zero(rows, cols + 1);
+  LinearizedFactor lf;
+  int row = 0;
+  for (int i : out.removed_factors) {
+    const Factor& f = *factors[i];
+    f.Linearize(theta, &lf);
+    for (int k = 0; k < lf.num_keys(); ++k) {
+      const int at = column_of.Find(f.keys()[k]);
+      jb.block(row, column[at], lf.rows(), lf.dim(k)) = lf.Block(k);
+    }
+    jb.block(row, cols, lf.rows(), 1) = lf.Rhs();
+    row += lf.rows();
+  }
+  if (!jb.allFinite()) {
+    return FailedPrecondition("MarginalizeOut: a factor's linearisation at θ is not finite");
+  }
+
+  // R of [J b] (Householder QR; R is the upper triangle of the first min(rows, cols + 1) rows).
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(jb);
+  const int r_rows = std::min(rows, cols + 1);
+  const Eigen::MatrixXd r =
+      qr.matrixQR().topRows(r_rows).triangularView<Eigen::Upper>().toDenseMatrix();
+  const double scale = r.diagonal().head(std::min(r_rows, cols)).cwiseAbs().maxCoeff();
+  for (int i = 0; i < num_removed; ++i) {
+    for (int c = column[i]; c < column[i + 1]; ++c) {
+      if (c >= r_rows || std::abs(r(c, c)) <= kRankTolerance * scale) {
+        return FailedPrecondition("MarginalizeOut: " + KeyToString(keys[i]) +
+                                  " is not determined by its factors (entry " +
+                                  std::to_string(c - column[i]) + " of its tangent)");
+      }
+    }
+  }
+  // Rows of R below R_MM: [R_BB c_B] (fewer rows than blanket columns when the factors have
+  // fewer residuals than unknowns), then ρ when there is a row for it.
+  const int blanket_dim = cols - removed_dim;
+  const int marginal_rows = std::max(0, std::min(r_rows, cols) - removed_dim);
+  if (r_rows == cols + 1) out.constant_chi2 = r(cols, cols) * r(cols, cols);
+  if (blanket_dim > 0 && marginal_rows > 0) {
+    std::vector<Variable> x0;
+    for (Key k : out.blanket) x0.push_back(theta.Get(k));
+    Result<FactorPtr> marginal = LinearContainerFactor::Create(
+        out.blanket, std::move(x0), r.block(removed_dim, removed_dim, marginal_rows, blanket_dim),
+        r.col(cols).segment(removed_dim, marginal_rows));
+    if (!marginal.ok()) return marginal.status();
+    out.marginal = std::move(marginal).value();
+  }
+  return out;
+}
+
+}  // namespace slamd::core

@@ -1,0 +1,41 @@
+// Node removal: marginalising variables out of a factor graph at a linearisation point, leaving
+// one dense Gaussian factor on their Markov blanket (Carlevaris-Bianco, Kaess & Eustice,
+// "Generic Node Removal for Factor-Graph SLAM", T-RO 2014, the dense exact form).
+//
+// The factors touching the removed variables M are linearised at θ and stacked as
+// |J_M δ_M + J_B δ_B + b|² (B: their other variables, the blanket). A QR factorisation of
+// [J_M J_B b] gives [R_MM R_MB c_M; 0 R_BB c_B; 0 0 ρ]; minimising over δ_M leaves
+// |R_BB δ_B + c_B|² + ρ², so the factor kept is the LinearContainerFactor (R_BB, c_B) at θ_B,
+// re-linearised by the first-order rule elsewhere. At θ the remaining variables' marginal
+// covariance and the Gauss-Newton step are exactly those of the full graph (Schur complement in
+// square-root form, without squaring the Jacobian's condition), and the minimum of the
+// linearised chi2 is the full graph's less the constant ρ², the misfit the removed factors leave
+// at any value of the blanket.
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "core/base/key.h"
+#include "core/base/status.h"
+#include "core/factors/factor.h"
+#include "core/factors/values.h"
+
+namespace slamd::core {
+
+struct NodeRemoval {
+  std::vector<int> removed_factors;  // indices in the input of the factors touching M
+  KeyVector blanket;                 // B, in order of first appearance in those factors
+  FactorPtr marginal;                // the container on B; null when B is empty
+  double constant_chi2 = 0.0;        // ρ² (see the file comment)
+};
+
+// Marginalises `removed` out of `factors` (null entries skipped, as Isam2::factor_slots has
+// them) at `theta`, which holds every variable of the factors touching them. Errors:
+// InvalidArgument for an empty, repeated or unknown key in `removed`; FailedPrecondition naming
+// the variable when its factors do not determine it (its block of R_MM is singular: nothing to
+// marginalise, e.g. a landmark with one bearing), as a marginal would be undefined.
+Result<NodeRemoval> MarginalizeOut(std::span<const FactorPtr> factors, const Values& theta,
+                                   std::span<const Key> removed);
+
+}  // namespace slamd::core
