@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "core/base/check.h"
+
 namespace slamd::core {
 
 BayesTree::BayesTree(const BayesTree& other)
@@ -180,6 +182,23 @@ void BayesTree::RemoveRoot(int id) {
   cliques_[last]->root_slot_ = c.root_slot_;
   roots_.pop_back();
   c.root_slot_ = kNone;
+}
+
+void BayesTree::RenumberVariables(std::span<const int> new_id, int num_vars) {
+  SLAMD_CHECK(removed_.empty()) << "RenumberVariables between RemoveTop and its release";
+  for (const std::unique_ptr<Clique>& c : cliques_) {
+    if (c->live_) c->RenumberVariables(new_id);
+  }
+  std::vector<int> var_clique(num_vars, kNone);
+  for (int v = 0; v < NumVariables(); ++v) {
+    if (new_id[v] >= 0) {
+      var_clique[new_id[v]] = var_clique_[v];
+    } else {
+      SLAMD_CHECK(var_clique_[v] == kNone)
+          << "RenumberVariables drops variable " << v << ", frontal in clique " << var_clique_[v];
+    }
+  }
+  var_clique_ = std::move(var_clique);
 }
 
 }  // namespace slamd::core

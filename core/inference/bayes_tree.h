@@ -93,6 +93,11 @@ class BayesTree {
   // Removes all cliques (keeping their storage for reuse) and clears the variable map.
   void Clear();
 
+  // Renames variable v to new_id[v] in every live clique and in the variable map, which keeps
+  // num_vars entries; new_id[v] < 0 drops v, which must be frontal nowhere (checked). Not
+  // between RemoveTop and ReleaseRemoved/RestoreRemoved (checked). O(cliques + variables).
+  void RenumberVariables(std::span<const int> new_id, int num_vars);
+
  private:
   friend class BayesTreeTestPeer;  // tests corrupt links to exercise CheckConsistency
 

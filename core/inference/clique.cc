@@ -2,6 +2,7 @@
 
 #include <atomic>
 
+#include "core/base/check.h"
 #include "core/base/storage.h"
 
 namespace slamd::core {
@@ -51,6 +52,16 @@ void Clique::ResetImpl(std::span<const int> frontals, std::span<const int> front
     cached_.Reshape(separator, separator_dims);
     ResizeReusingStorage(&conditional_, static_cast<size_t>(offset) * (offset + cached_.Dim() + 1));
   }
+}
+
+void Clique::RenumberVariables(std::span<const int> new_id) {
+  for (int k = 0; k < num_frontals_; ++k) {
+    const int v = new_id[index_[k]];
+    SLAMD_CHECK(v >= 0) << "Clique: frontal " << index_[k] << " renumbered to " << v;
+    index_[k] = v;
+  }
+  cached_.RenumberVariables(new_id);
+  generation_ = NewGeneration();
 }
 
 }  // namespace slamd::core

@@ -86,6 +86,10 @@ class Clique {
         FrontalDim()};
   }
 
+  // Renames the frontal and separator variables (HessianFactor::RenumberVariables) and renews
+  // generation(): a reader's cache keyed by variable ids must not take the old content for it.
+  void RenumberVariables(std::span<const int> new_id);
+
   // Unique to this content of this clique across the process; renewed by Reset() and
   // ResetForElimination(), kept by a copy. Never 0.
   std::uint64_t generation() const { return generation_; }

@@ -1,11 +1,11 @@
 #include "core/inference/hessian_factor.h"
 
-#include "core/base/storage.h"
-
 #include <algorithm>
 #include <array>
 #include <string>
 
+#include "core/base/check.h"
+#include "core/base/storage.h"
 #include "core/inference/jacobian_factor.h"
 
 namespace slamd::core {
@@ -90,6 +90,14 @@ double HessianFactor::Error(std::span<const int> var_offsets, const Eigen::Vecto
   }
   y(n) = 1.0;
   return y.dot(info() * y);
+}
+
+void HessianFactor::RenumberVariables(std::span<const int> new_id) {
+  for (int k = 0; k < num_vars_; ++k) {
+    const int v = new_id[index_[k]];
+    SLAMD_CHECK(v >= 0) << "HessianFactor: variable " << index_[k] << " renumbered to " << v;
+    index_[k] = v;
+  }
 }
 
 }  // namespace slamd::core

@@ -50,6 +50,10 @@ class HessianFactor {
   // (elimination writes the whole cached factor), saving a pass over the storage.
   void Reshape(std::span<const int> vars, std::span<const int> dims);
 
+  // Renames variable v to new_id[v] (order and storage unchanged): a solver that drops
+  // variables renumbers the rest. new_id[v] must be >= 0 for every variable here (checked).
+  void RenumberVariables(std::span<const int> new_id);
+
   int num_vars() const { return num_vars_; }
   std::span<const int> vars() const { return {index_.data(), static_cast<size_t>(num_vars_)}; }
   int var(int k) const { return index_[k]; }

@@ -2,6 +2,8 @@
 
 #include <string>
 
+#include "core/base/check.h"
+
 namespace slamd::core {
 
 Result<JacobianFactor> JacobianFactor::Create(std::span<const int> vars,
@@ -89,6 +91,14 @@ double JacobianFactor::Error(std::span<const int> var_offsets, const Eigen::Vect
   for (int k = 0; k < num_vars(); ++k)
     r.noalias() += A(k) * delta.segment(var_offsets[vars_[k]], dim(k));
   return r.squaredNorm();
+}
+
+void JacobianFactor::RenumberVariables(std::span<const int> new_id) {
+  for (std::size_t k = 0; k < vars_.size(); ++k) {
+    const int v = new_id[vars_[k]];
+    SLAMD_CHECK(v >= 0) << "JacobianFactor: variable " << vars_[k] << " renumbered to " << v;
+    vars_[k] = v;
+  }
 }
 
 }  // namespace slamd::core

@@ -45,6 +45,8 @@ class JacobianFactor {
   Status Assign(const LinearizedFactor& linearized, std::span<const int> ids);
   // Linearises `factor` at `values` in place (no copy); ids as for Assign.
   Status Linearize(const Factor& factor, const Values& values, std::span<const int> ids);
+  // As HessianFactor::RenumberVariables.
+  void RenumberVariables(std::span<const int> new_id);
 
   int rows() const { return linear_.rows(); }
   int num_vars() const { return static_cast<int>(vars_.size()); }

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <string>
 
+#include "core/base/check.h"
+
 namespace slamd::core {
 
 void VariableIndex::Reserve(int num_vars) {
@@ -74,6 +76,19 @@ void VariableIndex::CollectFactors(std::span<const int> vars, std::vector<int>* 
   for (int f = 0; f < factor_end_; ++f) {
     if (listed[f]) out->push_back(f);
   }
+}
+
+void VariableIndex::RenumberVariables(std::span<const int> new_id, int num_vars) {
+  std::vector<std::vector<int>> factors(num_vars);
+  for (int v = 0; v < NumVariables(); ++v) {
+    if (new_id[v] >= 0) {
+      factors[new_id[v]] = std::move(factors_[v]);
+    } else {
+      SLAMD_CHECK(factors_[v].empty()) << "VariableIndex: dropping variable " << v << ", which has "
+                                       << factors_[v].size() << " factor(s)";
+    }
+  }
+  factors_ = std::move(factors);
 }
 
 }  // namespace slamd::core

@@ -40,6 +40,10 @@ class VariableIndex {
   // Union of the factors touching any of `vars`, sorted, without duplicates, into *out
   // (overwritten).
   void CollectFactors(std::span<const int> vars, std::vector<int>* out) const;
+  // Renames variable v to new_id[v]; the index then knows num_vars ids. new_id[v] < 0 drops v,
+  // which must have no factor left (checked). O(variables).
+  void RenumberVariables(std::span<const int> new_id, int num_vars);
+
   // Total number of (variable, factor) entries.
   long NumEntries() const { return num_entries_; }
 

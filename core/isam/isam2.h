@@ -89,6 +89,15 @@ class Isam2 {
   // count, whatever the time.
   RefineResult Refine(double budget_s, int max_rounds = std::numeric_limits<int>::max());
 
+  // Node removal (core/inference/node_removal.h): marginalises `keys` out at θ into one
+  // LinearContainerFactor on their Markov blanket, which replaces every factor on them, and
+  // drops them from the solver. Only the cliques holding those factors and their ancestors are
+  // re-eliminated (the removed variables may be anywhere in the tree); the remaining variables
+  // are then renumbered, O(variables + factors) without arithmetic. At θ the remaining
+  // variables' marginals and linear system are exactly the full graph's, so the estimate does
+  // not move (up to the wildfire threshold of the back-substitution). Factor indices stay valid.
+  Isam2RemovalResult RemoveVariables(std::span<const Key> keys);
+
   // The rest of the back-substitution an Update with Isam2UpdateOptions::solve_first left; no-op
   // without one. Returns the number of cliques it solved.
   int FinishBackSubstitution();
@@ -198,6 +207,9 @@ class Isam2 {
   Values RetractedBy(const Eigen::VectorXd& step) const;
   // Restores the state before the current update (after a numerical failure).
   void Rollback();
+  // Drops the variables `dead` (ids, in no factor and no clique) and renumbers the rest in
+  // order: θ, δ, the per-variable arrays, the factors' and the tree's ids (isam2_removal.cc).
+  void DropVariables(const std::vector<int>& dead);
 
   // What one update changed, so that a numerical failure can restore the state before it.
   struct Undo {
@@ -263,6 +275,7 @@ class Isam2 {
   // Scratch reused across updates (no allocation per step once warm).
   std::vector<int> mark_;  // per var id: 0, or 1 + position in the current elimination set
   std::vector<int> removed_frontals_, orphans_, elim_vars_, elim_factors_, order_;
+  std::vector<int> removing_;  // RemoveVariables: ids ReEliminate leaves out
   std::vector<const JacobianFactor*> elim_jacobians_;
   std::vector<const HessianFactor*> elim_hessians_;
   std::vector<double> ratio_;           // per var id: how far over the relinearisation thresholds

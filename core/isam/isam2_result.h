@@ -98,4 +98,17 @@ struct Isam2Result {
   std::string Brief() const;
 };
 
+// What Isam2::RemoveVariables did.
+struct Isam2RemovalResult {
+  // Not ok on invalid input or a marginal that does not exist (nothing changed), or a numerical
+  // failure of the re-elimination (the solver is left as it was).
+  Status status;
+  std::vector<int> removed_factors;  // their indices, now free (factor_slots() null)
+  int marginal_factor = -1;        // index of the LinearContainerFactor on the blanket; -1 if none
+  KeyVector blanket;               // the variables it is on
+  double constant_chi2 = 0.0;      // NodeRemoval::constant_chi2
+  int reeliminated_variables = 0;  // the top of the tree the removed factors touched
+  double seconds = 0.0;
+};
+
 }  // namespace slamd::core

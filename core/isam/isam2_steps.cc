@@ -442,8 +442,10 @@ Status Isam2::ReEliminate(const std::vector<int>& affected, const std::vector<in
   tree_.RemoveTop(affected, &removed_frontals_, &orphans_);
   undo_.top_removed = true;
   // 5. The variables to eliminate: the removed frontals and the new variables (not in the tree).
+  // Variables being removed (RemoveVariables) are left out: no factor is on them any more.
   const int n = static_cast<int>(theta_.size());
   elim_vars_.clear();
+  for (int v : removing_) mark_[v] = 1;
   for (int v : removed_frontals_) {
     if (!mark_[v]) elim_vars_.push_back(v), mark_[v] = 1;
   }
@@ -451,6 +453,7 @@ Status Isam2::ReEliminate(const std::vector<int>& affected, const std::vector<in
     if (!mark_[v]) elim_vars_.push_back(v), mark_[v] = 1;
   }
   for (int v : elim_vars_) mark_[v] = 0;  // mark_ is all zero between uses
+  for (int v : removing_) mark_[v] = 0;
   result->seconds.remove_top = phase.Lap();
   const Status s = EliminateTop(elim_vars_, last, new_cliques, result);
   result->reeliminated_variables = static_cast<int>(elim_vars_.size());

@@ -1,0 +1,154 @@
+// Isam2::RemoveVariables: after removing variables anywhere in the Bayes tree, every remaining
+// variable's marginal at the linearisation point equals the full graph's (1e-9), the estimate
+// does not move, and the solver carries on: new updates and refinement reach the batch optimum of
+// the graph that is left (the kept factors and the container).
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "core/factors/linear_container_factor.h"
+#include "core/inference/consistency_check.h"
+#include "core/isam/isam2.h"
+#include "core/marginals/marginals.h"
+#include "tests/testing/example_graphs.h"
+#include "tests/testing/solver_checks.h"
+
+namespace slamd::core {
+namespace {
+
+std::unique_ptr<Isam2> Streamed(const testing::ExampleProblem& p, int steps = -1) {
+  Isam2Params params;
+  params.wildfire_threshold = 0.0;  // δ exact, so "the estimate does not move" is exact too
+  auto isam = Isam2::Create(params).value();
+  const std::vector<testing::ExampleStep> all = testing::StreamByPose(p);
+  const int n = steps < 0 ? static_cast<int>(all.size()) : steps;
+  for (int i = 0; i < n; ++i) {
+    const Isam2Result r = isam->Update(all[i].factors, all[i].values);
+    EXPECT_TRUE(r.status.ok()) << r.status.ToString();
+  }
+  return isam;
+}
+
+std::map<Key, Eigen::MatrixXd> Marginals(Isam2* isam) {
+  std::map<Key, Eigen::MatrixXd> out;
+  Isam2Marginals m(isam);
+  for (Key key : isam->linearization_point().keys()) {
+    Eigen::MatrixXd c;
+    EXPECT_TRUE(m.Marginal(key, Isam2Marginals::Frame::kLinearizationPoint, &c).ok());
+    out[key] = c;
+  }
+  return out;
+}
+
+void ExpectExactRemoval(Isam2* isam, const KeyVector& removed) {
+  const std::map<Key, Eigen::MatrixXd> before = Marginals(isam);
+  const Values estimate = isam->CalculateEstimate();
+  const int variables = static_cast<int>(isam->linearization_point().size());
+  const Isam2RemovalResult r = isam->RemoveVariables(removed);
+  ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+  EXPECT_EQ(static_cast<int>(isam->linearization_point().size()),
+            variables - static_cast<int>(removed.size()));
+  for (Key key : removed) EXPECT_FALSE(isam->linearization_point().Contains(key));
+  const Status consistent = CheckConsistency(isam->tree());
+  EXPECT_TRUE(consistent.ok()) << consistent.ToString();
+  EXPECT_EQ(isam->tree().NumVariables(), variables - static_cast<int>(removed.size()));
+  for (int f : r.removed_factors) EXPECT_EQ(isam->factor_slots()[f], nullptr);
+  // No container when the removed factors say nothing about the blanket (the newest pose with
+  // only its odometry).
+  if (r.marginal_factor >= 0) {
+    EXPECT_EQ(isam->factor_slots()[r.marginal_factor]->keys(), r.blanket);
+  }
+  const std::map<Key, Eigen::MatrixXd> after = Marginals(isam);
+  ASSERT_EQ(after.size(), before.size() - removed.size());
+  for (const auto& [key, cov] : after) {
+    const Eigen::MatrixXd& full = before.at(key);
+    EXPECT_LT((cov - full).cwiseAbs().maxCoeff(), 1e-9 * full.cwiseAbs().maxCoeff())
+        << KeyToString(key);
+  }
+  const Values now = isam->CalculateEstimate();
+  for (Key key : now.keys()) {
+    EXPECT_LT(LocalCoordinates(estimate.Get(key), now.Get(key)).norm(), 1e-9) << KeyToString(key);
+  }
+}
+
+// Old poses, a landmark, scattered poses and the newest pose, one after another from the same
+// solver: each removal re-eliminates only where its factors were and leaves the rest exact.
+TEST(Isam2RemovalTest, RemovalAnywhereKeepsMarginalsAndEstimate) {
+  const testing::ExampleProblem p = testing::MakePlanarProblem(40, 5, 11);
+  auto isam = Streamed(p);
+  ExpectExactRemoval(isam.get(), {MakeKey('x', 2), MakeKey('x', 3), MakeKey('x', 4)});
+  ExpectExactRemoval(isam.get(), {MakeKey('l', 2)});
+  ExpectExactRemoval(isam.get(), {MakeKey('x', 17), MakeKey('x', 30), MakeKey('x', 8)});
+  ExpectExactRemoval(isam.get(), {MakeKey('x', 39)});  // its odometry alone: no container
+  ExpectExactRemoval(isam.get(), {MakeKey('x', 0)});   // the anchored one: its prior moves on
+}
+
+TEST(Isam2RemovalTest, RandomRemovalsIn3D) {
+  for (unsigned seed = 1; seed <= 3; ++seed) {
+    SCOPED_TRACE(seed);
+    const testing::ExampleProblem p = testing::MakeSpatialProblem(30, seed);
+    auto isam = Streamed(p);
+    std::mt19937 rng(seed);
+    for (int round = 0; round < 3; ++round) {
+      KeyVector keys = isam->linearization_point().keys();
+      std::shuffle(keys.begin(), keys.end(), rng);
+      keys.resize(1 + rng() % 4);
+      ExpectExactRemoval(isam.get(), keys);
+    }
+  }
+}
+
+// After a removal the solver takes new poses and factors (the blanket's container is a factor
+// like any other) and settles at the batch optimum of what it holds.
+TEST(Isam2RemovalTest, UpdatesAfterRemovalReachTheBatchOptimum) {
+  const testing::ExampleProblem p = testing::MakePlanarProblem(40, 4, 12);
+  const std::vector<testing::ExampleStep> steps = testing::StreamByPose(p);
+  auto isam = Streamed(p, 25);
+  KeyVector old;
+  for (int i = 1; i < 10; ++i) old.push_back(MakeKey('x', i));
+  const Isam2RemovalResult r = isam->RemoveVariables(old);
+  ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+  for (std::size_t i = 25; i < steps.size(); ++i) {
+    // Factors on removed poses (loop closures to them) are left out, as a server would refuse
+    // them.
+    FactorGraph factors;
+    for (const FactorPtr& f : steps[i].factors) {
+      bool on_removed = false;
+      for (Key k : f->keys()) on_removed |= std::find(old.begin(), old.end(), k) != old.end();
+      if (!on_removed) factors.Add(f);
+    }
+    Values values;
+    for (Key k : steps[i].values.keys()) {
+      if (std::find(old.begin(), old.end(), k) == old.end()) {
+        ASSERT_TRUE(values.Insert(k, steps[i].values.Get(k)).ok());
+      }
+    }
+    const Isam2Result u = isam->Update(factors, values);
+    ASSERT_TRUE(u.status.ok()) << "step " << i << ": " << u.status.ToString();
+  }
+  ASSERT_TRUE(isam->Refine(10.0).converged);
+  // The batch optimum of the same factors: Gauss-Newton from the estimate moves nothing.
+  const Values estimate = isam->CalculateEstimate();
+  EXPECT_LT(testing::MaxDifference(estimate, testing::BatchStepAt(isam->Factors(), estimate)),
+            1e-6);
+}
+
+TEST(Isam2RemovalTest, RefusalsChangeNothing) {
+  const testing::ExampleProblem p = testing::MakePlanarProblem(12, 2, 3);
+  auto isam = Streamed(p);
+  const Values before = isam->CalculateEstimate();
+  const int factors = static_cast<int>(isam->Factors().size());
+  const Isam2RemovalResult unknown = isam->RemoveVariables(KeyVector{MakeKey('x', 99)});
+  EXPECT_EQ(unknown.status.code(), StatusCode::kInvalidArgument);
+  const Isam2RemovalResult twice =
+      isam->RemoveVariables(KeyVector{MakeKey('x', 3), MakeKey('x', 3)});
+  EXPECT_EQ(twice.status.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(isam->linearization_point().size(), before.size());
+  EXPECT_EQ(static_cast<int>(isam->Factors().size()), factors);
+  EXPECT_EQ(testing::MaxDifference(isam->CalculateEstimate(), before), 0.0);
+  // And it still works.
+  EXPECT_TRUE(isam->RemoveVariables(KeyVector{MakeKey('x', 3)}).status.ok());
+}
+
+}  // namespace
+}  // namespace slamd::core
