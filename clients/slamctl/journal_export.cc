@@ -30,6 +30,7 @@ const char* RecordKind(const journal::JournalRecord& r) {
   if (r.has_boundary()) return "boundary";
   if (r.has_refinement()) return "refinement";
   if (r.has_rebuild_swap()) return "rebuild";
+  if (r.has_removal()) return "removal";
   return "unknown";
 }
 
@@ -371,6 +372,9 @@ core::Result<JournalInspection> InspectJournal(const std::string& path, bool sal
                         info.detail += std::to_string(n);
                       }
                       ++out.rebuild_swaps;
+                    } else if (r.has_removal()) {
+                      info.sequence = r.removal().update_sequence();
+                      info.detail = "variables=" + std::to_string(r.removal().keys_size());
                     }
                     out.records.push_back(std::move(info));
                   });

@@ -17,6 +17,7 @@ Isam2RemovalResult Isam2::RemoveVariables(std::span<const Key> keys) {
     out.status = removal.status();
     return out;
   }
+  for (int f : removal->removed_factors) out.removed_dimension += factors_[f]->dim();
   undo_.Clear(static_cast<int>(theta_.size()), static_cast<int>(factors_.size()));
   std::vector<int> affected, last;
   std::vector<int> container;

@@ -104,6 +104,7 @@ struct Isam2RemovalResult {
   // failure of the re-elimination (the solver is left as it was).
   Status status;
   std::vector<int> removed_factors;  // their indices, now free (factor_slots() null)
+  int removed_dimension = 0;         // Σ of their residual dimensions
   int marginal_factor = -1;        // index of the LinearContainerFactor on the blanket; -1 if none
   KeyVector blanket;               // the variables it is on
   double constant_chi2 = 0.0;      // NodeRemoval::constant_chi2

@@ -155,6 +155,12 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
     p->estimator.max_track_observations = e.max_track_observations();
   }
   if (e.has_max_landmark_error_px()) p->estimator.max_landmark_error_px = e.max_landmark_error_px();
+  if (e.has_window()) {
+    const auto& w = e.window();
+    if (w.has_keep_poses()) p->estimator.window.keep_poses = w.keep_poses();
+    if (w.has_keyframe_spacing_m()) p->estimator.window.keyframe_spacing_m = w.keyframe_spacing_m();
+    if (w.has_every_updates()) p->estimator.window.every_updates = w.every_updates();
+  }
 }
 
 std::string Quote(const std::string& s) { return "\"" + s + "\""; }
@@ -298,6 +304,13 @@ std::string DefaultConfigText() {
       << "  # observations of undetermined landmarks held in all\n"
       << "  max_landmark_error_px: " << Num(d.estimator.max_landmark_error_px)
       << "  # a feature this far from its landmark's projection is rejected [px]\n"
+      << "  window {  # lifelong: old poses removed by node removal, keyframes kept\n"
+      << "    keep_poses: " << d.estimator.window.keep_poses
+      << "  # poses kept behind each robot's newest; 0 = off (keep everything)\n"
+      << "    keyframe_spacing_m: " << Num(d.estimator.window.keyframe_spacing_m)
+      << "  # older poses kept this far apart [m]; 0 = none\n"
+      << "    every_updates: " << d.estimator.window.every_updates << "  # how often, >= 1\n"
+      << "  }\n"
       << "}\n\n"
       << "journal {\n"
       << "  sync: "

@@ -309,6 +309,7 @@ int Daemon::StepEstimator(double timeout_s) {
     }
     if (!r.status.ok()) log_->warn("solver update failed: {}", r.status.ToString());
     for (const Rejection& rej : r.rejections) PublishRejection(rej);
+    ApplyPoseWindow();
   } else if (queries.empty() && RefineDue() && IdleMicros() >= params_.refine.idle_s * 1e6) {
     const core::Isam2::RefineResult r = estimator_->Refine(params_.refine.budget_s);
     if (!r.status.ok()) log_->warn("refine failed: {}", r.status.ToString());
@@ -330,6 +331,15 @@ int Daemon::StepEstimator(double timeout_s) {
   // After this step's estimates went out: bringing a rebuilt solver up to date takes an update.
   if (estimator_->RebuildReady()) SwapRebuild();
   return n;
+}
+
+void Daemon::ApplyPoseWindow() {
+  const std::vector<core::Key> removed = estimator_->ApplyPoseWindow();
+  if (removed.empty()) return;
+  log_->debug("lifelong window: removed {} variables", removed.size());
+  if (!journal_) return;
+  const core::Status s = journal_->AppendRemoval(estimator_->snapshot()->update_sequence, removed);
+  if (!s.ok()) NoteJournalError(s);
 }
 
 void Daemon::PublishEstimatesAndLatencies(std::span<const std::int64_t> applied_received_us) {

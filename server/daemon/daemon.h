@@ -100,6 +100,8 @@ class Daemon {
          std::unique_ptr<Journal> journal);
   // Swaps in the estimator's rebuilt solver (ready), journals the swap, publishes.
   void SwapRebuild();
+  // The estimator's lifelong window (EstimatorParams::window), journaled when it removed any.
+  void ApplyPoseWindow();
   // The estimator's latest snapshot, made the one queries and snapshot() see.
   std::shared_ptr<const EstimateSnapshot> ShareSnapshot();
   // Journals what the estimator did (no-op without a journal).

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "core/base/memory_usage.h"
 #include "server/daemon/daemon.h"
 #include "server/messages/wire_values.h"
 #include "server/publish/replies.h"
@@ -156,6 +157,8 @@ void Daemon::PublishStatus(const EstimateSnapshot& snap) {
   out.landmark_tracks = snap.landmark_tracks;
   out.track_observations = snap.track_observations;
   out.landmarks_dropped = snap.counters.landmarks_dropped;
+  out.removed_variables = snap.counters.removed_variables;
+  out.rss_bytes = core::ResidentBytes();
   out.num_rejects_by_reason = kNumRejectReasonCodes;
   out.rejects_by_reason.resize(kNumRejectReasonCodes);
   for (int i = 0; i < kNumRejectReasonCodes; ++i) {

@@ -155,13 +155,18 @@ class Estimator {
   // journal's swap records say which to run (FinishRebuild's replay_rounds).
   void SetReplaying(bool replaying) { replaying_ = replaying; }
 
+  // Lifelong window (EstimatorParams::window, pose_window.cc): when due and no rebuild is in
+  // flight, removes old poses but keyframes by RemoveVariables; the keys, for the journal.
+  std::vector<core::Key> ApplyPoseWindow();
+  // Node removal (Isam2::RemoveVariables; FailedPrecondition while a rebuild is in flight).
+  core::Status RemoveVariables(std::span<const core::Key> keys);
+
   // Isam2::Refine(budget_s, max_rounds); a new snapshot when anything moved. (While a rebuild is
   // in flight, the swap discards what it did: the daemon refines only when none is.)
   core::Isam2::RefineResult Refine(double budget_s,
                                    int max_rounds = std::numeric_limits<int>::max());
 
-  // The latest snapshot (never null).
-  std::shared_ptr<const EstimateSnapshot> snapshot() const { return snapshot_; }
+  std::shared_ptr<const EstimateSnapshot> snapshot() const { return snapshot_; }  // never null
 
   // The current estimate of pose `index` of `robot` (NotFound when not in the graph).
   core::Result<core::Variable> PoseEstimate(const std::string& robot, std::uint64_t index) const;
@@ -171,8 +176,7 @@ class Estimator {
   // the Bayes tree with a cache kept across updates (core/marginals). NotFound for unknown keys.
   core::Status Marginal(core::Key key, Eigen::MatrixXd* cov);
   core::Status JointMarginal(std::span<const core::Key> keys, Eigen::MatrixXd* cov);
-  // Computes every clique's marginal once, so that CachedMarginal is O(1) per variable until
-  // the next update (a whole map with covariances).
+  // Every clique's marginal once: CachedMarginal is then O(1) until the next update.
   void ComputeAllMarginals();
   core::Status CachedMarginal(core::Key key, Eigen::MatrixXd* cov) const;
   const RobotRegistry& registry() const { return registry_; }
@@ -280,6 +284,7 @@ class Estimator {
   LandmarkTracks tracks_;
   EstimatorCounters counters_;
   std::int64_t sequence_ = 0;
+  std::int64_t window_sequence_ = 0;  // the update sequence the window last ran at
   std::int64_t num_factors_ = 0;
   std::int64_t residual_dimension_ = 0;
   bool settled_ = true;

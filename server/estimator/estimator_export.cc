@@ -127,6 +127,7 @@ core::Result<std::unique_ptr<Estimator>> Estimator::Restore(const EstimatorParam
   }
   e->counters_ = state.counters;
   e->sequence_ = state.update_sequence;
+  e->window_sequence_ = state.update_sequence;
   e->num_factors_ = state.num_factors;
   e->residual_dimension_ = state.residual_dimension;
   e->settled_ = false;

@@ -30,6 +30,9 @@ core::Status EstimatorParams::Validate() const {
   SLAMD_CONFIG_CHECK(estimator.landmark_max_wait_updates, >=, 1);
   SLAMD_CONFIG_CHECK(estimator.max_track_observations, >=, 0);
   SLAMD_CONFIG_CHECK(estimator.max_landmark_error_px, >, 0.0);
+  SLAMD_CONFIG_CHECK(estimator.window.keep_poses, >=, 0);
+  SLAMD_CONFIG_CHECK(estimator.window.keyframe_spacing_m, >=, 0.0);
+  SLAMD_CONFIG_CHECK(estimator.window.every_updates, >=, 1);
   const core::Result<core::RobustKernel::Kind> kind =
       core::RobustKernel::ParseKind(loop_closure_kernel);
   if (!kind.ok()) {

@@ -124,6 +124,12 @@ core::Result<RecoveryResult> Recover(const std::string& data_dir, const Estimato
     } else if (record.has_refinement()) {
       out.estimator->Refine(std::numeric_limits<double>::infinity(), record.refinement().rounds());
       ++out.replayed_refinements;
+    } else if (record.has_removal()) {
+      const auto& keys = record.removal().keys();
+      const core::Status removed =
+          out.estimator->RemoveVariables({keys.data(), static_cast<size_t>(keys.size())});
+      if (!removed.ok()) out.notes.push_back(At(path, offset) + ": " + removed.message());
+      if (removed.ok()) ++out.replayed_removals;
     } else if (record.has_rebuild_swap()) {
       // None in flight when the rebuild started before the snapshot: then there is none to swap.
       const auto& rounds = record.rebuild_swap().catch_up_rounds();

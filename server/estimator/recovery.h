@@ -41,6 +41,7 @@ struct RecoveryResult {
   std::int64_t replayed_updates = 0;  // Process calls (boundaries)
   std::int64_t replayed_refinements = 0;
   std::int64_t replayed_rebuild_swaps = 0;
+  std::int64_t replayed_removals = 0;  // lifelong-window removals
   std::int64_t torn_tail_offset = -1;  // where the journal was cut (-1: it was whole)
   std::string torn_tail_reason;
   std::int64_t salvaged_bytes = 0;  // skipped under salvage

@@ -128,6 +128,15 @@ core::Status Journal::AppendRebuildSwap(std::int64_t update_sequence, std::span<
   return AppendLocked(record);
 }
 
+core::Status Journal::AppendRemoval(std::int64_t update_sequence,
+                                    std::span<const std::uint64_t> keys) {
+  journal::JournalRecord record;
+  record.mutable_removal()->set_update_sequence(update_sequence);
+  for (std::uint64_t k : keys) record.mutable_removal()->add_keys(k);
+  std::lock_guard lock(mutex_);
+  return AppendLocked(record);
+}
+
 core::Status Journal::Commit() {
   std::lock_guard lock(mutex_);
   return writer_->MaybeSync(JournalWriter::Clock::now());

@@ -60,6 +60,8 @@ class Journal {
   // After the estimator swapped in a rebuilt solver (Estimator::FinishRebuild), with the
   // rebuild's catch-up rounds (Estimator::last_swap_rounds).
   core::Status AppendRebuildSwap(std::int64_t update_sequence, std::span<const int> rounds);
+  // After the estimator removed `keys` (its lifelong window) at update `update_sequence`.
+  core::Status AppendRemoval(std::int64_t update_sequence, std::span<const std::uint64_t> keys);
   // Group commit per the sync policy (always: fdatasync now; interval: if due; never: no-op).
   core::Status Commit();
   // fdatasync now whatever the policy (shutdown).

@@ -24,6 +24,7 @@ struct EstimatorCounters {
   std::int64_t refinements = 0;
   std::int64_t rebuilds = 0;  // background rebuilds swapped in
   std::int64_t landmarks_dropped = 0;  // camera landmarks never determined (LandmarkTracks)
+  std::int64_t removed_variables = 0;  // by the lifelong window (EstimatorParams::window)
   std::array<std::int64_t, kNumRejectReasonCodes> rejects_by_reason = {};
 };
 

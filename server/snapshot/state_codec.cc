@@ -216,6 +216,7 @@ std::string EncodeState(const EstimatorState& state, const JournalPosition& posi
   c->set_rejected(state.counters.rejected);
   c->set_already_held(state.counters.already_held);
   c->set_landmarks_dropped(state.counters.landmarks_dropped);
+  c->set_removed_variables(state.counters.removed_variables);
   c->set_updates(state.counters.updates);
   c->set_refinements(state.counters.refinements);
   c->set_rebuilds(state.counters.rebuilds);
@@ -285,6 +286,7 @@ core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition
   state.counters.rejected = c.rejected();
   state.counters.already_held = c.already_held();
   state.counters.landmarks_dropped = c.landmarks_dropped();
+  state.counters.removed_variables = c.removed_variables();
   state.counters.updates = c.updates();
   state.counters.refinements = c.refinements();
   state.counters.rebuilds = c.rebuilds();

@@ -435,6 +435,57 @@ TEST(RecoveryTest, CoveredJournalSegmentsAreDeletedAndRecoveryStaysExact) {
       << lost.status().message();
 }
 
+// The lifelong window removes each robot's old poses but keyframes as it goes, so the graph
+// stays bounded; the removals are journaled, and a restart replays them into exactly the same
+// state. A loop closure to a removed pose is rejected, not a failure.
+TEST(RecoveryTest, PoseWindowKeepsTheGraphBoundedAndReplaysExactly) {
+  TempDir dir;
+  InProcessBus bus;
+  std::mt19937 rng(31);
+  ServerParams p = Params(dir.str());
+  p.estimator.window = {.keep_poses = 30, .keyframe_spacing_m = 2.0, .every_updates = 10};
+  core::Values before;
+  std::int64_t removed = 0;
+  {
+    auto d = Daemon::Create(p, &bus).value();
+    Stream(bus, *d, 0, 400, rng);
+    before = Estimate(*d);
+    removed = d->snapshot()->counters.removed_variables;
+    d->Stop();
+  }
+  EXPECT_GT(removed, 200);
+  EXPECT_EQ(static_cast<std::int64_t>(before.size()), 401 - removed);
+  // What is left behind the window: keyframes at least 2 m apart, oldest first.
+  std::vector<core::Key> old;
+  for (core::Key k : before.keys()) {
+    if (core::KeyIndex(k) + 30 + 12 < 400) old.push_back(k);
+  }
+  std::sort(old.begin(), old.end());  // one robot: by index
+  ASSERT_GE(old.size(), 5u);
+  EXPECT_EQ(core::KeyIndex(old.front()), 0u);
+  for (size_t i = 1; i < old.size(); ++i) {
+    const core::Point2 a = before.At<core::Pose2>(old[i - 1]).translation();
+    const core::Point2 b = before.At<core::Pose2>(old[i]).translation();
+    EXPECT_GE((b - a).norm(), 2.0 - 0.5) << core::KeyToString(old[i]);  // estimates move on
+  }
+  int records = 0;
+  const JournalContents journal = ReadJournal(dir.str()).value();
+  for (const journal::JournalRecord& r : journal.records) records += r.has_removal();
+  EXPECT_GT(records, 0) << journal.records.size() << " records";
+
+  auto d = Daemon::Create(p, &bus).value();
+  ExpectSameValues(Estimate(*d), before, 0.0);
+  EXPECT_EQ(d->snapshot()->counters.removed_variables, removed);
+  std::vector<slamd::reject_t> rejects;
+  Subscription sub = CollectRejects(bus, &rejects);
+  slamd::loop_closure_t lc;
+  ToLcm(LoopClosureMeasurement{9, "r", 400, "r", 1, core::Pose2(), Noise(3, 0.1), {}}, &lc);
+  ASSERT_TRUE(Publish(bus, "SLAMD_LOOP_CLOSURE", lc).ok());
+  Drive(*d, rng);
+  ASSERT_EQ(rejects.size(), 1u);
+  EXPECT_EQ(rejects[0].reason, slamd::reject_t::REASON_UNKNOWN_POSE) << rejects[0].detail;
+}
+
 // Snapshots take at most 5% of the time, whatever snapshot_every_updates asks: after one that
 // took t (export, encoding, writing), the next waits 20 t.
 TEST(RecoveryTest, SnapshotsTakeAtMostFivePercentOfTheTime) {

@@ -1,0 +1,19 @@
+#include "core/base/memory_usage.h"
+
+#include <unistd.h>
+
+#include <cstdio>
+
+namespace slamd::core {
+
+std::int64_t ResidentBytes() {
+  std::FILE* f = std::fopen("/proc/self/statm", "r");
+  if (!f) return 0;
+  long long size = 0, resident = 0;
+  const int read = std::fscanf(f, "%lld %lld", &size, &resident);
+  std::fclose(f);
+  if (read != 2) return 0;
+  return static_cast<std::int64_t>(resident) * ::sysconf(_SC_PAGESIZE);
+}
+
+}  // namespace slamd::core

@@ -1,0 +1,98 @@
+// Estimator::ApplyPoseWindow and Estimator::RemoveVariables: the lifelong window
+// (EstimatorParams::window) by node removal.
+#include <algorithm>
+#include <map>
+
+#include "server/estimator/estimator.h"
+
+namespace slamd::server {
+namespace {
+
+// A pose's position (Pose2: z = 0); nullopt for other kinds.
+std::optional<core::Vector3> PositionOf(const core::Variable& v) {
+  if (const auto* p = std::get_if<core::Pose2>(&v)) {
+    return core::Vector3(p->translation().x(), p->translation().y(), 0.0);
+  }
+  if (const auto* p = std::get_if<core::Pose3>(&v)) return p->translation();
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::vector<core::Key> Estimator::ApplyPoseWindow() {
+  const EstimatorParams::PoseWindow& w = params_.window;
+  if (w.keep_poses == 0 || sequence_ < window_sequence_ + w.every_updates) return {};
+  FinishUpdate();
+  if (Rebuilding()) return {};  // the rebuild copied the graph: after its swap
+  window_sequence_ = sequence_;
+  // Each robot's poses behind its window, by index.
+  std::map<std::uint8_t, std::vector<std::uint64_t>> behind;
+  for (core::Key key : isam_->linearization_point().keys()) {
+    if (core::KeySymbol(key) != 'x') continue;
+    const std::uint8_t robot = core::KeyRobot(key);
+    const RobotState& r = robots_[robot];
+    const std::uint64_t index = core::KeyIndex(key);
+    if (r.anchored && index + static_cast<std::uint64_t>(w.keep_poses) < r.newest) {
+      behind[robot].push_back(index);
+    }
+  }
+  std::vector<core::Key> removed;
+  for (auto& [robot, indices] : behind) {
+    std::sort(indices.begin(), indices.end());
+    // The oldest pose is a keyframe; then each pose keyframe_spacing_m from the last one.
+    std::optional<core::Vector3> keyframe;
+    for (std::size_t i = 0; i < indices.size(); ++i) {
+      const core::Key key = core::MakeKey('x', indices[i], robot);
+      const std::optional<core::Vector3> at = PositionOf(isam_->CalculateEstimate(key));
+      const bool keep = w.keyframe_spacing_m > 0.0 && at &&
+                        (!keyframe || (*at - *keyframe).norm() >= w.keyframe_spacing_m);
+      if (keep) {
+        keyframe = at;
+      } else {
+        removed.push_back(key);
+      }
+    }
+  }
+  if (removed.empty()) return {};
+  if (const core::Status s = RemoveVariables(removed); !s.ok()) {
+    // Nothing changed; the next window tries again with the graph as it is then.
+    return {};
+  }
+  return removed;
+}
+
+core::Status Estimator::RemoveVariables(std::span<const core::Key> keys) {
+  FinishUpdate();
+  if (Rebuilding()) {
+    return core::FailedPrecondition("node removal while a rebuild is in flight");
+  }
+  const core::Isam2RemovalResult r = isam_->RemoveVariables(keys);
+  if (!r.status.ok()) return r.status;
+  // The measurements of the removed factors are forgotten: their variables are gone, so the same
+  // measurement sent again cannot be told apart from a new one by the graph.
+  std::vector<int> number_of(isam_->factor_slots().size(), -1);
+  for (std::size_t n = 0; n < solver_index_.size(); ++n) {
+    if (solver_index_[n] >= 0) number_of[solver_index_[n]] = static_cast<int>(n);
+  }
+  for (int f : r.removed_factors) {
+    const int n = number_of[f];
+    if (n < 0) continue;
+    solver_index_[n] = -1;
+    const auto it = applied_.find(applied_factors_[n].id);
+    if (it != applied_.end() && it->second == n) applied_.erase(it);
+  }
+  num_factors_ -= static_cast<std::int64_t>(r.removed_factors.size());
+  residual_dimension_ -= r.removed_dimension;
+  if (r.marginal_factor >= 0) {
+    ++num_factors_;
+    residual_dimension_ += isam_->factor_slots()[r.marginal_factor]->dim();
+  }
+  counters_.removed_variables += static_cast<std::int64_t>(keys.size());
+  marginals_ = std::make_unique<core::Isam2Marginals>(
+      isam_.get(), core::MarginalsParams{.threads = marginals_threads_});
+  chi2_sequence_ = -1;  // the chi2 changed with the factors
+  PublishSnapshot(false);
+  return core::Status::Ok();
+}
+
+}  // namespace slamd::server
