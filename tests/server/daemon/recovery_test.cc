@@ -379,8 +379,9 @@ INSTANTIATE_TEST_SUITE_P(InlineAndBackground, RecoveryRebuildTest, ::testing::Bo
 
 // Journal segments a kept snapshot covers are deleted as snapshots are written, so the disk holds
 // the journal since the oldest kept snapshot; recovery from what is left settles where the live
-// daemon settled, before and after a restart that carries on deleting. Without the snapshots
-// the deleted segments are missed: DataLoss, not a silent partial state.
+// daemon settled, before and after a restart that carries on deleting. With the lifelong window
+// on too, snapshots carry its containers. Without the snapshots the deleted segments are
+// missed: DataLoss, not a silent partial state.
 TEST(RecoveryTest, CoveredJournalSegmentsAreDeletedAndRecoveryStaysExact) {
   TempDir dir;
   ServerParams p = Params(dir.str());
@@ -389,6 +390,7 @@ TEST(RecoveryTest, CoveredJournalSegmentsAreDeletedAndRecoveryStaysExact) {
   p.journal.keep_snapshots = 1;  // the 5% rule leaves few snapshots in a run this short
   p.isam2.refine_threshold = 1e-10;
   p.isam2.wildfire_threshold = 0.0;  // settled means at the optimum, not within the wildfire
+  p.estimator.window = {.keep_poses = 40, .keyframe_spacing_m = 2.0, .every_updates = 10};
   // Streams poses from..to, settles, stops; returns the settled estimate. A pause in the middle
   // lets the 5% rule allow a snapshot after it, whatever the machine's speed.
   const auto session = [&](int from, int to, unsigned seed) {
@@ -409,6 +411,7 @@ TEST(RecoveryTest, CoveredJournalSegmentsAreDeletedAndRecoveryStaysExact) {
     EXPECT_TRUE(r.ok()) << r.status().ToString();
     EXPECT_FALSE(r.value().snapshot_path.empty());
     Estimator& e = *r.value().estimator;
+    EXPECT_GT(e.snapshot()->counters.removed_variables, 0);
     EXPECT_TRUE(e.Refine(10.0).converged);
     return e.solver().CalculateEstimate();
   };
