@@ -308,7 +308,7 @@ std::string DefaultConfigText() {
       << "    keep_poses: " << d.estimator.window.keep_poses
       << "  # poses kept behind each robot's newest; 0 = off (keep everything)\n"
       << "    keyframe_spacing_m: " << Num(d.estimator.window.keyframe_spacing_m)
-      << "  # older poses kept this far apart [m]; 0 = none\n"
+      << "  # old poses kept one per place this size [m]; 0 = none\n"
       << "    every_updates: " << d.estimator.window.every_updates << "  # how often, >= 1\n"
       << "  }\n"
       << "}\n\n"

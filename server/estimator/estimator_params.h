@@ -93,10 +93,11 @@ struct EstimatorParams {
   // Lifelong window (server/estimator/pose_window.cc): every `every_updates` updates, each
   // robot's poses more than `keep_poses` behind its newest are removed from the graph by node
   // removal (core/inference/node_removal.h: their factors become one exact linear factor on
-  // their neighbours), except keyframes: a pose at least `keyframe_spacing_m` from the last
-  // keyframe before it (the robot's oldest pose in the graph is one). Landmarks stay. Each
-  // removal is journaled. keep_poses 0 = off (keep everything); >= 0; keyframe_spacing_m >= 0
-  // (0: no keyframes, a fixed-lag window); every_updates >= 1.
+  // their neighbours), except keyframes: an old pose is kept when no older kept pose of its
+  // robot lies within `keyframe_spacing_m` (by place: revisiting a mapped area adds none, so a
+  // robot in a bounded area keeps a bounded graph). Landmarks stay. Each removal is journaled.
+  // keep_poses 0 = off (keep everything); >= 0; keyframe_spacing_m >= 0 (0: no keyframes, a
+  // fixed-lag window); every_updates >= 1.
   struct PoseWindow {
     int keep_poses = 0;
     double keyframe_spacing_m = 1.0;

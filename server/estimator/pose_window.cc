@@ -1,6 +1,8 @@
 // Estimator::ApplyPoseWindow and Estimator::RemoveVariables: the lifelong window
 // (EstimatorParams::window) by node removal.
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <map>
 
 #include "server/estimator/estimator.h"
@@ -36,21 +38,41 @@ std::vector<core::Key> Estimator::ApplyPoseWindow() {
       behind[robot].push_back(index);
     }
   }
+  // Keyframes are kept by place, not by time: walking a robot's old poses oldest first, a pose
+  // is kept when no pose kept before it lies within keyframe_spacing_m (a grid of cells that
+  // size finds the neighbours), so driving through a mapped area again adds no keyframe and
+  // the graph of a robot that stays in a bounded area stays bounded.
+  const double d = w.keyframe_spacing_m;
   std::vector<core::Key> removed;
   for (auto& [robot, indices] : behind) {
     std::sort(indices.begin(), indices.end());
-    // The oldest pose is a keyframe; then each pose keyframe_spacing_m from the last one.
-    std::optional<core::Vector3> keyframe;
-    for (std::size_t i = 0; i < indices.size(); ++i) {
-      const core::Key key = core::MakeKey('x', indices[i], robot);
-      const std::optional<core::Vector3> at = PositionOf(isam_->CalculateEstimate(key));
-      const bool keep = w.keyframe_spacing_m > 0.0 && at &&
-                        (!keyframe || (*at - *keyframe).norm() >= w.keyframe_spacing_m);
-      if (keep) {
-        keyframe = at;
-      } else {
-        removed.push_back(key);
+    std::map<std::array<long, 3>, std::vector<core::Vector3>> grid;
+    const auto near_kept = [&](const core::Vector3& at, const std::array<long, 3>& cell) {
+      for (long dx = -1; dx <= 1; ++dx) {
+        for (long dy = -1; dy <= 1; ++dy) {
+          for (long dz = -1; dz <= 1; ++dz) {
+            const auto it = grid.find({cell[0] + dx, cell[1] + dy, cell[2] + dz});
+            if (it == grid.end()) continue;
+            for (const core::Vector3& k : it->second) {
+              if ((k - at).norm() < d) return true;
+            }
+          }
+        }
       }
+      return false;
+    };
+    for (std::uint64_t index : indices) {
+      const core::Key key = core::MakeKey('x', index, robot);
+      const std::optional<core::Vector3> at = PositionOf(isam_->CalculateEstimate(key));
+      bool keep = false;
+      if (d > 0.0 && at) {
+        const std::array<long, 3> cell = {std::lround(std::floor((*at)[0] / d)),
+                                          std::lround(std::floor((*at)[1] / d)),
+                                          std::lround(std::floor((*at)[2] / d))};
+        keep = !near_kept(*at, cell);
+        if (keep) grid[cell].push_back(*at);
+      }
+      if (!keep) removed.push_back(key);
     }
   }
   if (removed.empty()) return {};

@@ -458,18 +458,23 @@ TEST(RecoveryTest, PoseWindowKeepsTheGraphBoundedAndReplaysExactly) {
   }
   EXPECT_GT(removed, 200);
   EXPECT_EQ(static_cast<std::int64_t>(before.size()), 401 - removed);
-  // What is left behind the window: keyframes at least 2 m apart, oldest first.
+  // What is left behind the window: keyframes, one per place (the trajectory circles a ring of
+  // ~21 m again and again: ~10 places of 2 m), oldest first. (The last window ran up to 10
+  // updates of 1-6 poses before the end: poses within 90 of the newest may not have been seen.)
   std::vector<core::Key> old;
   for (core::Key k : before.keys()) {
-    if (core::KeyIndex(k) + 30 + 12 < 400) old.push_back(k);
+    if (core::KeyIndex(k) + 90 < 400) old.push_back(k);
   }
   std::sort(old.begin(), old.end());  // one robot: by index
   ASSERT_GE(old.size(), 5u);
+  EXPECT_LE(old.size(), 20u);
   EXPECT_EQ(core::KeyIndex(old.front()), 0u);
-  for (size_t i = 1; i < old.size(); ++i) {
-    const core::Point2 a = before.At<core::Pose2>(old[i - 1]).translation();
-    const core::Point2 b = before.At<core::Pose2>(old[i]).translation();
-    EXPECT_GE((b - a).norm(), 2.0 - 0.5) << core::KeyToString(old[i]);  // estimates move on
+  for (size_t i = 0; i < old.size(); ++i) {
+    for (size_t j = 0; j < i; ++j) {
+      const core::Point2 a = before.At<core::Pose2>(old[j]).translation();
+      const core::Point2 b = before.At<core::Pose2>(old[i]).translation();
+      EXPECT_GE((b - a).norm(), 2.0 - 0.5) << core::KeyToString(old[i]);  // estimates move on
+    }
   }
   int records = 0;
   const JournalContents journal = ReadJournal(dir.str()).value();
