@@ -46,6 +46,7 @@ std::string OptionOf(const std::string& message) {
                                             {"steps", "--steps"},
                                             {"robots", "--robots"},
                                             {"landmarks", "--landmarks"},
+                                            {"side", "--side"},
                                             {"cameras", "--cameras"},
                                             {"points", "--points"},
                                             {"width", "--image-size"},
@@ -250,6 +251,10 @@ void RegisterSim(CLI::App& app) {
                 "worlds: no pixel noise, the initial guess is still perturbed)");
   cmd->add_option("--landmarks", p.landmarks,
                   "landmarks: landmarks placed (unobserved ones are dropped); default box area/4")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--side", p.side,
+                  "manhattan, landmarks: side of the square world in metres (>= 4); default grows "
+                  "with --steps so the robots cover it about twice")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--sensor-range", p.sensor_range, "landmarks: sensor range, metres (> 0)")
       ->check(CLI::PositiveNumber)

@@ -73,6 +73,7 @@ core::Status SimParams::Validate() const {
   SLAMD_PARAM_CHECK(SimParams, outliers, >=, 0.0);
   SLAMD_PARAM_CHECK(SimParams, outliers, <=, 1.0);
   SLAMD_PARAM_CHECK(SimParams, landmarks, >=, 0);
+  SLAMD_PARAM_CHECK(SimParams, side, >=, 0);
   SLAMD_PARAM_CHECK(SimParams, sensor_range, >, 0.0);
   SLAMD_PARAM_CHECK(SimParams, sigma_bearing, >=, 0.0);
   SLAMD_PARAM_CHECK(SimParams, sigma_range, >=, 0.0);
@@ -138,7 +139,9 @@ class Generator {
     if (world_.params.steps == 0) world_.params.steps = DefaultSteps(params.world);
     steps_ = world_.params.steps;
     per_ring_ = std::max(4, static_cast<int>(std::lround(std::sqrt(steps_))));
-    side_ = std::max(4, static_cast<int>(std::ceil(std::sqrt(steps_ * p_.robots / 2.0))));
+    side_ = p_.side > 0
+                ? std::max(4, p_.side)
+                : std::max(4, static_cast<int>(std::ceil(std::sqrt(steps_ * p_.robots / 2.0))));
     world_.truth.resize(p_.robots);
     world_.initial.resize(p_.robots);
     pose_noise_ = PoseNoise(p_, world_.is_3d);

@@ -82,6 +82,10 @@ struct SimParams {
   double loop_probability = 0.5;    // chance that a loop-closure candidate is kept, [0, 1]
   double outliers = 0.0;            // fraction of loop closures replaced by wrong ones, [0, 1]
   bool noise_free = false;          // add no noise (information still from the sigmas)
+  // Grid worlds (manhattan, landmarks): side of the square in metres (1 m cells; >= 0); 0 = grown
+  // with the poses so that the robots cover it about twice. Fixed, the robots revisit it for as
+  // long as they drive (lifelong runs).
+  int side = 0;
   // Landmark worlds.
   int landmarks = 0;          // landmarks generated (>= 0); 0 = box area / 4
   double sensor_range = 3.0;  // m, > 0

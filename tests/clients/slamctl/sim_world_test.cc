@@ -355,6 +355,23 @@ TEST(SimWorld, BatchSolveOfANoiseFreeWorldRecoversTheTruth) {
   }
 }
 
+// A fixed side keeps the robots in the same square however long they drive: a lifelong world
+// they revisit again and again.
+TEST(SimWorld, FixedSideKeepsEveryPoseInTheSquare) {
+  const SimWorld w = MustGenerate(
+      {.world = WorldKind::kLandmarks, .seed = 4, .steps = 3000, .robots = 2, .side = 20});
+  for (const std::vector<core::Variable>& robot : w.truth) {
+    for (const core::Variable& v : robot) {
+      const core::Pose2& x = std::get<core::Pose2>(v);
+      EXPECT_GE(x.x(), -10.0);
+      EXPECT_LT(x.x(), 10.0);
+      EXPECT_GE(x.y(), -10.0);
+      EXPECT_LT(x.y(), 10.0);
+    }
+  }
+  EXPECT_EQ(SimParams{.side = -1}.Validate().message(), "SimParams::side = -1; violates >= 0");
+}
+
 TEST(SimWorld, ValidateNamesTheField) {
   SimParams p;
   p.sigma_translation = -1;
