@@ -18,6 +18,7 @@
 #include "clients/slamctl/bench.h"
 #include "clients/slamctl/json_writer.h"
 #include "core/ba/reconstruction_stream.h"
+#include "core/base/memory_usage.h"
 #include "core/base/timing.h"
 #include "core/batch/batch_solver.h"
 #include "core/io/dataset_stream.h"
@@ -139,6 +140,26 @@ void RunIsam2(const BenchOptions& opt) {
   }
   const double total_s = total.Seconds();
   if (csv && std::fclose(csv) != 0) Fail(kExitFailure, "cannot write " + opt.step_times);
+  // Where the bytes are after the stream (before settling and the marginals' cache), per variable.
+  const core::Isam2Memory memory = isam.MemoryUse();
+  const double rss_bytes = static_cast<double>(core::ResidentBytes());
+  const double n = static_cast<double>(std::max<std::size_t>(1, isam.linearization_point().size()));
+  JsonWriter per_variable;
+  per_variable.Add("linearization_point", memory.linearization_point / n)
+      .Add("variables", memory.variables / n)
+      .Add("factor_lists", memory.factor_lists / n)
+      .Add("linearizations", memory.linearizations / n)
+      .Add("variable_index", memory.variable_index / n)
+      .Add("tree", memory.tree / n)
+      .Add("tree_free", memory.tree_free / n)
+      .Add("scratch", memory.scratch / n)
+      .Add("solver_total", memory.Total() / n)
+      .Add("rss", rss_bytes / n);
+  // ... and at rest: what the server's idle time gives back (Isam2::TrimMemory).
+  isam.TrimMemory();
+  const double trimmed_solver = static_cast<double>(isam.MemoryUse().Total());
+  const double trimmed_rss = static_cast<double>(core::ResidentBytes());
+  per_variable.Add("solver_total_trimmed", trimmed_solver / n).Add("rss_trimmed", trimmed_rss / n);
   const double chi2_before_settle = isam.Chi2();
   double final_chi2 = chi2_before_settle;
   double settle_used_s = 0.0;
@@ -218,7 +239,8 @@ void RunIsam2(const BenchOptions& opt) {
         .Add("reeliminated_total", reeliminated)
         .Add("read_s", read_s)
         .Add("worst_step", worst_step)
-        .Add("peak_rss_mb", PeakRssMb());
+        .Add("peak_rss_mb", PeakRssMb())
+        .Add("memory_bytes_per_variable", per_variable);
     if (opt.compare_batch) out.Add("batch_chi2", batch_chi2);
     if (opt.rate_hz > 0) {
       out.Add("rate_hz", opt.rate_hz).Add("queued_ms", percentiles(queued_ms));
@@ -262,6 +284,15 @@ void RunIsam2(const BenchOptions& opt) {
     std::printf("slowest step %s\n", worst_step.c_str());
     std::printf("relinearized %lld variables, re-eliminated %lld; peak RSS %.1f MB\n", relinearized,
                 reeliminated, PeakRssMb());
+    std::printf(
+        "memory per variable after the stream [bytes]: RSS %.0f, solver %.0f = theta %.0f, "
+        "per-variable arrays %.0f, factor lists %.0f, linearisations %.0f, index %.0f, tree %.0f "
+        "(+ %.0f free), scratch %.0f\n",
+        rss_bytes / n, memory.Total() / n, memory.linearization_point / n, memory.variables / n,
+        memory.factor_lists / n, memory.linearizations / n, memory.variable_index / n,
+        memory.tree / n, memory.tree_free / n, memory.scratch / n);
+    std::printf("  at rest (Isam2::TrimMemory): RSS %.0f, solver %.0f\n", trimmed_rss / n,
+                trimmed_solver / n);
   }
 }
 

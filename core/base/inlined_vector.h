@@ -57,6 +57,8 @@ class InlinedVector {
 
   std::size_t size() const { return size_; }
   bool empty() const { return size_ == 0; }
+  // Bytes allocated outside the object (0 while the entries fit inline).
+  std::size_t HeapBytes() const { return static_cast<std::size_t>(capacity_) * sizeof(T); }
   T* data() { return size_ > N ? heap_.get() : inline_.data(); }
   const T* data() const { return size_ > N ? heap_.get() : inline_.data(); }
   T& operator[](std::size_t i) { return data()[i]; }

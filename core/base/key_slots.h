@@ -36,7 +36,12 @@ class KeySlots {
   std::size_t Home(Key key) const;  // the bucket `key` hashes to
   void Grow();
 
-  std::vector<Entry> entries_;  // a power of two in size (or empty)
+  std::vector<Entry> entries_;
+
+ public:
+  std::size_t StorageBytes() const {
+    return entries_.capacity() * sizeof(Entry);
+  }  // a power of two in size (or empty)
   std::size_t size_ = 0;
 };
 

@@ -47,6 +47,10 @@ class LinearizedFactor {
   Eigen::Map<Eigen::MatrixXd> MutableBlock(int k) { return {A(k), rows_, dim(k)}; }
   Eigen::Map<const Eigen::VectorXd> Rhs() const { return {b(), rows_}; }
   Eigen::Map<Eigen::VectorXd> MutableRhs() { return {b(), rows_}; }
+  // Bytes allocated for it (capacity, not size), for memory reports.
+  std::size_t StorageBytes() const {
+    return data_.capacity() * sizeof(double) + offsets_.HeapBytes();
+  }
   // [A_0 ... A_{k-1} b], rows() x (Dim() + 1).
   Eigen::Map<const Eigen::MatrixXd> Ab() const { return {data_.data(), rows_, Dim() + 1}; }
   Eigen::Map<Eigen::MatrixXd> MutableAb() { return {data_.data(), rows_, Dim() + 1}; }

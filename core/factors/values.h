@@ -56,6 +56,12 @@ class Values {
   // Sum of tangent dimensions.
   int TotalDim() const;
 
+  // Bytes of its storage (key list, values, index), for memory reports.
+  std::size_t StorageBytes() const {
+    return keys_.capacity() * sizeof(Key) + vars_.capacity() * sizeof(Variable) +
+           slot_.StorageBytes();
+  }
+
  private:
   std::vector<Key> keys_;
   std::vector<Variable> vars_;

@@ -201,4 +201,24 @@ void BayesTree::RenumberVariables(std::span<const int> new_id, int num_vars) {
   var_clique_ = std::move(var_clique);
 }
 
+void BayesTree::StorageBytes(std::size_t* live, std::size_t* free) const {
+  *live = cliques_.capacity() * sizeof(cliques_[0]) + var_clique_.capacity() * sizeof(int) +
+          roots_.capacity() * sizeof(int) + free_.capacity() * sizeof(int);
+  *free = 0;
+  for (const std::unique_ptr<Clique>& c : cliques_) {
+    (c->live_ ? *live : *free) += c->StorageBytes() + (c->live_ ? sizeof(Clique) : 0);
+  }
+}
+
+void BayesTree::TrimStorage() {
+  SLAMD_CHECK(removed_.empty()) << "TrimStorage between RemoveTop and its release";
+  for (const std::unique_ptr<Clique>& c : cliques_) {
+    if (c->live_) {
+      c->ShrinkStorage();
+    } else {
+      c->ReleaseStorage();
+    }
+  }
+}
+
 }  // namespace slamd::core

@@ -90,6 +90,13 @@ class BayesTree {
   // call it first.
   void ReleaseRemoved();
 
+  // Bytes allocated by the cliques in use (`live`) and by those kept for reuse (free slots and
+  // the last RemoveTop's), with the tree's own vectors in `live`; for memory reports.
+  void StorageBytes(std::size_t* live, std::size_t* free) const;
+  // Memory at rest: the cliques in use keep only what they hold, freed ones nothing (the next
+  // updates allocate what they need again). Not between RemoveTop and its release (checked).
+  void TrimStorage();
+
   // Removes all cliques (keeping their storage for reuse) and clears the variable map.
   void Clear();
 

@@ -64,4 +64,19 @@ void Clique::RenumberVariables(std::span<const int> new_id) {
   generation_ = NewGeneration();
 }
 
+void Clique::ShrinkStorage() {
+  index_.shrink_to_fit();
+  conditional_.shrink_to_fit();
+  children_.shrink_to_fit();
+  cached_.ShrinkStorage();
+}
+
+void Clique::ReleaseStorage() {
+  std::vector<int>{0}.swap(index_);
+  num_frontals_ = 0;
+  UninitVector<double>().swap(conditional_);
+  std::vector<int>().swap(children_);
+  cached_ = HessianFactor();
+}
+
 }  // namespace slamd::core

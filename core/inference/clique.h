@@ -86,6 +86,15 @@ class Clique {
         FrontalDim()};
   }
 
+  // Bytes allocated for its matrices and lists (capacity, not size), for memory reports.
+  std::size_t StorageBytes() const {
+    return index_.capacity() * sizeof(int) + conditional_.capacity() * sizeof(double) +
+           cached_.StorageBytes() + children_.capacity() * sizeof(int);
+  }
+  // Gives back the capacity beyond what it holds (a clique in use), or all of it (a freed one:
+  // its next Reset allocates afresh).
+  void ShrinkStorage();
+  void ReleaseStorage();
   // Renames the frontal and separator variables (HessianFactor::RenumberVariables) and renews
   // generation(): a reader's cache keyed by variable ids must not take the old content for it.
   void RenumberVariables(std::span<const int> new_id);

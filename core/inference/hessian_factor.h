@@ -50,6 +50,15 @@ class HessianFactor {
   // (elimination writes the whole cached factor), saving a pass over the storage.
   void Reshape(std::span<const int> vars, std::span<const int> dims);
 
+  // Bytes allocated for it beyond the object, for memory reports.
+  std::size_t StorageBytes() const {
+    return index_.capacity() * sizeof(int) + data_.capacity() * sizeof(double);
+  }
+  // Gives back the capacity beyond what it holds (Reset/Reshape keep up to 4x for reuse).
+  void ShrinkStorage() {
+    index_.shrink_to_fit();
+    data_.shrink_to_fit();
+  }
   // Renames variable v to new_id[v] (order and storage unchanged): a solver that drops
   // variables renumbers the rest. new_id[v] must be >= 0 for every variable here (checked).
   void RenumberVariables(std::span<const int> new_id);

@@ -45,6 +45,8 @@ class JacobianFactor {
   Status Assign(const LinearizedFactor& linearized, std::span<const int> ids);
   // Linearises `factor` at `values` in place (no copy); ids as for Assign.
   Status Linearize(const Factor& factor, const Values& values, std::span<const int> ids);
+  // Bytes allocated for it beyond the object, for memory reports.
+  std::size_t StorageBytes() const { return linear_.StorageBytes() + vars_.HeapBytes(); }
   // As HessianFactor::RenumberVariables.
   void RenumberVariables(std::span<const int> new_id);
 

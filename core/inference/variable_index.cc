@@ -91,4 +91,10 @@ void VariableIndex::RenumberVariables(std::span<const int> new_id, int num_vars)
   factors_ = std::move(factors);
 }
 
+std::size_t VariableIndex::StorageBytes() const {
+  std::size_t bytes = factors_.capacity() * sizeof(factors_[0]);
+  for (const std::vector<int>& list : factors_) bytes += list.capacity() * sizeof(int);
+  return bytes;
+}
+
 }  // namespace slamd::core

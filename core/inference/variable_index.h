@@ -44,6 +44,9 @@ class VariableIndex {
   // which must have no factor left (checked). O(variables).
   void RenumberVariables(std::span<const int> new_id, int num_vars);
 
+  // Bytes of its lists (capacity), for memory reports.
+  std::size_t StorageBytes() const;
+
   // Total number of (variable, factor) entries.
   long NumEntries() const { return num_entries_; }
 

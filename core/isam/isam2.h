@@ -89,13 +89,11 @@ class Isam2 {
   // count, whatever the time.
   RefineResult Refine(double budget_s, int max_rounds = std::numeric_limits<int>::max());
 
-  // Node removal (core/inference/node_removal.h): marginalises `keys` out at θ into one
-  // LinearContainerFactor on their Markov blanket, which replaces every factor on them, and
-  // drops them from the solver. Only the cliques holding those factors and their ancestors are
-  // re-eliminated (the removed variables may be anywhere in the tree); the remaining variables
-  // are then renumbered, O(variables + factors) without arithmetic. At θ the remaining
-  // variables' marginals and linear system are exactly the full graph's, so the estimate does
-  // not move (up to the wildfire threshold of the back-substitution). Factor indices stay valid.
+  // Node removal (core/inference/node_removal.h): `keys` are marginalised out at θ into one
+  // LinearContainerFactor on their Markov blanket, which replaces their factors. Only the
+  // cliques of those factors and their ancestors are re-eliminated; the other variables are
+  // renumbered (O(variables + factors), no arithmetic). The remaining marginals and linear
+  // system at θ are exactly the full graph's: the estimate does not move. Factor indices stay.
   Isam2RemovalResult RemoveVariables(std::span<const Key> keys);
 
   // The rest of the back-substitution an Update with Isam2UpdateOptions::solve_first left; no-op
@@ -122,6 +120,10 @@ class Isam2 {
   // Every factor by its index (Isam2Result::new_factor_indices); null once removed.
   const std::vector<FactorPtr>& factor_slots() const { return factors_; }
   const BayesTree& tree() const { return tree_; }
+  Isam2Memory MemoryUse() const;  // O(variables + factors + cliques)
+  // Gives back storage kept for reuse (BayesTree::TrimStorage, work arrays) and returns free
+  // heap to the system: for idle time (the next updates allocate again). O(cliques).
+  void TrimMemory();
   const Isam2Params& params() const { return params_; }
   int num_updates() const { return num_updates_; }
 

@@ -2,6 +2,7 @@
 // Isam2Params, as GTSAM splits ISAM2Params / ISAM2UpdateParams / ISAM2Result).
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -110,6 +111,24 @@ struct Isam2RemovalResult {
   double constant_chi2 = 0.0;      // NodeRemoval::constant_chi2
   int reeliminated_variables = 0;  // the top of the tree the removed factors touched
   double seconds = 0.0;
+};
+
+// Where an Isam2's memory is (Isam2::MemoryUse), in bytes allocated (capacity): for memory
+// reports. The factor objects themselves (measurements, noise models) are not counted, nor the
+// allocator's own overhead: RSS minus Total() is their upper bound.
+struct Isam2Memory {
+  std::size_t linearization_point = 0;  // θ (Values: keys, variables, index)
+  std::size_t variables = 0;       // δ and the per-variable arrays (dims, offsets, budgets, ...)
+  std::size_t factor_lists = 0;    // per factor: pointer, variable ids, screen state
+  std::size_t linearizations = 0;  // the cached linearisation of every factor
+  std::size_t variable_index = 0;  // variable -> factors
+  std::size_t tree = 0;            // the cliques in use: [R S d], cached factors, structure
+  std::size_t tree_free = 0;       // cliques kept for reuse (free list)
+  std::size_t scratch = 0;         // per-update work arrays kept between updates
+  std::size_t Total() const {
+    return linearization_point + variables + factor_lists + linearizations + variable_index + tree +
+           tree_free + scratch;
+  }
 };
 
 }  // namespace slamd::core

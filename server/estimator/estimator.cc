@@ -497,6 +497,7 @@ core::Isam2::RefineResult Estimator::Refine(double budget_s, int max_rounds) {
   core::Isam2::RefineResult r = isam_->Refine(budget_s, max_rounds);
   ++counters_.refinements;
   settled_ = r.converged;
+  if (settled_) isam_->TrimMemory();  // at rest: give back what updates keep for reuse
   PublishSnapshot(r.rounds > 0);
   return r;
 }
