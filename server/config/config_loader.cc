@@ -161,6 +161,12 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
     if (w.has_keyframe_spacing_m()) p->estimator.window.keyframe_spacing_m = w.keyframe_spacing_m();
     if (w.has_every_updates()) p->estimator.window.every_updates = w.every_updates();
   }
+  for (const auto& r : e.robot_window()) {
+    EstimatorParams::RobotWindow robot{.robot = r.robot(), .window = p->estimator.window};
+    if (r.has_keep_poses()) robot.window.keep_poses = r.keep_poses();
+    if (r.has_keyframe_spacing_m()) robot.window.keyframe_spacing_m = r.keyframe_spacing_m();
+    p->estimator.robot_windows.push_back(std::move(robot));
+  }
 }
 
 std::string Quote(const std::string& s) { return "\"" + s + "\""; }
@@ -311,6 +317,8 @@ std::string DefaultConfigText() {
       << "  # old poses kept one per place this size [m]; 0 = none\n"
       << "    every_updates: " << d.estimator.window.every_updates << "  # how often, >= 1\n"
       << "  }\n"
+      << "  # robot_window { robot: \"car\" keep_poses: 500 keyframe_spacing_m: 2 }  # one "
+         "robot's\n"
       << "}\n\n"
       << "journal {\n"
       << "  sync: "

@@ -6,6 +6,13 @@
 
 namespace slamd::server {
 
+const EstimatorParams::PoseWindow& EstimatorParams::WindowOf(const std::string& robot) const {
+  for (const RobotWindow& r : robot_windows) {
+    if (r.robot == robot) return r.window;
+  }
+  return window;
+}
+
 core::Status EstimatorParams::Validate() const {
   const EstimatorParams& estimator = *this;
   if (new_robot_anchor != AnchorPolicy::kHoldUntilConnected &&
@@ -33,6 +40,25 @@ core::Status EstimatorParams::Validate() const {
   SLAMD_CONFIG_CHECK(estimator.window.keep_poses, >=, 0);
   SLAMD_CONFIG_CHECK(estimator.window.keyframe_spacing_m, >=, 0.0);
   SLAMD_CONFIG_CHECK(estimator.window.every_updates, >=, 1);
+  for (std::size_t i = 0; i < robot_windows.size(); ++i) {
+    const std::string at = "estimator.robot_window[" + std::to_string(i) + "]";
+    const PoseWindow& w = robot_windows[i].window;
+    if (robot_windows[i].robot.empty()) return core::InvalidArgument(at + ".robot is empty");
+    for (std::size_t j = 0; j < i; ++j) {
+      if (robot_windows[j].robot == robot_windows[i].robot) {
+        return core::InvalidArgument(at + ".robot = \"" + robot_windows[i].robot +
+                                     "\"; already given a window");
+      }
+    }
+    if (w.keep_poses < 0) {
+      return core::InvalidArgument(at + ".keep_poses = " + std::to_string(w.keep_poses) +
+                                   "; violates >= 0");
+    }
+    if (!(w.keyframe_spacing_m >= 0.0)) {
+      return core::InvalidArgument(
+          at + ".keyframe_spacing_m = " + std::to_string(w.keyframe_spacing_m) + "; violates >= 0");
+    }
+  }
   const core::Result<core::RobustKernel::Kind> kind =
       core::RobustKernel::ParseKind(loop_closure_kernel);
   if (!kind.ok()) {

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "core/base/status.h"
 
@@ -104,6 +105,16 @@ struct EstimatorParams {
     int every_updates = 100;
   };
   PoseWindow window = {};
+  // Per robot (by name): its own keep_poses and keyframe_spacing_m in place of window's (a
+  // robot whose map must stay whole next to ones on a window, or the other way round); checked
+  // every window.every_updates updates.
+  struct RobotWindow {
+    std::string robot;
+    PoseWindow window;
+  };
+  std::vector<RobotWindow> robot_windows = {};
+  // The window that applies to `robot`.
+  const PoseWindow& WindowOf(const std::string& robot) const;
 
   core::Status Validate() const;
 };

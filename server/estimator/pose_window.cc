@@ -22,8 +22,10 @@ std::optional<core::Vector3> PositionOf(const core::Variable& v) {
 }  // namespace
 
 std::vector<core::Key> Estimator::ApplyPoseWindow() {
-  const EstimatorParams::PoseWindow& w = params_.window;
-  if (w.keep_poses == 0 || sequence_ < window_sequence_ + w.every_updates) return {};
+  const bool any = params_.window.keep_poses > 0 ||
+                   std::any_of(params_.robot_windows.begin(), params_.robot_windows.end(),
+                               [](const auto& r) { return r.window.keep_poses > 0; });
+  if (!any || sequence_ < window_sequence_ + params_.window.every_updates) return {};
   FinishUpdate();
   if (Rebuilding()) return {};  // the rebuild copied the graph: after its swap
   window_sequence_ = sequence_;
@@ -34,7 +36,8 @@ std::vector<core::Key> Estimator::ApplyPoseWindow() {
     const std::uint8_t robot = core::KeyRobot(key);
     const RobotState& r = robots_[robot];
     const std::uint64_t index = core::KeyIndex(key);
-    if (r.anchored && index + static_cast<std::uint64_t>(w.keep_poses) < r.newest) {
+    const int keep = params_.WindowOf(registry_.Name(robot)).keep_poses;
+    if (keep > 0 && r.anchored && index + static_cast<std::uint64_t>(keep) < r.newest) {
       behind[robot].push_back(index);
     }
   }
@@ -42,9 +45,9 @@ std::vector<core::Key> Estimator::ApplyPoseWindow() {
   // is kept when no pose kept before it lies within keyframe_spacing_m (a grid of cells that
   // size finds the neighbours), so driving through a mapped area again adds no keyframe and
   // the graph of a robot that stays in a bounded area stays bounded.
-  const double d = w.keyframe_spacing_m;
   std::vector<core::Key> removed;
   for (auto& [robot, indices] : behind) {
+    const double d = params_.WindowOf(registry_.Name(robot)).keyframe_spacing_m;
     std::sort(indices.begin(), indices.end());
     std::map<std::array<long, 3>, std::vector<core::Vector3>> grid;
     const auto near_kept = [&](const core::Vector3& at, const std::array<long, 3>& cell) {

@@ -122,6 +122,31 @@ isam2 { relinearization {
       << q.status().message();
 }
 
+// The lifelong settings: the pose window, one robot's own window (unset fields from the
+// default one), journal segments.
+TEST(ConfigLoaderTest, LifelongWindowAndJournalSegments) {
+  const core::Result<ServerParams> p = ParseConfigText(R"(
+estimator {
+  window { keep_poses: 300 keyframe_spacing_m: 2.5 every_updates: 20 }
+  robot_window { robot: "car" keep_poses: 1000 }
+}
+journal { segment_bytes: 1048576 delete_covered_segments: false })");
+  ASSERT_TRUE(p.ok()) << p.status().ToString();
+  EXPECT_EQ(p->estimator.window.keep_poses, 300);
+  EXPECT_EQ(p->estimator.window.keyframe_spacing_m, 2.5);
+  EXPECT_EQ(p->estimator.window.every_updates, 20);
+  EXPECT_EQ(p->estimator.WindowOf("car").keep_poses, 1000);
+  EXPECT_EQ(p->estimator.WindowOf("car").keyframe_spacing_m, 2.5);
+  EXPECT_EQ(p->estimator.WindowOf("bike").keep_poses, 300);
+  EXPECT_EQ(p->journal.segment_bytes, 1048576);
+  EXPECT_FALSE(p->journal.delete_covered_segments);
+  const core::Result<ServerParams> q = ParseConfigText("journal { segment_bytes: 100 }", "c");
+  ASSERT_FALSE(q.ok());
+  EXPECT_NE(q.status().message().find("journal.segment_bytes = 100; violates >= 4096"),
+            std::string::npos)
+      << q.status().message();
+}
+
 TEST(ConfigLoaderTest, ValueOutOfTypeRangeAndBadEnumAreParseErrors) {
   const core::Result<ServerParams> p = ParseConfigText("queue { depth: 99999999999 }", "c");
   ASSERT_FALSE(p.ok());

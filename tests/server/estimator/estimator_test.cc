@@ -430,5 +430,36 @@ TEST(EstimatorTest, FinishingLaterPublishesTheSameNewestPosesAndEndsTheSame) {
   }
 }
 
+// A robot's own window (robot_windows) in place of the default one: robot "a" keeps its newest
+// 10 poses and keyframes 3 m apart, robot "b" (default window: off) keeps everything; the
+// counters and the graph say so, and a loop closure to one of a's removed poses is rejected.
+TEST(EstimatorTest, RobotWindowRemovesOnlyThatRobotsOldPoses) {
+  EstimatorParams p{.chi2_interval_s = 0.0};
+  p.window.every_updates = 5;
+  p.robot_windows = {{.robot = "a", .window = {.keep_poses = 10, .keyframe_spacing_m = 3.0}}};
+  ASSERT_TRUE(p.Validate().ok());
+  auto e = Make(p);
+  ASSERT_TRUE(e->Process({Prior("a", 0, Pose2()), Prior("b", 0, Pose2(0, 5, 0))}).status.ok());
+  std::vector<core::Key> removed;
+  for (std::uint64_t i = 0; i < 60; ++i) {
+    ASSERT_TRUE(e->Process({Odo("a", i, i + 1, kStep), Odo("b", i, i + 1, kStep)}).status.ok());
+    const std::vector<core::Key> now = e->ApplyPoseWindow();
+    removed.insert(removed.end(), now.begin(), now.end());
+  }
+  ASSERT_FALSE(removed.empty());
+  const std::uint8_t a = *e->registry().Find("a");
+  for (core::Key k : removed) EXPECT_EQ(core::KeyRobot(k), a) << core::KeyToString(k);
+  EXPECT_EQ(e->snapshot()->counters.removed_variables, static_cast<std::int64_t>(removed.size()));
+  EXPECT_EQ(e->snapshot()->num_variables, 2 * 61 - static_cast<std::int64_t>(removed.size()));
+  EXPECT_TRUE(e->PoseEstimate("b", 1).ok());  // b keeps every pose
+  const ProcessResult r = e->Process({Loop("a", 60, "a", 1, Pose2())});
+  ASSERT_EQ(r.rejections.size(), 1u);
+  EXPECT_EQ(r.rejections[0].verdict.reason, RejectReason::kUnknownPose);
+  // Validation names the entry.
+  p.robot_windows.push_back({.robot = "a"});
+  EXPECT_EQ(p.Validate().message(),
+            "estimator.robot_window[1].robot = \"a\"; already given a window");
+}
+
 }  // namespace
 }  // namespace slamd::server
