@@ -7,6 +7,7 @@
 #include "core/base/key_slots.h"
 #include "core/factors/linear_container_factor.h"
 #include "core/factors/linearized_factor.h"
+#include "core/inference/chow_liu.h"
 
 namespace slamd::core {
 namespace {
@@ -18,7 +19,7 @@ constexpr double kRankTolerance = 1e-10;
 }  // namespace
 
 Result<NodeRemoval> MarginalizeOut(std::span<const FactorPtr> factors, const Values& theta,
-                                   std::span<const Key> removed) {
+                                   std::span<const Key> removed, const NodeRemovalParams& params) {
   if (removed.empty()) return InvalidArgument("MarginalizeOut: no variable to remove");
   // Columns: the removed variables first (in the given order), then the blanket.
   KeySlots column_of;  // key -> its position in `keys`
@@ -114,11 +115,18 @@ Result<NodeRemoval> MarginalizeOut(std::span<const FactorPtr> factors, const Val
   if (blanket_dim > 0 && marginal_rows > 0) {
     std::vector<Variable> x0;
     for (Key k : out.blanket) x0.push_back(theta.Get(k));
-    Result<FactorPtr> marginal = LinearContainerFactor::Create(
-        out.blanket, std::move(x0), r.block(removed_dim, removed_dim, marginal_rows, blanket_dim),
-        r.col(cols).segment(removed_dim, marginal_rows));
+    const Eigen::MatrixXd A = r.block(removed_dim, removed_dim, marginal_rows, blanket_dim);
+    const Eigen::VectorXd b = r.col(cols).segment(removed_dim, marginal_rows);
+    Result<FactorPtr> marginal = LinearContainerFactor::Create(out.blanket, x0, A, b);
     if (!marginal.ok()) return marginal.status();
     out.marginal = std::move(marginal).value();
+    if (params.form == NodeRemovalParams::Form::kChowLiu && out.blanket.size() >= 3) {
+      // A tree the numbers cannot be trusted for (chow_liu.h) leaves the exact summary.
+      Result<std::vector<FactorPtr>> tree = ChowLiuTree(out.blanket, x0, A, b);
+      out.summary = tree.ok() ? std::move(tree).value() : std::vector<FactorPtr>{out.marginal};
+    } else {
+      out.summary = {out.marginal};
+    }
   }
   return out;
 }

@@ -23,10 +23,21 @@
 
 namespace slamd::core {
 
+struct NodeRemovalParams {
+  // kDense: the exact summary, one container on the whole blanket. kChowLiu: its Chow-Liu tree
+  // (chow_liu.h) when the blanket has 3 variables or more: every blanket variable's marginal
+  // kept, the couplings off the tree dropped, so summaries stay sparse over a long run.
+  enum class Form { kDense, kChowLiu };
+  Form form = Form::kDense;
+};
+
 struct NodeRemoval {
   std::vector<int> removed_factors;  // indices in the input of the factors touching M
   KeyVector blanket;                 // B, in order of first appearance in those factors
-  FactorPtr marginal;                // the container on B; null when B is empty
+  FactorPtr marginal;                // the exact container on B; null when B is empty
+  // What replaces the removed factors: {marginal} (kDense, a blanket of 1-2 variables, or a
+  // tree ChowLiuTree refused) or its Chow-Liu tree; empty when B is empty.
+  std::vector<FactorPtr> summary;
   double constant_chi2 = 0.0;        // ρ² (see the file comment)
 };
 
@@ -36,6 +47,7 @@ struct NodeRemoval {
 // the variable when its factors do not determine it (its block of R_MM is singular: nothing to
 // marginalise, e.g. a landmark with one bearing), as a marginal would be undefined.
 Result<NodeRemoval> MarginalizeOut(std::span<const FactorPtr> factors, const Values& theta,
-                                   std::span<const Key> removed);
+                                   std::span<const Key> removed,
+                                   const NodeRemovalParams& params = {});
 
 }  // namespace slamd::core

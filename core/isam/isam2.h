@@ -41,6 +41,7 @@
 #include "core/inference/bayes_tree.h"
 #include "core/inference/elimination.h"
 #include "core/inference/jacobian_factor.h"
+#include "core/inference/node_removal.h"
 #include "core/inference/variable_index.h"
 #include "core/isam/isam2_params.h"
 #include "core/isam/isam2_result.h"
@@ -68,16 +69,12 @@ class Isam2 {
   Isam2Result Update(const FactorGraph& new_factors, const Values& new_values,
                      const Isam2UpdateOptions& options = {});
 
-  // Idle-time refinement ("settling"): repeatedly relinearises the variables whose update δ
-  // exceeds Isam2Params::refine_threshold (far below the fluid-relinearisation thresholds; at
-  // most refine_max_variables per round, the most changed first) and re-solves, until no
-  // variable moves that much (converged) or `budget_s` seconds have passed,
-  // so that the estimate approaches the batch optimum of the factors seen so far. Each round is a
-  // Gauss-Newton step through the tree; its back-substitution is partial with a threshold of
-  // kRefineWildfire x refine_threshold (a full solve would make every round O(variables), which on
-  // a large, nearly converged map costs far more than the few cliques that still move). A round
-  // that would raise chi2 is still taken, unless Isam2Params::trust_region is on. The server calls
-  // this when no message has come for a while (refine.idle_s).
+  // Idle-time refinement ("settling"): relinearises the variables whose δ exceeds
+  // Isam2Params::refine_threshold (at most refine_max_variables per round, the most changed
+  // first) and re-solves, until none does (converged) or `budget_s` has passed: the estimate
+  // approaches the batch optimum. Each round is a Gauss-Newton step through the tree, back-
+  // substituted partially (threshold kRefineWildfire x refine_threshold: a full solve is
+  // O(variables) a round). A round that raises chi2 is taken unless trust_region is on.
   struct RefineResult {
     Status status;
     int rounds = 0;
@@ -85,16 +82,17 @@ class Isam2 {
     bool converged = false;
     double seconds = 0.0;
   };
-  // At most `max_rounds` rounds: a journal replay repeats a refinement exactly by its round
-  // count, whatever the time.
+  // At most `max_rounds` rounds (a journal replay repeats a refinement by its round count).
   RefineResult Refine(double budget_s, int max_rounds = std::numeric_limits<int>::max());
 
-  // Node removal (core/inference/node_removal.h): `keys` are marginalised out at θ into one
-  // LinearContainerFactor on their Markov blanket, which replaces their factors. Only the
-  // cliques of those factors and their ancestors are re-eliminated; the other variables are
-  // renumbered (O(variables + factors), no arithmetic). The remaining marginals and linear
-  // system at θ are exactly the full graph's: the estimate does not move. Factor indices stay.
-  Isam2RemovalResult RemoveVariables(std::span<const Key> keys);
+  // Node removal (core/inference/node_removal.h): `keys` are marginalised out at θ into a
+  // summary on their Markov blanket (dense, or its Chow-Liu tree), which replaces their factors.
+  // Only the cliques of those factors and their ancestors are re-eliminated; the other variables
+  // are renumbered (O(variables + factors), no arithmetic). Dense: the remaining marginals and
+  // linear system at θ are exactly the full graph's: the estimate does not move. Factor indices
+  // stay.
+  Isam2RemovalResult RemoveVariables(std::span<const Key> keys,
+                                     const NodeRemovalParams& params = {});
 
   // The rest of the back-substitution an Update with Isam2UpdateOptions::solve_first left; no-op
   // without one. Returns the number of cliques it solved.

@@ -7,12 +7,13 @@
 
 namespace slamd::core {
 
-Isam2RemovalResult Isam2::RemoveVariables(std::span<const Key> keys) {
+Isam2RemovalResult Isam2::RemoveVariables(std::span<const Key> keys,
+                                          const NodeRemovalParams& params) {
   CheckNoPendingSolve("RemoveVariables");
   Stopwatch timer;
   Isam2RemovalResult out;
   // MarginalizeOut validates the keys (unknown, repeated) and that the marginal exists.
-  Result<NodeRemoval> removal = MarginalizeOut(factors_, theta_, keys);
+  Result<NodeRemoval> removal = MarginalizeOut(factors_, theta_, keys, params);
   if (!removal.ok()) {
     out.status = removal.status();
     return out;
@@ -21,9 +22,9 @@ Isam2RemovalResult Isam2::RemoveVariables(std::span<const Key> keys) {
   undo_.Clear(static_cast<int>(theta_.size()), static_cast<int>(factors_.size()));
   std::vector<int> affected, last;
   std::vector<int> container;
-  FactorGraph marginal;
-  if (removal->marginal) marginal.Add(removal->marginal);
-  out.status = AddFactors(marginal, &container);
+  FactorGraph summary;
+  for (const FactorPtr& f : removal->summary) summary.Add(f);
+  out.status = AddFactors(summary, &container);
   if (out.status.ok()) {
     RemoveFactors(removal->removed_factors, &affected);
     for (int f : container) {
@@ -50,7 +51,7 @@ Isam2RemovalResult Isam2::RemoveVariables(std::span<const Key> keys) {
   for (Key key : keys) dead.push_back(theta_.SlotOf(key));
   DropVariables(dead);
   out.removed_factors = std::move(removal->removed_factors);
-  out.marginal_factor = container.empty() ? -1 : container[0];
+  out.summary_factors = std::move(container);
   out.blanket = std::move(removal->blanket);
   out.constant_chi2 = removal->constant_chi2;
   out.seconds = timer.Seconds();

@@ -106,8 +106,9 @@ struct Isam2RemovalResult {
   Status status;
   std::vector<int> removed_factors;  // their indices, now free (factor_slots() null)
   int removed_dimension = 0;         // Σ of their residual dimensions
-  int marginal_factor = -1;        // index of the LinearContainerFactor on the blanket; -1 if none
-  KeyVector blanket;               // the variables it is on
+  // Indices of the summary's factors on the blanket (NodeRemoval::summary); empty if none.
+  std::vector<int> summary_factors;
+  KeyVector blanket;               // the variables they are on
   double constant_chi2 = 0.0;      // NodeRemoval::constant_chi2
   int reeliminated_variables = 0;  // the top of the tree the removed factors touched
   double seconds = 0.0;

@@ -138,8 +138,7 @@ class Estimator {
   // the snapshot's chi2 when due, starting a rebuild); no-op when nothing is left.
   void FinishUpdate();
 
-  // Background relinearisation (file comment). A rebuild is in flight / done and waiting for
-  // FinishRebuild.
+  // Background relinearisation (file comment): in flight / done and waiting for FinishRebuild.
   bool Rebuilding() const { return rebuild_ != nullptr; }
   bool RebuildReady() const { return rebuild_ && rebuild_->Ready(); }
   // Waits for the rebuild in flight, brings it up to date and swaps it in; a new snapshot.
@@ -151,15 +150,15 @@ class Estimator {
   core::Result<bool> FinishRebuild(std::span<const int> replay_rounds = {});
   // The catch-up rounds of the last swap (logged updates per round), for the journal.
   const std::vector<int>& last_swap_rounds() const { return last_swap_rounds_; }
-  // While replaying a journal, rebuilds started run no catch-up rounds on their helper: the
-  // journal's swap records say which to run (FinishRebuild's replay_rounds).
+  // Replaying a journal: rebuilds run no catch-up rounds on their helper (the swap records say).
   void SetReplaying(bool replaying) { replaying_ = replaying; }
 
   // Lifelong window (EstimatorParams::window, pose_window.cc): when due and no rebuild is in
   // flight, removes old poses but keyframes by RemoveVariables; the keys, for the journal.
   std::vector<core::Key> ApplyPoseWindow();
-  // Node removal (Isam2::RemoveVariables; FailedPrecondition while a rebuild is in flight).
-  core::Status RemoveVariables(std::span<const core::Key> keys);
+  // Node removal (Isam2::RemoveVariables) in chunks; FailedPrecondition while a rebuild is in
+  // flight. A chunk that fails leaves those before it removed (*removed: how many keys were).
+  core::Status RemoveVariables(std::span<const core::Key> keys, std::size_t* removed = nullptr);
 
   // Isam2::Refine(budget_s, max_rounds); a new snapshot when anything moved. (While a rebuild is
   // in flight, the swap discards what it did: the daemon refines only when none is.)
@@ -176,7 +175,7 @@ class Estimator {
   // the Bayes tree with a cache kept across updates (core/marginals). NotFound for unknown keys.
   core::Status Marginal(core::Key key, Eigen::MatrixXd* cov);
   core::Status JointMarginal(std::span<const core::Key> keys, Eigen::MatrixXd* cov);
-  // Every clique's marginal once: CachedMarginal is then O(1) until the next update.
+  // Every clique's marginal once: CachedMarginal is O(1) then, until the next update.
   void ComputeAllMarginals();
   core::Status CachedMarginal(core::Key key, Eigen::MatrixXd* cov) const;
   const RobotRegistry& registry() const { return registry_; }
@@ -247,6 +246,7 @@ class Estimator {
   // Options for an update of Process: solve_first when it may finish later.
   core::Isam2UpdateOptions ProcessUpdateOptions() const;
   void StartRebuild();
+  core::Status RemoveChunk(std::span<const core::Key> keys);  // RemoveVariables' steps
   // The newest pose of every anchored robot (what the next updates most likely touch).
   std::vector<core::Key> NewestPoses() const;
 

@@ -99,6 +99,8 @@ struct EstimatorParams {
   // robot in a bounded area keeps a bounded graph). Landmarks stay. Each removal is journaled.
   // keep_poses 0 = off (keep everything); >= 0; keyframe_spacing_m >= 0 (0: no keyframes, a
   // fixed-lag window); every_updates >= 1.
+  // The summaries are exact (dense): in a long run each absorbs the one before, so they grow
+  // with the area mapped (BENCHMARKS.md, lifelong soak).
   struct PoseWindow {
     int keep_poses = 0;
     double keyframe_spacing_m = 1.0;

@@ -10,6 +10,13 @@
 namespace slamd::server {
 namespace {
 
+// Node removal factors the removed variables' stacked Jacobian densely (node_removal.h): cost
+// O(rows x columns²). Removed in chunks of this many, in order, each costs little, and a window
+// pass removes at most kMaxRemovedPerPass (the rest at the next), so a pass that finds a long
+// stretch of old poses does not stall the estimator for seconds.
+constexpr std::size_t kRemovalChunk = 16;
+constexpr std::size_t kMaxRemovedPerPass = 256;
+
 // A pose's position (Pose2: z = 0); nullopt for other kinds.
 std::optional<core::Vector3> PositionOf(const core::Variable& v) {
   if (const auto* p = std::get_if<core::Pose2>(&v)) {
@@ -79,18 +86,39 @@ std::vector<core::Key> Estimator::ApplyPoseWindow() {
     }
   }
   if (removed.empty()) return {};
-  if (const core::Status s = RemoveVariables(removed); !s.ok()) {
-    // Nothing changed; the next window tries again with the graph as it is then.
-    return {};
-  }
+  if (removed.size() > kMaxRemovedPerPass) removed.resize(kMaxRemovedPerPass);
+  // A chunk that fails (nothing of it changed) ends the pass; the next tries again.
+  std::size_t done = 0;
+  (void)RemoveVariables(removed, &done);
+  removed.resize(done);
   return removed;
 }
 
-core::Status Estimator::RemoveVariables(std::span<const core::Key> keys) {
+core::Status Estimator::RemoveVariables(std::span<const core::Key> keys, std::size_t* removed) {
+  if (removed) *removed = 0;
   FinishUpdate();
   if (Rebuilding()) {
     return core::FailedPrecondition("node removal while a rebuild is in flight");
   }
+  core::Status status;
+  std::size_t done = 0;
+  for (; done < keys.size() && status.ok(); done += kRemovalChunk) {
+    const std::size_t n = std::min(kRemovalChunk, keys.size() - done);
+    status = RemoveChunk(keys.subspan(done, n));
+    if (!status.ok()) break;
+  }
+  done = std::min(done, keys.size());
+  if (removed) *removed = done;
+  if (done == 0) return status;
+  counters_.removed_variables += static_cast<std::int64_t>(done);
+  marginals_ = std::make_unique<core::Isam2Marginals>(
+      isam_.get(), core::MarginalsParams{.threads = marginals_threads_});
+  chi2_sequence_ = -1;  // the chi2 changed with the factors
+  PublishSnapshot(false);
+  return status;
+}
+
+core::Status Estimator::RemoveChunk(std::span<const core::Key> keys) {
   const core::Isam2RemovalResult r = isam_->RemoveVariables(keys);
   if (!r.status.ok()) return r.status;
   // The measurements of the removed factors are forgotten: their variables are gone, so the same
@@ -108,15 +136,10 @@ core::Status Estimator::RemoveVariables(std::span<const core::Key> keys) {
   }
   num_factors_ -= static_cast<std::int64_t>(r.removed_factors.size());
   residual_dimension_ -= r.removed_dimension;
-  if (r.marginal_factor >= 0) {
+  for (int f : r.summary_factors) {
     ++num_factors_;
-    residual_dimension_ += isam_->factor_slots()[r.marginal_factor]->dim();
+    residual_dimension_ += isam_->factor_slots()[f]->dim();
   }
-  counters_.removed_variables += static_cast<std::int64_t>(keys.size());
-  marginals_ = std::make_unique<core::Isam2Marginals>(
-      isam_.get(), core::MarginalsParams{.threads = marginals_threads_});
-  chi2_sequence_ = -1;  // the chi2 changed with the factors
-  PublishSnapshot(false);
   return core::Status::Ok();
 }
 

@@ -55,8 +55,9 @@ void ExpectExactRemoval(Isam2* isam, const KeyVector& removed) {
   for (int f : r.removed_factors) EXPECT_EQ(isam->factor_slots()[f], nullptr);
   // No container when the removed factors say nothing about the blanket (the newest pose with
   // only its odometry).
-  if (r.marginal_factor >= 0) {
-    EXPECT_EQ(isam->factor_slots()[r.marginal_factor]->keys(), r.blanket);
+  ASSERT_LE(r.summary_factors.size(), 1u);  // dense
+  if (!r.summary_factors.empty()) {
+    EXPECT_EQ(isam->factor_slots()[r.summary_factors[0]]->keys(), r.blanket);
   }
   const std::map<Key, Eigen::MatrixXd> after = Marginals(isam);
   ASSERT_EQ(after.size(), before.size() - removed.size());
@@ -100,37 +101,49 @@ TEST(Isam2RemovalTest, RandomRemovalsIn3D) {
 
 // After a removal the solver takes new poses and factors (the blanket's container is a factor
 // like any other) and settles at the batch optimum of what it holds.
+// With the Chow-Liu summary too (one factor per blanket variable, on at most two).
 TEST(Isam2RemovalTest, UpdatesAfterRemovalReachTheBatchOptimum) {
-  const testing::ExampleProblem p = testing::MakePlanarProblem(40, 4, 12);
-  const std::vector<testing::ExampleStep> steps = testing::StreamByPose(p);
-  auto isam = Streamed(p, 25);
-  KeyVector old;
-  for (int i = 1; i < 10; ++i) old.push_back(MakeKey('x', i));
-  const Isam2RemovalResult r = isam->RemoveVariables(old);
-  ASSERT_TRUE(r.status.ok()) << r.status.ToString();
-  for (std::size_t i = 25; i < steps.size(); ++i) {
-    // Factors on removed poses (loop closures to them) are left out, as a server would refuse
-    // them.
-    FactorGraph factors;
-    for (const FactorPtr& f : steps[i].factors) {
-      bool on_removed = false;
-      for (Key k : f->keys()) on_removed |= std::find(old.begin(), old.end(), k) != old.end();
-      if (!on_removed) factors.Add(f);
+  for (const NodeRemovalParams::Form form :
+       {NodeRemovalParams::Form::kDense, NodeRemovalParams::Form::kChowLiu}) {
+    SCOPED_TRACE(form == NodeRemovalParams::Form::kDense ? "dense" : "chow-liu");
+    const testing::ExampleProblem p = testing::MakePlanarProblem(40, 4, 12);
+    const std::vector<testing::ExampleStep> steps = testing::StreamByPose(p);
+    auto isam = Streamed(p, 25);
+    KeyVector old;
+    for (int i = 1; i < 10; ++i) old.push_back(MakeKey('x', i));
+    const Isam2RemovalResult r = isam->RemoveVariables(old, {.form = form});
+    ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+    if (form == NodeRemovalParams::Form::kChowLiu) {
+      ASSERT_GE(r.blanket.size(), 3u);
+      EXPECT_EQ(r.summary_factors.size(), r.blanket.size());
+      for (int f : r.summary_factors) EXPECT_LE(isam->factor_slots()[f]->keys().size(), 2u);
     }
-    Values values;
-    for (Key k : steps[i].values.keys()) {
-      if (std::find(old.begin(), old.end(), k) == old.end()) {
-        ASSERT_TRUE(values.Insert(k, steps[i].values.Get(k)).ok());
+    const Status consistent = CheckConsistency(isam->tree());
+    ASSERT_TRUE(consistent.ok()) << consistent.ToString();
+    for (std::size_t i = 25; i < steps.size(); ++i) {
+      // Factors on removed poses (loop closures to them) are left out, as a server would refuse
+      // them.
+      FactorGraph factors;
+      for (const FactorPtr& f : steps[i].factors) {
+        bool on_removed = false;
+        for (Key k : f->keys()) on_removed |= std::find(old.begin(), old.end(), k) != old.end();
+        if (!on_removed) factors.Add(f);
       }
+      Values values;
+      for (Key k : steps[i].values.keys()) {
+        if (std::find(old.begin(), old.end(), k) == old.end()) {
+          ASSERT_TRUE(values.Insert(k, steps[i].values.Get(k)).ok());
+        }
+      }
+      const Isam2Result u = isam->Update(factors, values);
+      ASSERT_TRUE(u.status.ok()) << "step " << i << ": " << u.status.ToString();
     }
-    const Isam2Result u = isam->Update(factors, values);
-    ASSERT_TRUE(u.status.ok()) << "step " << i << ": " << u.status.ToString();
+    ASSERT_TRUE(isam->Refine(10.0).converged);
+    // The batch optimum of the same factors: Gauss-Newton from the estimate moves nothing.
+    const Values estimate = isam->CalculateEstimate();
+    EXPECT_LT(testing::MaxDifference(estimate, testing::BatchStepAt(isam->Factors(), estimate)),
+              1e-6);
   }
-  ASSERT_TRUE(isam->Refine(10.0).converged);
-  // The batch optimum of the same factors: Gauss-Newton from the estimate moves nothing.
-  const Values estimate = isam->CalculateEstimate();
-  EXPECT_LT(testing::MaxDifference(estimate, testing::BatchStepAt(isam->Factors(), estimate)),
-            1e-6);
 }
 
 TEST(Isam2RemovalTest, RefusalsChangeNothing) {
