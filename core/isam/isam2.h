@@ -119,8 +119,7 @@ class Isam2 {
   const std::vector<FactorPtr>& factor_slots() const { return factors_; }
   const BayesTree& tree() const { return tree_; }
   Isam2Memory MemoryUse() const;  // O(variables + factors + cliques)
-  // Gives back storage kept for reuse (BayesTree::TrimStorage, work arrays) and returns free
-  // heap to the system: for idle time (the next updates allocate again). O(cliques).
+  // For idle time: storage kept for reuse (BayesTree::TrimStorage, work arrays) given back.
   void TrimMemory();
   const Isam2Params& params() const { return params_; }
   int num_updates() const { return num_updates_; }

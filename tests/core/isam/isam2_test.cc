@@ -58,36 +58,6 @@ TEST_P(Isam2ParityTest, SettlesToTheBatchOptimum) {
 
 INSTANTIATE_TEST_SUITE_P(PlanarAndSpatial, Isam2ParityTest, ::testing::Bool());
 
-// TrimMemory gives back what the tree keeps for reuse and changes no number: a solver trimmed
-// every few steps gives bit for bit the estimates of one never trimmed, and holds less.
-TEST(Isam2Test, TrimMemoryChangesNothingButTheBytes) {
-  const testing::ExampleProblem p = testing::MakePlanarProblem(60, 6, 21);
-  auto plain = Isam2::Create().value();
-  auto trimmed = Isam2::Create().value();
-  const std::vector<testing::ExampleStep> steps = testing::StreamByPose(p);
-  for (std::size_t i = 0; i < steps.size(); ++i) {
-    ASSERT_TRUE(plain->Update(steps[i].factors, steps[i].values).status.ok());
-    ASSERT_TRUE(trimmed->Update(steps[i].factors, steps[i].values).status.ok());
-    if (i % 7 == 3) {
-      const Isam2Memory before = trimmed->MemoryUse();
-      trimmed->TrimMemory();
-      const Isam2Memory after = trimmed->MemoryUse();
-      // A freed clique keeps its empty lists' few bytes (index {0}, cached factor {0}).
-      EXPECT_LE(after.tree_free, 16u * static_cast<std::size_t>(trimmed->tree().NumSlots()));
-      EXPECT_LE(after.tree, before.tree);
-      const Status consistent = CheckConsistency(trimmed->tree());
-      ASSERT_TRUE(consistent.ok()) << consistent.ToString();
-    }
-    EXPECT_EQ(testing::MaxDifference(plain->CalculateEstimate(), trimmed->CalculateEstimate()), 0.0)
-        << "step " << i;
-  }
-  ASSERT_TRUE(plain->Refine(1.0).converged);
-  ASSERT_TRUE(trimmed->Refine(1.0).converged);
-  EXPECT_EQ(testing::MaxDifference(plain->CalculateEstimate(), trimmed->CalculateEstimate()), 0.0);
-  trimmed->TrimMemory();
-  EXPECT_LT(trimmed->MemoryUse().Total(), plain->MemoryUse().Total());
-}
-
 TEST(Isam2Test, RemovingAFactorEqualsNeverAddingIt) {
   const ExampleProblem p = testing::MakePlanarProblem(30, 0, 7);
   const std::vector<testing::ExampleStep> steps = testing::StreamByPose(p);

@@ -1,0 +1,43 @@
+// Isam2::MemoryUse and Isam2::TrimMemory (core/isam/isam2_memory.cc).
+#include <gtest/gtest.h>
+
+#include "core/inference/consistency_check.h"
+#include "core/isam/isam2.h"
+#include "tests/testing/example_graphs.h"
+#include "tests/testing/solver_checks.h"
+
+namespace slamd::core {
+namespace {
+
+// TrimMemory gives back what the tree keeps for reuse and changes no number: a solver trimmed
+// every few steps gives bit for bit the estimates of one never trimmed, and holds less.
+TEST(Isam2MemoryTest, TrimMemoryChangesNothingButTheBytes) {
+  const testing::ExampleProblem p = testing::MakePlanarProblem(60, 6, 21);
+  auto plain = Isam2::Create().value();
+  auto trimmed = Isam2::Create().value();
+  const std::vector<testing::ExampleStep> steps = testing::StreamByPose(p);
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    ASSERT_TRUE(plain->Update(steps[i].factors, steps[i].values).status.ok());
+    ASSERT_TRUE(trimmed->Update(steps[i].factors, steps[i].values).status.ok());
+    if (i % 7 == 3) {
+      const Isam2Memory before = trimmed->MemoryUse();
+      trimmed->TrimMemory();
+      const Isam2Memory after = trimmed->MemoryUse();
+      // A freed clique keeps its empty lists' few bytes (index {0}, cached factor {0}).
+      EXPECT_LE(after.tree_free, 16u * static_cast<std::size_t>(trimmed->tree().NumSlots()));
+      EXPECT_LE(after.tree, before.tree);
+      const Status consistent = CheckConsistency(trimmed->tree());
+      ASSERT_TRUE(consistent.ok()) << consistent.ToString();
+    }
+    EXPECT_EQ(testing::MaxDifference(plain->CalculateEstimate(), trimmed->CalculateEstimate()), 0.0)
+        << "step " << i;
+  }
+  ASSERT_TRUE(plain->Refine(1.0).converged);
+  ASSERT_TRUE(trimmed->Refine(1.0).converged);
+  EXPECT_EQ(testing::MaxDifference(plain->CalculateEstimate(), trimmed->CalculateEstimate()), 0.0);
+  trimmed->TrimMemory();
+  EXPECT_LT(trimmed->MemoryUse().Total(), plain->MemoryUse().Total());
+}
+
+}  // namespace
+}  // namespace slamd::core
