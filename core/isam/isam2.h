@@ -133,8 +133,8 @@ class Isam2 {
                          const Isam2Params::Relinearization& relinearization,
                          double wildfire_threshold);
 
-  // Step helpers (isam2_steps.cc); inputs by const&, outputs by pointer. Every helper that
-  // changes state records how to undo it in undo_.
+  // Step helpers (isam2_steps.cc, isam2_relinearization.cc); inputs by const&, outputs by pointer.
+  // Every helper that changes state records how to undo it in undo_.
   Status CheckInput(const FactorGraph& new_factors, const Values& new_values,
                     const Isam2UpdateOptions& options) const;
   void AddVariables(const Values& new_values);

@@ -5,6 +5,8 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdint>
+#include <cstdio>
 #include <cstring>
 
 namespace slamd::server::internal {
@@ -121,6 +123,26 @@ int64_t PreadUpTo(int fd, char* out, std::size_t n, int64_t offset) {
     done += static_cast<std::size_t>(r);
   }
   return static_cast<int64_t>(done);
+}
+
+std::string NumberedName(std::string_view prefix, int64_t number, std::string_view suffix) {
+  char digits[32];
+  std::snprintf(digits, sizeof(digits), "%020lld", static_cast<long long>(number));
+  return std::string(prefix) + digits + std::string(suffix);
+}
+
+int64_t ParseNumberedName(std::string_view name, std::string_view prefix, std::string_view suffix) {
+  constexpr std::size_t kDigits = 20;
+  if (name.size() != prefix.size() + kDigits + suffix.size()) return -1;
+  if (name.substr(0, prefix.size()) != prefix) return -1;
+  if (name.substr(name.size() - suffix.size()) != suffix) return -1;
+  int64_t number = 0;
+  for (std::size_t i = prefix.size(); i < prefix.size() + kDigits; ++i) {
+    if (name[i] < '0' || name[i] > '9') return -1;
+    if (number > (INT64_MAX - 9) / 10) return -1;
+    number = number * 10 + (name[i] - '0');
+  }
+  return number;
 }
 
 }  // namespace slamd::server::internal

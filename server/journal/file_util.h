@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <string_view>
 
 #include "core/base/status.h"
 
@@ -14,6 +15,12 @@ std::string ErrnoDescription(int err);
 
 // The directory part of a path ("." when there is none).
 std::string DirName(const std::string& path);
+
+// "<prefix><number, 20 digits zero-padded><suffix>": the names of journal segments and
+// snapshots (zero-padded: names sort by number), and the number such a name holds, -1 when
+// `name` is not one.
+std::string NumberedName(std::string_view prefix, int64_t number, std::string_view suffix);
+int64_t ParseNumberedName(std::string_view name, std::string_view prefix, std::string_view suffix);
 
 // Journal segments and snapshots hold every robot's data: owner-only, as is the data directory
 // slamd creates for them.

@@ -3,11 +3,10 @@
 #include <sys/stat.h>
 
 #include <algorithm>
-#include <cinttypes>
-#include <cstdio>
 #include <filesystem>
 #include <system_error>
 
+#include "server/journal/file_util.h"
 #include "slamd_proto/journal.pb.h"
 
 namespace slamd::server {
@@ -15,22 +14,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr char kPrefix[] = "journal-";
-constexpr char kSuffix[] = ".slamdj";
+constexpr std::string_view kPrefix = "journal-";
+constexpr std::string_view kSuffix = ".slamdj";
 
 // The base of a segment file name, -1 when `name` is not one.
 std::int64_t BaseOf(const std::string& name) {
-  const size_t prefix = sizeof(kPrefix) - 1, suffix = sizeof(kSuffix) - 1;
-  if (name.size() != prefix + 20 + suffix || name.compare(0, prefix, kPrefix) != 0 ||
-      name.compare(prefix + 20, suffix, kSuffix) != 0) {
-    return -1;
-  }
-  std::int64_t base = 0;
-  for (size_t i = prefix; i < prefix + 20; ++i) {
-    if (name[i] < '0' || name[i] > '9' || base > (INT64_MAX - 9) / 10) return -1;
-    base = base * 10 + (name[i] - '0');
-  }
-  return base;
+  return internal::ParseNumberedName(name, kPrefix, kSuffix);
 }
 
 std::int64_t FileSize(const std::string& path) {
@@ -41,9 +30,7 @@ std::int64_t FileSize(const std::string& path) {
 }  // namespace
 
 std::string JournalSegmentName(std::int64_t base) {
-  char name[64];
-  std::snprintf(name, sizeof(name), "%s%020" PRId64 "%s", kPrefix, base, kSuffix);
-  return name;
+  return internal::NumberedName(kPrefix, base, kSuffix);
 }
 
 std::string JournalSegmentPath(const std::string& dir, std::int64_t base) {

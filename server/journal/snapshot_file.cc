@@ -26,20 +26,10 @@ constexpr std::string_view kPrefix = "snapshot-";
 constexpr std::string_view kSuffix = ".snp";
 constexpr std::string_view kTempPrefix = ".snapshot-";
 constexpr std::string_view kTempSuffix = ".snp.tmp";
-constexpr std::size_t kSequenceDigits = 20;
 
 // The sequence of a final snapshot file name, or -1 when `name` is not one.
 int64_t ParseSnapshotName(std::string_view name) {
-  if (name.size() != kPrefix.size() + kSequenceDigits + kSuffix.size()) return -1;
-  if (name.substr(0, kPrefix.size()) != kPrefix) return -1;
-  if (name.substr(name.size() - kSuffix.size()) != kSuffix) return -1;
-  int64_t seq = 0;
-  for (std::size_t i = kPrefix.size(); i < kPrefix.size() + kSequenceDigits; ++i) {
-    if (name[i] < '0' || name[i] > '9') return -1;
-    if (seq > (INT64_MAX - 9) / 10) return -1;
-    seq = seq * 10 + (name[i] - '0');
-  }
-  return seq;
+  return internal::ParseNumberedName(name, kPrefix, kSuffix);
 }
 
 bool IsTempName(std::string_view name) {
@@ -141,9 +131,7 @@ core::Status SnapshotFileOptions::Validate() const {
 }
 
 std::string SnapshotFileName(int64_t sequence) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "snapshot-%020lld.snp", static_cast<long long>(sequence));
-  return buf;
+  return internal::NumberedName(kPrefix, sequence, kSuffix);
 }
 
 core::Result<std::string> WriteSnapshotFile(const std::string& dir, int64_t sequence,

@@ -10,30 +10,11 @@
 
 #include "core/factors/linearized_factor.h"
 #include "core/inference/node_removal.h"
+#include "tests/core/inference/dense_system.h"
 #include "tests/testing/example_graphs.h"
 
 namespace slamd::core {
 namespace {
-
-// Information and gradient of `factors` at θ over `keys` (dense).
-void TreeSystem(const std::vector<FactorPtr>& factors, const Values& theta, const KeyVector& keys,
-                std::vector<int>* at, Eigen::MatrixXd* H, Eigen::VectorXd* g) {
-  at->assign(1, 0);
-  for (Key k : keys) at->push_back(at->back() + theta.DimAt(theta.SlotOf(k)));
-  *H = Eigen::MatrixXd::Zero(at->back(), at->back());
-  *g = Eigen::VectorXd::Zero(at->back());
-  LinearizedFactor lf;
-  for (const FactorPtr& f : factors) {
-    f->Linearize(theta, &lf);
-    Eigen::MatrixXd j = Eigen::MatrixXd::Zero(lf.rows(), at->back());
-    for (int k = 0; k < lf.num_keys(); ++k) {
-      const auto i = std::find(keys.begin(), keys.end(), f->keys()[k]) - keys.begin();
-      j.middleCols((*at)[i], lf.dim(k)) = lf.Block(k);
-    }
-    *H += j.transpose() * j;
-    *g += j.transpose() * lf.Rhs();
-  }
-}
 
 TEST(ChowLiuTest, TreeKeepsEveryMarginalOfTheDenseSummary) {
   const ::slamd::testing::ExampleProblem p = ::slamd::testing::MakePlanarProblem(20, 4, 13);
@@ -50,11 +31,11 @@ TEST(ChowLiuTest, TreeKeepsEveryMarginalOfTheDenseSummary) {
     unary += f->keys().size() == 1;
   }
   EXPECT_EQ(unary, 1);  // the root
-  std::vector<int> at;
-  Eigen::MatrixXd dense_h, tree_h;
-  Eigen::VectorXd dense_g, tree_g;
-  TreeSystem({r.marginal}, p.initial, r.blanket, &at, &dense_h, &dense_g);
-  TreeSystem(r.summary, p.initial, r.blanket, &at, &tree_h, &tree_g);
+  const testing::DenseSystem dense = testing::Dense({r.marginal}, p.initial, r.blanket);
+  const testing::DenseSystem tree = testing::Dense(r.summary, p.initial, r.blanket);
+  const std::vector<int>& at = dense.column;
+  const Eigen::MatrixXd &dense_h = dense.H, &tree_h = tree.H;
+  const Eigen::VectorXd &dense_g = dense.g, &tree_g = tree.g;
   ASSERT_GT(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(dense_h).eigenvalues().minCoeff(),
             1e-6 * dense_h.diagonal().maxCoeff());
   const Eigen::MatrixXd dense_cov = dense_h.inverse(), tree_cov = tree_h.inverse();

@@ -11,40 +11,14 @@
 #include <set>
 
 #include "core/factors/linear_container_factor.h"
-#include "core/factors/linearized_factor.h"
+#include "tests/core/inference/dense_system.h"
 #include "tests/testing/example_graphs.h"
 
 namespace slamd::core {
 namespace {
 
-// The dense information matrix H = JᵀJ and gradient Jᵀb of `factors` at θ, in `keys` order.
-struct DenseSystem {
-  Eigen::MatrixXd H;
-  Eigen::VectorXd g;
-  std::vector<int> column;  // of keys[i]
-};
-
-DenseSystem Dense(const std::vector<FactorPtr>& factors, const Values& theta,
-                  const KeyVector& keys) {
-  DenseSystem s;
-  s.column.push_back(0);
-  for (Key k : keys) s.column.push_back(s.column.back() + theta.DimAt(theta.SlotOf(k)));
-  const int n = s.column.back();
-  s.H = Eigen::MatrixXd::Zero(n, n);
-  s.g = Eigen::VectorXd::Zero(n);
-  LinearizedFactor lf;
-  for (const FactorPtr& f : factors) {
-    f->Linearize(theta, &lf);
-    Eigen::MatrixXd j = Eigen::MatrixXd::Zero(lf.rows(), n);
-    for (int k = 0; k < lf.num_keys(); ++k) {
-      const auto at = std::find(keys.begin(), keys.end(), f->keys()[k]) - keys.begin();
-      j.middleCols(s.column[at], lf.dim(k)) = lf.Block(k);
-    }
-    s.H += j.transpose() * j;
-    s.g += j.transpose() * lf.Rhs();
-  }
-  return s;
-}
+using testing::Dense;
+using testing::DenseSystem;
 
 double Chi2At(const std::vector<FactorPtr>& factors, const Values& theta) {
   FactorGraph g;
