@@ -120,6 +120,7 @@ JsonWriter StatusJson(const slamd::status_t& s) {
       .Add("journal_disk_bytes", static_cast<long long>(s.journal_disk_bytes))
       .Add("journal_segments", s.journal_segments)
       .Add("removed_variables", static_cast<long long>(s.removed_variables))
+      .Add("merged_poses", static_cast<long long>(s.merged_poses))
       .Add("rss_bytes", static_cast<long long>(s.rss_bytes))
       .Add("chi2", s.chi2)
       .Add("residual_dimension", static_cast<long long>(s.residual_dimension))

@@ -11,6 +11,7 @@ namespace slamd::core {
 class FactorGraph {
  public:
   void Add(FactorPtr factor) { factors_.push_back(std::move(factor)); }
+  void Replace(std::size_t i, FactorPtr factor) { factors_.at(i) = std::move(factor); }
   template <typename F, typename... Args>
   void Emplace(Args&&... args) {
     factors_.push_back(std::make_shared<const F>(std::forward<Args>(args)...));

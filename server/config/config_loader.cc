@@ -161,6 +161,17 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
     if (w.has_keyframe_spacing_m()) p->estimator.window.keyframe_spacing_m = w.keyframe_spacing_m();
     if (w.has_every_updates()) p->estimator.window.every_updates = w.every_updates();
   }
+  const auto read_reduced = [](const auto& in, EstimatorParams::ReducedGraph* out) {
+    if (in.has_distance_m()) out->distance_m = in.distance_m();
+    if (in.has_angle_deg()) out->angle_deg = in.angle_deg();
+    if (in.has_keep_aliases()) out->keep_aliases = in.keep_aliases();
+  };
+  if (e.has_reduced()) read_reduced(e.reduced(), &p->estimator.reduced);
+  for (const auto& r : e.robot_reduced()) {
+    EstimatorParams::RobotReduced robot{.robot = r.robot(), .reduced = p->estimator.reduced};
+    read_reduced(r.reduced(), &robot.reduced);
+    p->estimator.robot_reduced.push_back(std::move(robot));
+  }
   for (const auto& r : e.robot_window()) {
     EstimatorParams::RobotWindow robot{.robot = r.robot(), .window = p->estimator.window};
     if (r.has_keep_poses()) robot.window.keep_poses = r.keep_poses();
@@ -319,6 +330,15 @@ std::string DefaultConfigText() {
       << "  }\n"
       << "  # robot_window { robot: \"car\" keep_poses: 500 keyframe_spacing_m: 2 }  # one "
          "robot's\n"
+      << "  reduced {  # reduced pose graph: revisiting a mapped area adds no nodes\n"
+      << "    distance_m: " << Num(d.estimator.reduced.distance_m)
+      << "  # a new pose this close to a pose node [m] is not added as a node; 0 = off\n"
+      << "    angle_deg: " << Num(d.estimator.reduced.angle_deg)
+      << "  # ... and turned this little [deg]\n"
+      << "    keep_aliases: " << d.estimator.reduced.keep_aliases
+      << "  # each robot's newest such poses that later messages may name\n"
+      << "  }\n"
+      << "  # robot_reduced { robot: \"car\" reduced { distance_m: 2 } }  # one robot's\n"
       << "}\n\n"
       << "journal {\n"
       << "  sync: "

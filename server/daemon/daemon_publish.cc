@@ -158,6 +158,7 @@ void Daemon::PublishStatus(const EstimateSnapshot& snap) {
   out.track_observations = snap.track_observations;
   out.landmarks_dropped = snap.counters.landmarks_dropped;
   out.removed_variables = snap.counters.removed_variables;
+  out.merged_poses = snap.counters.merged_poses;
   out.rss_bytes = core::ResidentBytes();
   out.num_rejects_by_reason = kNumRejectReasonCodes;
   out.rejects_by_reason.resize(kNumRejectReasonCodes);

@@ -1,8 +1,23 @@
 // BackgroundRebuild: background relinearisation. An update due to relinearise many variables
 // defers it (EstimatorParams::background_relinearization_above) and the estimator starts one of
 // these: a new solver made from the live factors at the current estimate on one helper thread,
-// slamd-rebuild, while the live solver keeps taking messages. See server/estimator/estimator.h
-// for the protocol (logging, catch-up rounds, the swap, determinism under replay).
+// slamd-rebuild, while the live solver keeps taking messages.
+//
+// The protocol. The new solver is made from the live factors at the current estimate (one batch
+// update, as Restore does, then the new solver's first relinearisation check). The live solver
+// keeps taking messages
+// meanwhile, without relinearisation checks (the rebuild relinearises everything); each of its
+// updates is logged for the rebuild (new factors, new variables with their initial guesses,
+// removals). The helper then catches up on that log in rounds, each taking what was logged
+// while the last one ran (and relinearising what moved), until nothing waits or it ran
+// EstimatorParams::rebuild_catch_up_rounds: a rebuild of a large map takes seconds, and the
+// updates logged meanwhile would otherwise be one long update on the estimator thread. It is
+// ready (RebuildReady) only then, so FinishRebuild (the daemon calls it as soon as RebuildReady)
+// gives the new solver just the updates logged since (usually none or one, unless the rounds ran
+// out) in one update (new variables at the live estimate) and swaps it in. Deterministic: the
+// same messages, refinements and swaps (with their catch-up rounds) in the same order give the
+// same state, whatever the threads' timing: the journal records each swap and its rounds, and a
+// replay runs the rounds it recorded.
 //
 // Threads: Start and the helper share only the log (under its mutex) and `done`; everything
 // else belongs to the helper until Ready(), then to the estimator thread (Log, Finish).

@@ -108,7 +108,10 @@ void Estimator::LogForRebuild(const core::FactorGraph& factors, const core::Valu
 std::vector<Key> Estimator::NewestPoses() const {
   std::vector<Key> keys;
   for (std::uint8_t id : registry_.ids()) {
-    if (robots_[id].anchored) keys.push_back(MakeKey('x', robots_[id].newest, id));
+    if (!robots_[id].anchored) continue;
+    const Key newest = MakeKey('x', robots_[id].newest, id);
+    const auto alias = reduced_.aliases.find(newest);
+    keys.push_back(alias == reduced_.aliases.end() ? newest : alias->second.anchor);
   }
   return keys;
 }
@@ -158,11 +161,16 @@ core::Result<bool> Estimator::FinishRebuild(std::span<const int> replay_rounds) 
 }
 
 bool Estimator::Known(Key key, const Staged& s) const {
-  return s.values.Contains(key) || isam_->linearization_point().Contains(key);
+  return s.values.Contains(key) || isam_->linearization_point().Contains(key) ||
+         (s.reduced.pending_pose && s.reduced.pending_pose->first == key) ||
+         FindAlias(key, s) != nullptr;
 }
 
 Variable Estimator::Estimate(Key key, const Staged& s) const {
   if (s.values.Contains(key)) return s.values.Get(key);
+  if (s.reduced.pending_pose && s.reduced.pending_pose->first == key)
+    return s.reduced.pending_pose->second;
+  if (const PoseAlias* alias = FindAlias(key, s)) return AliasEstimate(*alias, &s);
   return isam_->CalculateEstimate(key);
 }
 
@@ -171,9 +179,14 @@ void Estimator::FirstTime(const MeasurementId& id, Staged* s) {
   s->pending_existing = nullptr;
   if (const auto it = applied_.find(id); it != applied_.end()) {
     s->pending_existing = isam_->factor_slots()[solver_index_[it->second]];
+  } else if (const auto m = reduced_.merged.find(id); m != reduced_.merged.end()) {
+    s->pending_existing = m->second;
   } else if (s->seen.count(id) != 0) {
     for (const auto& [position, staged_id, first] : s->ids) {
       if (staged_id == id) s->pending_existing = s->factors[position];
+    }
+    for (const auto& [merged_id, factor] : s->reduced.merged) {
+      if (merged_id == id) s->pending_existing = factor;
     }
   }
   s->seen.insert(id);
@@ -185,12 +198,17 @@ Outcome Estimator::AddMeasured(core::FactorPtr factor, Key first, const char* wh
   const MeasurementId id = *s->pending_id;
   s->pending_id.reset();
   if (const core::FactorPtr existing = std::move(s->pending_existing)) {
+    s->reduced.pending_pose.reset();  // the pose it would place is not added
     if (core::SameMeasurement(*existing, *factor)) return Outcome::kAlreadyHeld;
     *v = {RejectReason::kDuplicate, std::string(what) + ": a different measurement between " +
                                         core::KeyToString(std::get<1>(id)) + " and " +
                                         core::KeyToString(std::get<2>(id)) +
                                         " was already applied"};
     return Outcome::kRejected;
+  }
+  if (s->reduced.pending_pose || std::any_of(factor->keys().begin(), factor->keys().end(),
+                                             [&](Key k) { return FindAlias(k, *s) != nullptr; })) {
+    return AddReduced(std::move(factor), first, id, s, v);
   }
   s->ids.emplace_back(s->factors.size(), id, first);
   s->factors.Add(std::move(factor));
@@ -235,6 +253,14 @@ class Estimator::Builder final : public GraphBuilder {
   bool Known(Key key) const override { return e_.Known(key, s_); }
   Variable Estimate(Key key) const override { return e_.Estimate(key, s_); }
   void AddPose(std::uint8_t robot, std::uint64_t index, const Variable& value) override {
+    if (e_.robots_[robot].anchored && e_.ReducedFor(robot) != nullptr && !s_.reduced.pending_pose) {
+      // Node or alias: its factor (AddMeasured) decides.
+      s_.reduced.pending_pose.emplace(MakeKey('x', index, robot), value);
+      RobotState& r = e_.Robot(robot, &s_);
+      if (index > r.newest) r.newest = index;
+      e_.Touch(robot, in_, &s_);
+      return;
+    }
     e_.AddPose(robot, index, value, in_, &s_);
   }
   void AddVariable(Key key, const Variable& value) override {
@@ -395,15 +421,22 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
     Reject(part.message, part.verdict.reason, std::move(part.verdict.message), &result);
   }
   if (s.factors.size() == 0 && s.values.empty()) {
-    // Applied without factors (a camera_info_t, features that joined tracks): nothing to undo.
+    // Applied without factors (a camera_info_t, features that joined tracks, poses the reduced
+    // graph held as aliases): nothing to undo.
     CommitCamerasAndTracks(&result);
+    CommitReduced(&s);
     result.applied += static_cast<int>(applied.size());
     counters_.applied += static_cast<std::int64_t>(applied.size());
     PublishSnapshot(false);
     return;
   }
   FinishUpdate();  // a removal's update earlier in this Process
-  result.updates.push_back(isam_->Update(s.factors, s.values, ProcessUpdateOptions()));
+  core::Isam2UpdateOptions options = ProcessUpdateOptions();
+  for (int n : s.reduced.replaced) options.remove_factors.push_back(solver_index_[n]);
+  for (Key& k : options.solve_first) {  // a newest pose this batch made an alias: its anchor
+    if (const PoseAlias* alias = FindAlias(k, s)) k = alias->anchor;
+  }
+  result.updates.push_back(isam_->Update(s.factors, s.values, options));
   const core::Isam2Result& update = result.updates.back();
   if (!update.status.ok()) {
     if (result.status.ok()) result.status = update.status;
@@ -428,13 +461,14 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
   }
   num_factors_ += static_cast<std::int64_t>(s.factors.size());
   for (const core::FactorPtr& f : s.factors.factors()) residual_dimension_ += f->dim();
+  CommitReduced(&s);
   result.applied += static_cast<int>(applied.size());
   for (size_t i : applied) result.applied_received_us.push_back(pending[i].message.received_us);
   counters_.applied += static_cast<std::int64_t>(applied.size());
   ++counters_.updates;
   settled_ = false;
   PublishSnapshot(true);
-  LogForRebuild(s.factors, s.values, update, {});
+  LogForRebuild(s.factors, s.values, update, options.remove_factors);
   AfterUpdateOnceSolved(update.relinearization_deferred);
 }
 
@@ -447,7 +481,11 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
       RemoveFactorSpec::Identity(r, Builder(*this, none, in), &first, &why);
   const auto it = id ? applied_.find(*id) : applied_.end();
   if (!id || it == applied_.end() || applied_factors_[it->second].first != first) {
-    if (id) {
+    if (id && reduced_.merged.count(*id) != 0) {
+      why =
+          "remove_factor_t: the measurement was composed onto other poses by the reduced pose "
+          "graph (estimator.reduced) and cannot be removed";
+    } else if (id) {
       why = "remove_factor_t: no such measurement was applied (from " +
             core::KeyToString(std::get<1>(*id)) +
             (std::get<2>(*id) != 0 ? " to " + core::KeyToString(std::get<2>(*id)) : "") +
@@ -500,94 +538,6 @@ core::Isam2::RefineResult Estimator::Refine(double budget_s, int max_rounds) {
   if (settled_) isam_->TrimMemory();  // at rest: give back what updates keep for reuse
   PublishSnapshot(r.rounds > 0);
   return r;
-}
-
-core::Result<Variable> Estimator::PoseEstimate(const std::string& robot,
-                                               std::uint64_t index) const {
-  const auto id = registry_.Find(robot);
-  const Key key = id ? MakeKey('x', index, *id) : 0;
-  if (!id || !isam_->linearization_point().Contains(key)) {
-    return core::NotFound(PoseName(robot, index) + " is not in the graph");
-  }
-  return isam_->CalculateEstimate(key);
-}
-
-std::optional<Key> Estimator::KeyOf(const WireKey& key) const {
-  if (key.index > core::kMaxKeyIndex) return std::nullopt;
-  Key k;
-  if (key.kind == KeyKind::kMapLandmark) {
-    k = MapLandmarkKey(key.index);
-  } else {
-    const auto id = registry_.Find(key.robot);
-    if (!id) return std::nullopt;
-    k = MakeKey(key.kind == KeyKind::kPose ? 'x' : 'l', key.index, *id);
-  }
-  if (!isam_->linearization_point().Contains(k)) return std::nullopt;
-  return k;
-}
-
-core::Status Estimator::Marginal(Key key, Eigen::MatrixXd* cov) {
-  return marginals_->Marginal(key, core::Isam2Marginals::Frame::kEstimate, cov);
-}
-
-core::Status Estimator::JointMarginal(std::span<const Key> keys, Eigen::MatrixXd* cov) {
-  return marginals_->JointMarginal(keys, core::Isam2Marginals::Frame::kEstimate, cov);
-}
-
-void Estimator::ComputeAllMarginals() { marginals_->ComputeAll(); }
-
-core::Status Estimator::CachedMarginal(Key key, Eigen::MatrixXd* cov) const {
-  return marginals_->CachedMarginal(key, core::Isam2Marginals::Frame::kEstimate, cov);
-}
-
-void Estimator::PublishSnapshot(bool bump) {
-  if (bump) ++sequence_;
-  auto snap = std::make_shared<EstimateSnapshot>();
-  snap->update_sequence = sequence_;
-  snap->num_variables = static_cast<std::int64_t>(isam_->linearization_point().size());
-  snap->num_factors = num_factors_;
-  snap->residual_dimension = residual_dimension_;
-  snap->held_messages = static_cast<int>(held_.size());
-  snap->landmark_tracks = tracks_.num_tracks();
-  snap->track_observations = tracks_.num_observations();
-  snap->settled = settled_;
-  // chi2 is O(factors): after every update it would dominate a long run's update time. It is
-  // recomputed at most every chi2_interval_s and at most 2% of the time, and whenever the
-  // estimate settles; a swapped-in rebuild brings one computed on its helper thread.
-  constexpr double kChi2MaxLoad = 0.02;
-  const auto now = std::chrono::steady_clock::now();
-  const double since = std::chrono::duration<double>(now - chi2_time_).count();
-  const double interval = params_.chi2_interval_s;
-  const bool due = since >= interval && (interval == 0.0 || since * kChi2MaxLoad >= chi2_cost_s_);
-  const bool solved = !isam_->back_substitution_pending();  // chi2 needs all of δ
-  if (solved && (chi2_sequence_ < 0 || (chi2_sequence_ != sequence_ && (due || settled_)))) {
-    chi2_ = isam_->Chi2();
-    chi2_sequence_ = sequence_;
-    chi2_time_ = std::chrono::steady_clock::now();
-    chi2_cost_s_ = std::chrono::duration<double>(chi2_time_ - now).count();
-  }
-  snap->chi2 = chi2_;
-  snap->chi2_sequence = chi2_sequence_;
-  for (std::uint8_t id : registry_.ids()) {
-    RobotState& r = robots_[id];
-    if (!r.anchored) continue;
-    if (bump) {
-      const Variable pose = isam_->CalculateEstimate(MakeKey('x', r.newest, id));
-      const bool moved = r.moved_sequence == 0 || r.published_index != r.newest ||
-                         pose.index() != r.published.index() ||
-                         core::LocalCoordinates(r.published, pose).squaredNorm() > 0.0;
-      if (moved) {
-        r.published = pose;
-        r.published_index = r.newest;
-        r.moved_sequence = sequence_;
-      }
-    }
-    if (r.moved_sequence == 0) continue;  // anchored by a batch that failed or not updated yet
-    snap->robots.push_back({registry_.Name(id), id, r.published_index, r.published,
-                            r.moved_sequence, r.measurement_utime, r.received_us});
-  }
-  snap->counters = counters_;
-  snapshot_ = std::move(snap);
 }
 
 }  // namespace slamd::server

@@ -34,22 +34,9 @@
 // (msgs/lcm/remove_factor_t.lcm); none matching is kUnknownFactor. A removed measurement may be
 // sent again. Origin anchors (kAnchorAtOrigin) cannot be removed.
 //
-// Background relinearisation (EstimatorParams::background_relinearization_above): an update due
-// to relinearise many variables defers it and starts a rebuild: a new solver is made from the
-// live factors at the current estimate (one batch update, as Restore does, then the new solver's
-// first relinearisation check) on one helper thread. The live solver keeps taking messages
-// meanwhile, without relinearisation checks (the rebuild relinearises everything); each of its
-// updates is logged for the rebuild (new factors, new variables with their initial guesses,
-// removals). The helper then catches up on that log in rounds, each taking what was logged
-// while the last one ran (and relinearising what moved), until nothing waits or it ran
-// EstimatorParams::rebuild_catch_up_rounds: a rebuild of a large map takes seconds, and the
-// updates logged meanwhile would otherwise be one long update on the estimator thread. It is
-// ready (RebuildReady) only then, so FinishRebuild (the daemon calls it as soon as RebuildReady)
-// gives the new solver just the updates logged since (usually none or one, unless the rounds ran
-// out) in one update (new variables at the live estimate) and swaps it in. Deterministic: the
-// same messages, refinements and swaps (with their catch-up rounds) in the same order give the
-// same state, whatever the threads' timing: the journal records each swap and its rounds, and a
-// replay runs the rounds it recorded.
+// Background relinearisation (EstimatorParams::background_relinearization_above) swaps in a
+// rebuilt solver (background_rebuild.h); the reduced pose graph (EstimatorParams::reduced) holds
+// new poses in a mapped area as aliases of nodes (reduced_graph.h).
 //
 // Exactness: with refinement and background relinearisation off, each Process call is exactly one
 // Isam2::Update of the factors in message order and the values in creation order, so feeding the
@@ -60,27 +47,25 @@
 // to rounding (tested to 1e-9).
 #pragma once
 
-#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <deque>
 #include <limits>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <set>
 #include <span>
 #include <string>
 #include <thread>
 #include <tuple>
-#include <variant>
 #include <vector>
 
 #include "core/isam/isam2.h"
 #include "core/marginals/marginals.h"
 #include "server/estimator/background_rebuild.h"
 #include "server/estimator/estimator_params.h"
+#include "server/estimator/reduced_graph.h"
 #include "server/estimator/robot_registry.h"
 #include "server/messages/inbound.h"
 #include "server/messages/landmark_tracks.h"
@@ -119,9 +104,8 @@ class Estimator {
 
   // An estimator rebuilt from a state exported by ExportState (a snapshot): the factors are
   // eliminated in one batch at the state's linearisation point, so the estimate is re-solved
-  // there (equal to the exported one up to the partial back-substitution's tolerance).
-  // DataLoss naming what is inconsistent (a factor index out of range, a robot id that does
-  // not match registration order, a factor on an unknown variable).
+  // there (equal to the exported one up to the partial back-substitution's tolerance). DataLoss
+  // naming what is inconsistent (a factor index out of range, a robot id out of order, ...).
   static core::Result<std::unique_ptr<Estimator>> Restore(const EstimatorParams& params,
                                                           const core::Isam2Params& isam2,
                                                           const EstimatorState& state);
@@ -150,8 +134,7 @@ class Estimator {
   core::Result<bool> FinishRebuild(std::span<const int> replay_rounds = {});
   // The catch-up rounds of the last swap (logged updates per round), for the journal.
   const std::vector<int>& last_swap_rounds() const { return last_swap_rounds_; }
-  // Replaying a journal: rebuilds run no catch-up rounds on their helper (the swap records say).
-  void SetReplaying(bool replaying) { replaying_ = replaying; }
+  void SetReplaying(bool replaying) { replaying_ = replaying; }  // no catch-up rounds on helpers
 
   // Lifelong window (EstimatorParams::window, pose_window.cc): when due and no rebuild is in
   // flight, removes old poses but keyframes by RemoveVariables; the keys, for the journal.
@@ -167,7 +150,7 @@ class Estimator {
 
   std::shared_ptr<const EstimateSnapshot> snapshot() const { return snapshot_; }  // never null
 
-  // The current estimate of pose `index` of `robot` (NotFound when not in the graph).
+  // The current estimate of pose `index` of `robot`, a node or an alias (NotFound otherwise).
   core::Result<core::Variable> PoseEstimate(const std::string& robot, std::uint64_t index) const;
   // The solver key of a wire key; nullopt when that variable is not in the graph.
   std::optional<core::Key> KeyOf(const WireKey& key) const;
@@ -190,9 +173,9 @@ class Estimator {
  private:
   Estimator(const EstimatorParams& params, std::unique_ptr<core::Isam2> isam);
 
-  struct Held {
+  struct Held {  // a message waiting for a pose, and the Process calls it has waited through
     Inbound message;
-    int waited = 0;  // Process calls it has waited through
+    int waited = 0;
   };
   struct AppliedFactor {
     MeasurementId id;
@@ -211,6 +194,7 @@ class Estimator {
     core::FactorPtr pending_existing;
     std::vector<std::pair<std::uint8_t, RobotState>> robots_before;  // for rollback
     std::vector<Rejection> parts;  // rejected parts of messages (GraphBuilder::RejectPart)
+    ReducedGraphStage reduced;
   };
 
   // The GraphBuilder a message's spec applies itself to: this estimator's state and batch `s`.
@@ -237,8 +221,7 @@ class Estimator {
   // update and rejects those dropped (never determined).
   void CommitCamerasAndTracks(ProcessResult* result);
   void PublishSnapshot(bool bump);
-  // Options for every update from messages (the deferral), and what follows an update.
-  core::Isam2UpdateOptions UpdateOptions() const;
+  core::Isam2UpdateOptions UpdateOptions() const;  // of every update from messages (deferral)
   // After an update and its whole back-substitution: starts a rebuild for what it deferred.
   void AfterUpdate(int relinearization_deferred);
   // AfterUpdate now, or in FinishUpdate when the update left part of its back-substitution.
@@ -247,9 +230,26 @@ class Estimator {
   core::Isam2UpdateOptions ProcessUpdateOptions() const;
   void StartRebuild();
   core::Status RemoveChunk(std::span<const core::Key> keys);  // RemoveVariables' steps
-  // The newest pose of every anchored robot (what the next updates most likely touch).
+  // Reduced pose graph (estimator_reduced.cc): a robot's policy (nullptr: off); a pose's alias
+  // (staged or committed; nullptr for a node or unknown pose) and its estimate (anchor ∘ offset).
+  const EstimatorParams::ReducedGraph* ReducedFor(std::uint8_t robot) const;
+  const PoseAlias* FindAlias(core::Key pose, const Staged& s) const;
+  core::Variable AliasEstimate(const PoseAlias& alias, const Staged* s = nullptr) const;
+  // AddMeasured of a factor that places a pending pose or names an alias (reduced_graph.h).
+  Outcome AddReduced(core::FactorPtr factor, core::Key first, const MeasurementId& id, Staged* s,
+                     Verdict* v);
+  // Stages a composed factor on (a, b) (kind 0: relative pose, 1: point in a's frame), fused
+  // with the composed one there; false when its covariance is unusable.
+  bool AddComposed(core::Key a, core::Key b, int kind, ComposedMeasurement m,
+                   const core::RobustKernel& robust, Staged* s);
+  bool Promote(core::Key pose, Staged* s);  // the robot's newest pose, an alias, made a node
+  bool NearNode(const core::Variable& at, const EstimatorParams::ReducedGraph& policy,
+                const Staged& s) const;
+  // After a successful update: the batch's aliases and merged measurements; forgets aliases
+  // beyond each robot's keep_aliases (and the merged measurements that named them).
+  void CommitReduced(Staged* s);
+  // The newest pose of every anchored robot (its anchor when an alias): what updates touch next.
   std::vector<core::Key> NewestPoses() const;
-
   // Logs a successful live update for the rebuild in flight (if any).
   void LogForRebuild(const core::FactorGraph& factors, const core::Values& values,
                      const core::Isam2Result& update, std::span<const int> removed);
@@ -259,8 +259,7 @@ class Estimator {
   std::unique_ptr<core::Isam2> isam_;
   RobotRegistry registry_;
   RobotState robots_[256];
-  // Applied (not removed) measurements -> their factor number, which indexes the two vectors
-  // below.
+  // Applied (not removed) measurements -> their factor number (indexes the two vectors below).
   std::map<MeasurementId, int> applied_;
   // Per factor number: the measurement. A vector, not the map's values, so that a snapshot's
   // export walks it in one pass (walking the map took 75-140 ms at 375k factors in the soak).
@@ -283,6 +282,7 @@ class Estimator {
   CameraTable cameras_;
   LandmarkTracks tracks_;
   EstimatorCounters counters_;
+  mutable ReducedGraphState reduced_;  // NearNode rebuilds its grid
   std::int64_t sequence_ = 0;
   std::int64_t window_sequence_ = 0;  // the update sequence the window last ran at
   std::int64_t num_factors_ = 0;

@@ -47,6 +47,11 @@ EstimatorState Estimator::ExportState() const {
       state.track_observations.push_back({{.measurement = o}, track.waited});
     }
   }
+  state.aliases.assign(reduced_.aliases.begin(), reduced_.aliases.end());
+  for (const auto& [id, factor] : reduced_.merged) {
+    const auto& [type, a, b, kind] = id;
+    state.merged.push_back({type, a, b, kind, factor});
+  }
   state.counters = counters_;
   state.num_factors = num_factors_;
   state.residual_dimension = residual_dimension_;
@@ -84,11 +89,27 @@ core::Result<std::unique_ptr<Estimator>> Estimator::Restore(const EstimatorParam
     e->applied_[id] = a.factor;
     e->applied_factors_[a.factor] = {id, a.first, a.dim};
   }
+  for (const auto& [pose, alias] : state.aliases) {
+    if (!state.linearization_point.Contains(alias.anchor) ||
+        core::TypeOf(state.linearization_point.Get(alias.anchor)) != core::TypeOf(alias.offset) ||
+        state.linearization_point.Contains(pose)) {
+      return core::DataLoss("snapshot: pose alias " + core::KeyToString(pose) +
+                            " is a node, or its anchor " + core::KeyToString(alias.anchor) +
+                            " is not a pose of its kind in the graph");
+    }
+    e->reduced_.aliases[pose] = alias;
+  }
+  for (const EstimatorState::Merged& m : state.merged) {
+    const MeasurementId id{m.type, m.a, m.b, m.kind};
+    e->reduced_.merged_by_pose[e->reduced_.aliases.count(m.a) != 0 ? m.a : m.b].push_back(id);
+    e->reduced_.merged[id] = m.factor;
+  }
   // An anchored robot's newest pose is read after every update: it must be in the graph.
   for (const EstimatorState::Robot& r : state.robots) {
     if (!r.state.anchored) continue;
     if (r.state.newest > core::kMaxKeyIndex ||
-        !state.linearization_point.Contains(MakeKey('x', r.state.newest, r.id))) {
+        (!state.linearization_point.Contains(MakeKey('x', r.state.newest, r.id)) &&
+         e->reduced_.aliases.count(MakeKey('x', r.state.newest, r.id)) == 0)) {
       return core::DataLoss("snapshot: robot '" + r.name + "' is anchored but its newest pose " +
                             std::to_string(r.state.newest) + " is not in the graph");
     }

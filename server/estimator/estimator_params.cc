@@ -13,6 +13,13 @@ const EstimatorParams::PoseWindow& EstimatorParams::WindowOf(const std::string& 
   return window;
 }
 
+const EstimatorParams::ReducedGraph& EstimatorParams::ReducedOf(const std::string& robot) const {
+  for (const RobotReduced& r : robot_reduced) {
+    if (r.robot == robot) return r.reduced;
+  }
+  return reduced;
+}
+
 core::Status EstimatorParams::Validate() const {
   const EstimatorParams& estimator = *this;
   if (new_robot_anchor != AnchorPolicy::kHoldUntilConnected &&
@@ -57,6 +64,33 @@ core::Status EstimatorParams::Validate() const {
     if (!(w.keyframe_spacing_m >= 0.0)) {
       return core::InvalidArgument(
           at + ".keyframe_spacing_m = " + std::to_string(w.keyframe_spacing_m) + "; violates >= 0");
+    }
+  }
+  for (std::size_t i = 0; i <= robot_reduced.size(); ++i) {
+    const std::string at = i == robot_reduced.size()
+                               ? std::string("estimator.reduced")
+                               : "estimator.robot_reduced[" + std::to_string(i) + "]";
+    const ReducedGraph& r = i == robot_reduced.size() ? reduced : robot_reduced[i].reduced;
+    if (i < robot_reduced.size()) {
+      if (robot_reduced[i].robot.empty()) return core::InvalidArgument(at + ".robot is empty");
+      for (std::size_t j = 0; j < i; ++j) {
+        if (robot_reduced[j].robot == robot_reduced[i].robot) {
+          return core::InvalidArgument(at + ".robot = \"" + robot_reduced[i].robot +
+                                       "\"; already given a reduced graph");
+        }
+      }
+    }
+    if (!(r.distance_m >= 0.0 && r.distance_m < 1e6)) {
+      return core::InvalidArgument(at + ".distance_m = " + std::to_string(r.distance_m) +
+                                   "; violates >= 0 and < 1e6");
+    }
+    if (!(r.angle_deg > 0.0 && r.angle_deg <= 180.0)) {
+      return core::InvalidArgument(at + ".angle_deg = " + std::to_string(r.angle_deg) +
+                                   "; violates > 0 and <= 180");
+    }
+    if (r.keep_aliases < 1) {
+      return core::InvalidArgument(at + ".keep_aliases = " + std::to_string(r.keep_aliases) +
+                                   "; violates >= 1");
     }
   }
   const core::Result<core::RobustKernel::Kind> kind =

@@ -118,6 +118,29 @@ struct EstimatorParams {
   // The window that applies to `robot`.
   const PoseWindow& WindowOf(const std::string& robot) const;
 
+  // Reduced pose graph (server/estimator/reduced_graph.h): a robot's new pose within
+  // distance_m and angle_deg of a pose already in the map (any robot's) is not added as a node
+  // but held relative to its robot's last node, and its measurements composed onto that node,
+  // so revisiting a mapped area grows neither the graph nor memory. distance_m 0 = off (every
+  // pose a node); > 0 also spaces a robot's nodes at least that far. angle_deg in (0, 180].
+  // A robot keeps its last keep_aliases aliases (>= 1) for messages that name them (a loop
+  // closure to a recent pose); older ones are forgotten (such a message is rejected as
+  // naming an unknown pose).
+  struct ReducedGraph {
+    double distance_m = 0.0;
+    double angle_deg = 30.0;
+    int keep_aliases = 2000;
+  };
+  ReducedGraph reduced = {};
+  // Per robot (by name): its own distance_m and angle_deg in place of reduced's.
+  struct RobotReduced {
+    std::string robot;
+    ReducedGraph reduced;
+  };
+  std::vector<RobotReduced> robot_reduced = {};
+  // The reduced graph that applies to `robot`.
+  const ReducedGraph& ReducedOf(const std::string& robot) const;
+
   core::Status Validate() const;
 };
 

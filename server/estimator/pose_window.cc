@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <map>
+#include <set>
 
 #include "server/estimator/estimator.h"
 
@@ -16,15 +17,6 @@ namespace {
 // stretch of old poses does not stall the estimator for seconds.
 constexpr std::size_t kRemovalChunk = 16;
 constexpr std::size_t kMaxRemovedPerPass = 256;
-
-// A pose's position (Pose2: z = 0); nullopt for other kinds.
-std::optional<core::Vector3> PositionOf(const core::Variable& v) {
-  if (const auto* p = std::get_if<core::Pose2>(&v)) {
-    return core::Vector3(p->translation().x(), p->translation().y(), 0.0);
-  }
-  if (const auto* p = std::get_if<core::Pose3>(&v)) return p->translation();
-  return std::nullopt;
-}
 
 }  // namespace
 
@@ -85,6 +77,13 @@ std::vector<core::Key> Estimator::ApplyPoseWindow() {
       if (!keep) removed.push_back(key);
     }
   }
+  // A robot's newest pose held as an alias (reduced pose graph) keeps its anchor.
+  std::set<core::Key> anchors;
+  for (std::uint8_t robot : registry_.ids()) {
+    const auto it = reduced_.aliases.find(core::MakeKey('x', robots_[robot].newest, robot));
+    if (it != reduced_.aliases.end()) anchors.insert(it->second.anchor);
+  }
+  std::erase_if(removed, [&](core::Key k) { return anchors.count(k) != 0; });
   if (removed.empty()) return {};
   if (removed.size() > kMaxRemovedPerPass) removed.resize(kMaxRemovedPerPass);
   // A chunk that fails (nothing of it changed) ends the pass; the next tries again.
@@ -134,6 +133,9 @@ core::Status Estimator::RemoveChunk(std::span<const core::Key> keys) {
     const auto it = applied_.find(applied_factors_[n].id);
     if (it != applied_.end() && it->second == n) applied_.erase(it);
   }
+  // Aliases anchored at a removed pose go with it.
+  const std::set<core::Key> gone(keys.begin(), keys.end());
+  std::erase_if(reduced_.aliases, [&](const auto& a) { return gone.count(a.second.anchor) != 0; });
   num_factors_ -= static_cast<std::int64_t>(r.removed_factors.size());
   residual_dimension_ -= r.removed_dimension;
   for (int f : r.summary_factors) {

@@ -25,6 +25,8 @@ struct EstimatorCounters {
   std::int64_t rebuilds = 0;  // background rebuilds swapped in
   std::int64_t landmarks_dropped = 0;  // camera landmarks never determined (LandmarkTracks)
   std::int64_t removed_variables = 0;  // by the lifelong window (EstimatorParams::window)
+  // New poses the reduced pose graph held as aliases of existing nodes (EstimatorParams::reduced)
+  std::int64_t merged_poses = 0;
   std::array<std::int64_t, kNumRejectReasonCodes> rejects_by_reason = {};
 };
 

@@ -4,6 +4,7 @@
 // objects, so a copy is cheap: O(variables + factors) pointers and values.
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -26,6 +27,14 @@ struct RobotState {
   core::Variable published;  // the newest pose's estimate in the last EstimateSnapshot
   std::uint64_t published_index = 0;
   std::int64_t moved_sequence = 0;  // the update sequence that last moved it
+};
+
+// A pose the reduced pose graph holds as no node (server/estimator/reduced_graph.h): anchor ∘
+// offset, the anchor a pose node, the offset's covariance in its chart (right perturbation).
+struct PoseAlias {
+  core::Key anchor = 0;
+  core::Variable offset;  // Pose2 or Pose3
+  Eigen::MatrixXd covariance;
 };
 
 struct EstimatorState {
@@ -61,6 +70,17 @@ struct EstimatorState {
   // updates their landmark has waited.
   std::vector<Inbound> cameras = {};
   std::vector<HeldMessage> track_observations = {};
+
+  // The reduced pose graph: poses held as aliases, and the measurements it composed onto their
+  // anchors or absorbed (their identity and factor, for duplicates).
+  std::vector<std::pair<core::Key, PoseAlias>> aliases = {};
+  struct Merged {
+    char type = 0;
+    core::Key a = 0, b = 0;
+    int kind = 0;
+    core::FactorPtr factor;
+  };
+  std::vector<Merged> merged = {};
 
   EstimatorCounters counters;
   std::int64_t num_factors = 0;

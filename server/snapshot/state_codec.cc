@@ -209,6 +209,25 @@ std::string EncodeState(const EstimatorState& state, const JournalPosition& posi
   for (const EstimatorState::HeldMessage& h : state.track_observations) {
     WriteHeld(h.message, h.waited, out.add_track_observations());
   }
+  for (const auto& [pose, alias] : state.aliases) {
+    pb::PoseAlias* m = out.add_aliases();
+    m->set_pose(pose);
+    m->set_anchor(alias.anchor);
+    WriteVariable(alias.offset, m->mutable_offset());
+    for (int row = 0; row < alias.covariance.rows(); ++row) {
+      for (int col = 0; col < alias.covariance.cols(); ++col) {
+        m->add_covariance(alias.covariance(row, col));
+      }
+    }
+  }
+  for (const EstimatorState::Merged& merged : state.merged) {
+    pb::MergedMeasurement* m = out.add_merged();
+    m->set_type(merged.type);
+    m->set_key_a(merged.a);
+    m->set_key_b(merged.b);
+    m->set_kind(merged.kind);
+    WriteFactor(*merged.factor, m->mutable_factor());
+  }
   pb::Counters* c = out.mutable_counters();
   c->set_processed(state.counters.processed);
   c->set_applied(state.counters.applied);
@@ -217,6 +236,7 @@ std::string EncodeState(const EstimatorState& state, const JournalPosition& posi
   c->set_already_held(state.counters.already_held);
   c->set_landmarks_dropped(state.counters.landmarks_dropped);
   c->set_removed_variables(state.counters.removed_variables);
+  c->set_merged_poses(state.counters.merged_poses);
   c->set_updates(state.counters.updates);
   c->set_refinements(state.counters.refinements);
   c->set_rebuilds(state.counters.rebuilds);
@@ -279,6 +299,26 @@ core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition
     if (!msg.ok()) return msg.status();
     state.track_observations.push_back({std::move(msg).value(), m.waited()});
   }
+  for (const pb::PoseAlias& m : in.aliases()) {
+    const std::string what = "pose alias " + core::KeyToString(m.pose());
+    core::Result<core::Variable> offset = ReadVariable(m.offset(), what);
+    if (!offset.ok()) return offset.status();
+    const int n = core::TangentDim(core::TypeOf(offset.value()));
+    if (m.covariance_size() != n * n || !Plausible(m.covariance().data(), n * n)) {
+      return core::DataLoss("snapshot: " + what + ": covariance is not " + std::to_string(n) + "x" +
+                            std::to_string(n) + " finite numbers");
+    }
+    Eigen::MatrixXd cov(n, n);
+    for (int i = 0; i < n * n; ++i) cov(i / n, i % n) = m.covariance(i);
+    state.aliases.push_back({m.pose(), PoseAlias{m.anchor(), offset.value(), cov}});
+  }
+  for (int i = 0; i < in.merged_size(); ++i) {
+    const pb::MergedMeasurement& m = in.merged(i);
+    core::Result<core::FactorPtr> f = ReadFactor(m.factor(), i);
+    if (!f.ok()) return f.status();
+    state.merged.push_back(
+        {static_cast<char>(m.type()), m.key_a(), m.key_b(), m.kind(), std::move(f).value()});
+  }
   const pb::Counters& c = in.counters();
   state.counters.processed = c.processed();
   state.counters.applied = c.applied();
@@ -287,6 +327,7 @@ core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition
   state.counters.already_held = c.already_held();
   state.counters.landmarks_dropped = c.landmarks_dropped();
   state.counters.removed_variables = c.removed_variables();
+  state.counters.merged_poses = c.merged_poses();
   state.counters.updates = c.updates();
   state.counters.refinements = c.refinements();
   state.counters.rebuilds = c.rebuilds();

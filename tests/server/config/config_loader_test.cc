@@ -147,6 +147,27 @@ journal { segment_bytes: 1048576 delete_covered_segments: false })");
       << q.status().message();
 }
 
+// The reduced pose graph: the default one and a robot's own (unset fields from the default).
+TEST(ConfigLoaderTest, ReducedPoseGraph) {
+  const core::Result<ServerParams> p = ParseConfigText(R"(
+estimator {
+  reduced { distance_m: 1.5 angle_deg: 20 keep_aliases: 50 }
+  robot_reduced { robot: "car" reduced { distance_m: 4 } }
+})");
+  ASSERT_TRUE(p.ok()) << p.status().ToString();
+  EXPECT_EQ(p->estimator.ReducedOf("bike").distance_m, 1.5);
+  EXPECT_EQ(p->estimator.ReducedOf("bike").angle_deg, 20.0);
+  EXPECT_EQ(p->estimator.ReducedOf("bike").keep_aliases, 50);
+  EXPECT_EQ(p->estimator.ReducedOf("car").distance_m, 4.0);
+  EXPECT_EQ(p->estimator.ReducedOf("car").angle_deg, 20.0);
+  const core::Result<ServerParams> q =
+      ParseConfigText("estimator { reduced { distance_m: 1 keep_aliases: 0 } }", "c");
+  ASSERT_FALSE(q.ok());
+  EXPECT_NE(q.status().message().find("estimator.reduced.keep_aliases = 0; violates >= 1"),
+            std::string::npos)
+      << q.status().message();
+}
+
 TEST(ConfigLoaderTest, ValueOutOfTypeRangeAndBadEnumAreParseErrors) {
   const core::Result<ServerParams> p = ParseConfigText("queue { depth: 99999999999 }", "c");
   ASSERT_FALSE(p.ok());
