@@ -105,13 +105,14 @@ void Estimator::LogForRebuild(const core::FactorGraph& factors, const core::Valu
   if (rebuild_) rebuild_->Log(factors, values, update, removed, sequence_);
 }
 
-std::vector<Key> Estimator::NewestPoses() const {
+std::vector<Key> Estimator::NewestPoses(const Staged* s) const {
   std::vector<Key> keys;
+  const Staged none;
   for (std::uint8_t id : registry_.ids()) {
     if (!robots_[id].anchored) continue;
     const Key newest = MakeKey('x', robots_[id].newest, id);
-    const auto alias = reduced_.aliases.find(newest);
-    keys.push_back(alias == reduced_.aliases.end() ? newest : alias->second.anchor);
+    const PoseAlias* alias = FindAlias(newest, s != nullptr ? *s : none);
+    keys.push_back(alias == nullptr ? newest : alias->anchor);
   }
   return keys;
 }
@@ -433,9 +434,7 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
   FinishUpdate();  // a removal's update earlier in this Process
   core::Isam2UpdateOptions options = ProcessUpdateOptions();
   for (int n : s.reduced.replaced) options.remove_factors.push_back(solver_index_[n]);
-  for (Key& k : options.solve_first) {  // a newest pose this batch made an alias: its anchor
-    if (const PoseAlias* alias = FindAlias(k, s)) k = alias->anchor;
-  }
+  if (finish_later_) options.solve_first = NewestPoses(&s);  // with this batch's aliases
   result.updates.push_back(isam_->Update(s.factors, s.values, options));
   const core::Isam2Result& update = result.updates.back();
   if (!update.status.ok()) {

@@ -249,7 +249,7 @@ class Estimator {
   // beyond each robot's keep_aliases (and the merged measurements that named them).
   void CommitReduced(Staged* s);
   // The newest pose of every anchored robot (its anchor when an alias): what updates touch next.
-  std::vector<core::Key> NewestPoses() const;
+  std::vector<core::Key> NewestPoses(const Staged* s = nullptr) const;
   // Logs a successful live update for the rebuild in flight (if any).
   void LogForRebuild(const core::FactorGraph& factors, const core::Values& values,
                      const core::Isam2Result& update, std::span<const int> removed);

@@ -63,7 +63,7 @@ class JournalWriter {
  public:
   using Clock = std::chrono::steady_clock;
 
-  // Creates `path` (mode 0644) or opens it for append; see the header comment. Errors:
+  // Creates `path` (mode 0600) or opens it for append; see the header comment. Errors:
   // InvalidArgument (options), IoError (open/write/sync refused), DataLoss (existing file with
   // a bad header), FailedPrecondition (existing file shorter than the header: truncate it).
   static core::Result<std::unique_ptr<JournalWriter>> Open(const std::string& path,
