@@ -125,7 +125,8 @@ struct EstimatorParams {
   // pose a node); > 0 also spaces a robot's nodes at least that far. angle_deg in (0, 180].
   // A robot keeps its last keep_aliases aliases (>= 1) for messages that name them (a loop
   // closure to a recent pose); older ones are forgotten (such a message is rejected as
-  // naming an unknown pose).
+  // naming an unknown pose). Use it with isam2.trust_region: Gauss-Newton diverged on the weak
+  // composed factors of long dead-reckoned stretches in the lifelong soak (BENCHMARKS.md).
   struct ReducedGraph {
     double distance_m = 0.0;
     double angle_deg = 30.0;
