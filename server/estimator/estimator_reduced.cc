@@ -112,12 +112,16 @@ Outcome Estimator::AddReduced(core::FactorPtr factor, Key first, const Measureme
         s->reduced.merged.emplace_back(id, std::move(factor));
         return Outcome::kApplied;
       }
-      (void)s->values.Insert(pending, value);
-      if (FindAlias(other, *s) == nullptr) return add_as_is();
-      // From its robot's last node by the odometry composed since.
+      if (FindAlias(other, *s) == nullptr) {
+        (void)s->values.Insert(pending, value);
+        return add_as_is();
+      }
+      // From its robot's last node by the odometry composed since (staged before the pose, so
+      // that a refusal leaves no unconstrained variable in the batch).
       if (!AddComposed(alias.anchor, pending, 0, {alias.offset, alias.covariance}, {}, s)) {
         return fail("the composed odometry's covariance is not positive definite");
       }
+      (void)s->values.Insert(pending, value);
       s->reduced.merged.emplace_back(id, std::move(factor));
       return Outcome::kApplied;
     }
@@ -182,9 +186,10 @@ Outcome Estimator::AddReduced(core::FactorPtr factor, Key first, const Measureme
 
 bool Estimator::Promote(Key pose, Staged* s) {
   const PoseAlias alias = *FindAlias(pose, *s);
+  if (!AddComposed(alias.anchor, pose, 0, {alias.offset, alias.covariance}, {}, s)) return false;
   (void)s->values.Insert(pose, AliasEstimate(alias, s));
   s->reduced.aliases[pose] = std::nullopt;
-  return AddComposed(alias.anchor, pose, 0, {alias.offset, alias.covariance}, {}, s);
+  return true;
 }
 
 bool Estimator::AddComposed(Key a, Key b, int kind, ComposedMeasurement m,
