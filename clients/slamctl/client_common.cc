@@ -73,6 +73,16 @@ std::string FormatStatus(const slamd::status_t& s) {
       static_cast<long long>(s.residual_dimension),
       s.residual_dimension > 0 ? s.chi2 / static_cast<double>(s.residual_dimension) : 0.0);
   out = buf;
+  if (s.replicated_batches > 0 || s.replication_holds > 0) {
+    std::snprintf(buf, sizeof(buf),
+                  "replication: %s  %lld batches acknowledged  %lld bytes pending  held %lld "
+                  "times\n",
+                  s.replication_held ? "HELD (the stream does not acknowledge)" : "ok",
+                  static_cast<long long>(s.replicated_batches),
+                  static_cast<long long>(s.replication_pending_bytes),
+                  static_cast<long long>(s.replication_holds));
+    out += buf;
+  }
   for (int code = 0;
        code < s.num_rejects_by_reason && code < static_cast<int>(s.rejects_by_reason.size());
        ++code) {
@@ -119,6 +129,10 @@ JsonWriter StatusJson(const slamd::status_t& s) {
       .Add("journal_bytes", static_cast<long long>(s.journal_bytes))
       .Add("journal_disk_bytes", static_cast<long long>(s.journal_disk_bytes))
       .Add("journal_segments", s.journal_segments)
+      .Add("replication_held", static_cast<bool>(s.replication_held))
+      .Add("replication_holds", static_cast<long long>(s.replication_holds))
+      .Add("replicated_batches", static_cast<long long>(s.replicated_batches))
+      .Add("replication_pending_bytes", static_cast<long long>(s.replication_pending_bytes))
       .Add("removed_variables", static_cast<long long>(s.removed_variables))
       .Add("merged_poses", static_cast<long long>(s.merged_poses))
       .Add("rss_bytes", static_cast<long long>(s.rss_bytes))

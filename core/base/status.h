@@ -22,6 +22,7 @@ enum class StatusCode {
   kOutOfRange,          // index or value outside its allowed range
   kIoError,             // the operating system refused a read or write
   kDataLoss,            // corrupt or truncated file
+  kUnavailable,         // a remote service (NATS) did not answer in time: retry later
 };
 
 const char* StatusCodeName(StatusCode code);
@@ -51,6 +52,7 @@ inline Status NumericalFailure(std::string m) { return {StatusCode::kNumericalFa
 inline Status OutOfRange(std::string m) { return {StatusCode::kOutOfRange, std::move(m)}; }
 inline Status IoError(std::string m) { return {StatusCode::kIoError, std::move(m)}; }
 inline Status DataLoss(std::string m) { return {StatusCode::kDataLoss, std::move(m)}; }
+inline Status Unavailable(std::string m) { return {StatusCode::kUnavailable, std::move(m)}; }
 
 // Either a value or a non-ok Status.
 template <typename T>

@@ -120,6 +120,12 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   if (j.has_delete_covered_segments()) {
     p->journal.delete_covered_segments = j.delete_covered_segments();
   }
+  const proto::ReplicationConfig& rep = config.replication();
+  if (rep.has_servers()) p->replication.servers = rep.servers();
+  if (rep.has_stream()) p->replication.stream = rep.stream();
+  if (rep.has_subject()) p->replication.subject = rep.subject();
+  if (rep.has_replicas()) p->replication.replicas = rep.replicas();
+  if (rep.has_ack_timeout_ms()) p->replication.ack_timeout_ms = rep.ack_timeout_ms();
   const proto::EstimatorConfig& e = config.estimator();
   if (e.has_new_robot_anchor()) {
     p->estimator.new_robot_anchor = static_cast<AnchorPolicy>(e.new_robot_anchor());
@@ -355,6 +361,15 @@ std::string DefaultConfigText() {
       << "  # a new journal segment after this many [bytes]\n"
       << "  delete_covered_segments: " << (d.journal.delete_covered_segments ? "true" : "false")
       << "  # delete segments the oldest kept snapshot covers\n"
+      << "}\n\n"
+      << "replication {  # a copy of the journal in a NATS JetStream stream (needs data_dir)\n"
+      << "  servers: " << Quote(d.replication.servers)
+      << "  # \"nats://host:4222,...\"; \"\" = off\n"
+      << "  stream: " << Quote(d.replication.stream) << "\n"
+      << "  subject: " << Quote(d.replication.subject) << "\n"
+      << "  replicas: " << d.replication.replicas << "  # copies of each record, 1..5\n"
+      << "  ack_timeout_ms: " << d.replication.ack_timeout_ms
+      << "  # unacknowledged this long: intake held [ms]\n"
       << "}\n";
   return out.str();
 }

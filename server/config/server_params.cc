@@ -57,6 +57,10 @@ core::Status ServerParams::Validate() const {
   SLAMD_CONFIG_CHECK(refine.budget_s, <=, 10.0);
   SLAMD_CONFIG_CHECK(refine.idle_s, >=, 0.0);
   SLAMD_CONFIG_CHECK(refine.idle_s, <=, 10.0);
+  SLAMD_CONFIG_CHECK(replication.replicas, >=, 1);
+  SLAMD_CONFIG_CHECK(replication.replicas, <=, 5);
+  SLAMD_CONFIG_CHECK(replication.ack_timeout_ms, >=, 1);
+  SLAMD_CONFIG_CHECK(replication.ack_timeout_ms, <=, 60000);
   SLAMD_CONFIG_CHECK(journal.sync_interval_ms, >=, 1);
   SLAMD_CONFIG_CHECK(journal.sync_interval_ms, <=, 60000);
   SLAMD_CONFIG_CHECK(journal.snapshot_every_updates, >=, 0);

@@ -92,6 +92,22 @@ struct ServerParams {
   };
   Journal journal = {};
 
+  // The replicated journal (server/replication/stream_journal.h): every journal record also in
+  // a NATS JetStream stream, acknowledged by its quorum before the estimates that include it are
+  // published. Needs data_dir. While NATS does not acknowledge, intake is held (status_t).
+  struct Replication {
+    // The NATS servers, comma-separated ("nats://10.0.0.1:4222,nats://10.0.0.2:4222");
+    // "" = no replication (the default).
+    std::string servers;
+    std::string stream = "SLAMD";           // the stream's name, [A-Za-z0-9_-]+
+    std::string subject = "slamd.journal";  // the subject it captures
+    int replicas = 3;                       // copies of each record in the cluster; 1..5
+    // How long an update's records may wait for the stream's acknowledgement before intake is
+    // held [ms]; 1..60000.
+    int ack_timeout_ms = 1000;
+  };
+  Replication replication = {};
+
   // The solver (core/isam/isam2_params.h); validated by Isam2Params::Validate.
   core::Isam2Params isam2 = {};
 

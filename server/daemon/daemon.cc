@@ -109,7 +109,10 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
     if (!opened.ok()) return opened.status();
     journal = std::move(opened).value();
   }
-  std::unique_ptr<Daemon> daemon(new Daemon(params, bus, std::move(estimator), std::move(journal)));
+  core::Result<std::unique_ptr<StreamJournal>> replica = StartReplica(params, journal.get(), *log);
+  if (!replica.ok()) return replica.status();
+  std::unique_ptr<Daemon> daemon(new Daemon(params, bus, std::move(estimator),
+                                            std::move(replica).value(), std::move(journal)));
   if (!pending.empty()) {
     // Accepted and journaled before the restart but never processed: first, as one update.
     // Their senders never heard back: their rejections go out now.
@@ -132,11 +135,12 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
 }
 
 Daemon::Daemon(const ServerParams& params, Bus* bus, std::unique_ptr<Estimator> estimator,
-               std::unique_ptr<Journal> journal)
+               std::unique_ptr<StreamJournal> replica, std::unique_ptr<Journal> journal)
     : params_(params),
       bus_(bus),
       channels_{params.channel_prefix},
       estimator_(std::move(estimator)),
+      replica_(std::move(replica)),
       journal_(std::move(journal)),
       queue_(params.queue.depth),
       snapshot_(estimator_->snapshot()) {
@@ -180,6 +184,13 @@ void Daemon::OnInbound(std::string_view channel, const Msg& msg) {
                                                      std::to_string(params_.queue.depth) + ")"};
     Inbound in{std::move(checked).value(), SteadyMicros()};
     constexpr bool kJournaled = Spec::kRole != MessageRole::kQuery;
+    if (kJournaled && !WaitForReplication(params_.queue.block_timeout_s)) {
+      PublishReject({RejectReason::kReplicationUnavailable,
+                     std::string(type) + ": the replicated journal (NATS stream " +
+                         params_.replication.stream + ") has not acknowledged: intake held"},
+                    channel, type, Spec::Robot(msg), msg.utime);
+      return;
+    }
     // Held until the end of this PumpIntake, so that a burst it takes in (see PumpIntake) is
     // queued together and makes one update.
     std::lock_guard lock(intake_mutex_);
@@ -292,9 +303,13 @@ int Daemon::StepEstimator(double timeout_s) {
     // The newest poses go out as soon as they are solved (and journaled); the rest of the map's
     // back-substitution after them, before anything else reads the solver.
     ProcessResult r = estimator_->Process(batch, /*finish_later=*/true);
-    JournalUpdate(batch);
-    PublishEstimatesAndLatencies(r.applied_received_us);
-    if (!r.already_held_robots.empty()) {
+    if (JournalUpdate(batch)) {
+      PublishEstimatesAndLatencies(r.applied_received_us);
+    } else {  // published once the stream has them
+      unreplicated_received_us_.insert(unreplicated_received_us_.end(),
+                                       r.applied_received_us.begin(), r.applied_received_us.end());
+    }
+    if (!r.already_held_robots.empty() && !replication_held_) {
       AcknowledgeAlreadyHeld(*ShareSnapshot(), r.already_held_robots, SteadyMicros());
     }
     core::Stopwatch finish;
@@ -316,7 +331,12 @@ int Daemon::StepEstimator(double timeout_s) {
     if (journal_ && r.rounds > 0) {
       const core::Status s = journal_->AppendRefinement(r.rounds);
       if (!s.ok()) NoteJournalError(s);
+      CommitReplica();
     }
+  }
+  if (replication_held_ && CommitReplica()) {
+    PublishEstimatesAndLatencies(unreplicated_received_us_);
+    unreplicated_received_us_.clear();
   }
   if (journal_ && params_.journal.sync == SyncPolicy::kInterval) {
     const core::Status s = journal_->Commit();
@@ -324,9 +344,11 @@ int Daemon::StepEstimator(double timeout_s) {
   }
   MaybeSnapshot();
   snap = ShareSnapshot();
-  PublishEstimates(*snap, SteadyMicros());  // a refinement's (an update's went out above)
+  if (!replication_held_) {
+    PublishEstimates(*snap, SteadyMicros());  // a refinement's (an update's went out above)
+  }
   for (const QueryRequest& q : queries) AnswerAndPublish(q, snap->update_sequence);
-  MaybePublishMaps(*snap);
+  if (!replication_held_) MaybePublishMaps(*snap);
   MaybePublishStatus(*snap);
   // After this step's estimates went out: bringing a rebuilt solver up to date takes an update.
   if (estimator_->RebuildReady()) SwapRebuild();
@@ -400,8 +422,8 @@ void Daemon::PublishRejection(const Rejection& rej) {
   if (!s.ok()) log_->warn("cannot publish reject_t: {}", s.ToString());
 }
 
-void Daemon::JournalUpdate(const std::vector<Inbound>& batch) {
-  if (!journal_) return;
+bool Daemon::JournalUpdate(const std::vector<Inbound>& batch) {
+  if (!journal_) return true;
   int count = 0;
   std::int64_t last = 0;
   for (const Inbound& in : batch) {
@@ -409,12 +431,13 @@ void Daemon::JournalUpdate(const std::vector<Inbound>& batch) {
     ++count;
     last = std::max(last, in.journal_sequence);
   }
-  if (count == 0) return;
+  if (count == 0) return CommitReplica();
   core::Status s = journal_->AppendBoundary(estimator_->snapshot()->update_sequence, last, count);
   if (s.ok()) s = journal_->Commit();
   // The messages are in the journal; without the boundary a replay merges them into the next
   // update.
   if (!s.ok()) NoteJournalError(s);
+  return CommitReplica();
 }
 
 void Daemon::NoteJournalError(const core::Status& s) {
@@ -500,6 +523,12 @@ void Daemon::Stop() {
   if (journal_) {
     const core::Status s = journal_->Sync();
     if (!s.ok()) log_->error("journal sync at shutdown: {}", s.ToString());
+    if (replica_ && !CommitReplica()) {
+      log_->error(
+          "replication: {} journal bytes not in the stream at shutdown (sent at the next "
+          "start from this data directory)",
+          replica_->pending_bytes());
+    }
     if (estimator_->held_messages() > 0) {
       log_->info("{} held messages stay in the journal and wait again after a restart",
                  estimator_->held_messages());

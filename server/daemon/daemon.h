@@ -57,6 +57,7 @@
 #include "server/daemon/snapshot_writer.h"
 #include "server/estimator/estimator.h"
 #include "server/journal/journal.h"
+#include "server/replication/stream_journal.h"
 #include "server/transport/bus.h"
 #include "server/transport/channels.h"
 
@@ -97,15 +98,26 @@ class Daemon {
 
  private:
   Daemon(const ServerParams& params, Bus* bus, std::unique_ptr<Estimator> estimator,
-         std::unique_ptr<Journal> journal);
+         std::unique_ptr<StreamJournal> replica, std::unique_ptr<Journal> journal);
+  // The replicated journal when params.replication.servers is set (daemon_replication.cc), else
+  // null.
+  static core::Result<std::unique_ptr<StreamJournal>> StartReplica(const ServerParams& params,
+                                                                   Journal* journal,
+                                                                   spdlog::logger& log);
+  // Commits the replica (true without one). A failure holds intake and the estimates until a
+  // later commit succeeds.
+  bool CommitReplica();
+  // Intake's wait while replication is held: true once it is not, false after timeout_s.
+  bool WaitForReplication(double timeout_s) const;
   // Swaps in the estimator's rebuilt solver (ready), journals the swap, publishes.
   void SwapRebuild();
   // The estimator's lifelong window (EstimatorParams::window), journaled when it removed any.
   void ApplyPoseWindow();
   // The estimator's latest snapshot, made the one queries and snapshot() see.
   std::shared_ptr<const EstimateSnapshot> ShareSnapshot();
-  // Journals what the estimator did (no-op without a journal).
-  void JournalUpdate(const std::vector<Inbound>& batch);
+  // Journals what the estimator did (no-op without a journal); false while the replicated
+  // journal does not have it (its estimates must wait).
+  bool JournalUpdate(const std::vector<Inbound>& batch);
   // Counts and logs a journal failure (the estimator goes on: see JournalUpdate).
   void NoteJournalError(const core::Status& s);
   void PublishRejection(const Rejection& rejection);  // a stateful (estimator) rejection
@@ -154,7 +166,15 @@ class Daemon {
   Bus* bus_;
   ChannelNames channels_;
   std::unique_ptr<Estimator> estimator_;  // estimator thread only
-  std::unique_ptr<Journal> journal_;      // null without data_dir
+  // The journal's replica (null without replication): declared before journal_, which points
+  // to it, so it is destroyed after it.
+  std::unique_ptr<StreamJournal> replica_;
+  std::unique_ptr<Journal> journal_;  // null without data_dir
+  // The replica's last commit failed: intake rejects, estimates wait (estimator thread writes).
+  std::atomic<bool> replication_held_{false};
+  std::atomic<std::int64_t> replication_holds_{0};
+  // Receipt times of applied messages whose estimates wait for the replica [µs, steady clock].
+  std::vector<std::int64_t> unreplicated_received_us_;
   IngestQueue queue_;
   // Journal append + queue push, so journal order = queue order; and intake_held_.
   std::mutex intake_mutex_;

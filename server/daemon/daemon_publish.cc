@@ -180,6 +180,10 @@ void Daemon::PublishStatus(const EstimateSnapshot& snap) {
   out.journal_bytes = journal_ ? journal_->durable_offset() : 0;
   out.journal_disk_bytes = journal_ ? journal_->disk_bytes() : 0;
   out.journal_segments = journal_ ? journal_->segments() : 0;
+  out.replication_held = replication_held_;
+  out.replication_holds = replication_holds_;
+  out.replicated_batches = replica_ ? replica_->batches_published() : 0;
+  out.replication_pending_bytes = replica_ ? replica_->pending_bytes() : 0;
   out.chi2 = snap.chi2;
   out.residual_dimension = snap.residual_dimension;
   out.settled = snap.settled;

@@ -32,7 +32,8 @@ SLAMD_SAME_CODE(kOutOfOrderTimeout, REASON_OUT_OF_ORDER_TIMEOUT);
 SLAMD_SAME_CODE(kQueueFull, REASON_QUEUE_FULL);
 SLAMD_SAME_CODE(kWouldDisconnect, REASON_WOULD_DISCONNECT);
 SLAMD_SAME_CODE(kStorageError, REASON_STORAGE_ERROR);
-static_assert(kNumRejectReasonCodes == ::slamd::reject_t::REASON_STORAGE_ERROR + 1);
+SLAMD_SAME_CODE(kReplicationUnavailable, REASON_REPLICATION_UNAVAILABLE);
+static_assert(kNumRejectReasonCodes == ::slamd::reject_t::REASON_REPLICATION_UNAVAILABLE + 1);
 #undef SLAMD_SAME_CODE
 
 const char* RejectReasonName(RejectReason reason) {
@@ -91,6 +92,8 @@ const char* RejectReasonName(RejectReason reason) {
       return "would_disconnect";
     case RejectReason::kStorageError:
       return "storage_error";
+    case RejectReason::kReplicationUnavailable:
+      return "replication_unavailable";
   }
   return "unknown";
 }

@@ -37,10 +37,11 @@ enum class RejectReason : std::int32_t {
   kQueueFull = 37,
   kWouldDisconnect = 38,
   kStorageError = 39,
+  kReplicationUnavailable = 40,
 };
 
 // One past the largest code: the length of status_t.rejects_by_reason.
-inline constexpr int kNumRejectReasonCodes = 40;
+inline constexpr int kNumRejectReasonCodes = 41;
 
 // "covariance_not_positive_definite", ... ("none" for kNone, "unknown" for other values).
 const char* RejectReasonName(RejectReason reason);

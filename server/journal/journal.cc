@@ -84,7 +84,18 @@ core::Status Journal::AppendLocked(const journal::JournalRecord& record) {
   if (!end.ok()) return end.status();
   ++records_;
   if (record.has_message()) current_.last_message_sequence = record.message().sequence();
+  if (replica_ != nullptr) {
+    replica_->Stage(
+        writer_->last_frame(),
+        {.last_message = record.has_message() ? record.message().sequence() : last_sequence_,
+         .journal_end = current_.base + end.value()});
+  }
   return core::Status::Ok();
+}
+
+void Journal::set_replica(JournalReplica* replica) {
+  std::lock_guard lock(mutex_);
+  replica_ = replica;
 }
 
 core::Result<std::int64_t> Journal::AppendMessage(std::string_view channel, std::string_view type,

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "core/base/status.h"
+#include "server/journal/journal_replica.h"
 #include "server/journal/journal_segments.h"
 #include "server/journal/journal_writer.h"
 
@@ -67,6 +68,10 @@ class Journal {
   // fdatasync now whatever the policy (shutdown).
   core::Status Sync();
 
+  // From now on every record appended is also staged in `replica` (not owned; it must outlive
+  // the journal, or be detached with nullptr), framed as on disk; its Commit is the caller's.
+  void set_replica(JournalReplica* replica);
+
   // Deletes the segments (never the newest) whose records a state at this position includes:
   // the segment ends at or before `journal_offset` and its messages are all numbered up to
   // `last_message_sequence`. Returns how many were deleted; IoError if one could not be.
@@ -95,6 +100,7 @@ class Journal {
   std::unique_ptr<JournalWriter> writer_;
   std::int64_t records_ = 0;  // appended since Open, in all segments
   std::int64_t last_sequence_ = 0;
+  JournalReplica* replica_ = nullptr;
 };
 
 }  // namespace slamd::server

@@ -1,8 +1,10 @@
 #include "server/journal/journal_format.h"
 
+#include <cstdio>
 #include <cstring>
 
 #include "server/journal/crc32c.h"
+#include "slamd_proto/journal.pb.h"
 
 namespace slamd::server::internal {
 
@@ -36,6 +38,25 @@ void AppendJournalFrame(std::string_view payload, std::string* out) {
   PutLe32(JournalRecordChecksum(header, payload.data(), payload.size()), header + 4);
   out->append(header, sizeof(header));
   out->append(payload);
+}
+
+std::string DecodeJournalPayload(const char* header, const char* payload, uint32_t length,
+                                 journal::JournalRecord* record) {
+  const uint32_t stored = GetLe32(header + 4);
+  const uint32_t computed = JournalRecordChecksum(header, payload, length);
+  if (stored != computed) {
+    char buf[80];
+    std::snprintf(buf, sizeof(buf), "checksum mismatch (stored 0x%08X, computed 0x%08X)", stored,
+                  computed);
+    return buf;
+  }
+  if (!record->ParseFromArray(payload, static_cast<int>(length))) {
+    return "checksum ok but the payload does not parse as a JournalRecord";
+  }
+  if (record->kind_case() == journal::JournalRecord::KIND_NOT_SET) {
+    return "checksum ok but the record has no kind";
+  }
+  return "";
 }
 
 }  // namespace slamd::server::internal

@@ -17,6 +17,10 @@
 #include <string>
 #include <string_view>
 
+namespace slamd::journal {
+class JournalRecord;
+}
+
 namespace slamd::server {
 
 inline constexpr char kJournalMagic[8] = {'S', 'L', 'A', 'M', 'D', 'J', 'N', 'L'};
@@ -56,6 +60,12 @@ uint32_t JournalRecordChecksum(const char* length_le, const char* payload, std::
 
 // Appends the framed record (length, checksum, payload) to *out.
 void AppendJournalFrame(std::string_view payload, std::string* out);
+
+// Checks the record whose 8 header bytes (length, checksum) are at `header` and whose payload of
+// `length` bytes (already in range) is at `payload`: the checksum, the parse, the kind. "" when
+// valid (*record filled), else what is wrong ("checksum mismatch (stored 0x..., computed ...)").
+std::string DecodeJournalPayload(const char* header, const char* payload, uint32_t length,
+                                 journal::JournalRecord* record);
 
 }  // namespace internal
 }  // namespace slamd::server

@@ -18,12 +18,6 @@ namespace {
 
 constexpr int64_t kScanChunk = 64 * 1024;  // scan buffer [bytes]
 
-std::string Hex32(uint32_t v) {
-  char buf[16];
-  std::snprintf(buf, sizeof(buf), "0x%08X", v);
-  return buf;
-}
-
 }  // namespace
 
 const char* JournalReadStateName(JournalReadState state) {
@@ -126,20 +120,8 @@ JournalReader::Probe JournalReader::ProbeAt(int64_t p, journal::JournalRecord* r
            " failed: " + internal::ErrnoDescription(errno);
     return Probe::kReadError;
   }
-  const uint32_t stored = internal::GetLe32(header + 4);
-  const uint32_t computed = internal::JournalRecordChecksum(header, payload_.data(), length);
-  if (stored != computed) {
-    *why = "checksum mismatch (stored " + Hex32(stored) + ", computed " + Hex32(computed) + ")";
-    return Probe::kInvalid;
-  }
-  if (!record->ParseFromArray(payload_.data(), static_cast<int>(length))) {
-    *why = "checksum ok but the payload does not parse as a JournalRecord";
-    return Probe::kInvalid;
-  }
-  if (record->kind_case() == journal::JournalRecord::KIND_NOT_SET) {
-    *why = "checksum ok but the record has no kind";
-    return Probe::kInvalid;
-  }
+  *why = internal::DecodeJournalPayload(header, payload_.data(), length, record);
+  if (!why->empty()) return Probe::kInvalid;
   *frame_size = kJournalRecordHeaderSize + length;
   return Probe::kValid;
 }

@@ -36,6 +36,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <string_view>
 
 #include "core/base/status.h"
 
@@ -87,6 +88,8 @@ class JournalWriter {
   int64_t durable_offset() const { return durable_offset_; }  // synced up to here [bytes]
   bool sync_pending() const { return offset_ > durable_offset_; }
   int64_t records() const { return records_; }   // appended by this writer since Open
+  // The framed bytes of the last record Append() wrote (as in the file).
+  std::string_view last_frame() const { return buffer_; }
   int64_t sync_count() const { return syncs_; }  // fdatasync calls made since Open
   const std::string& path() const { return path_; }
   const JournalWriterOptions& options() const { return options_; }

@@ -53,7 +53,9 @@
 #include "slamd/reject_t.hpp"
 #include "slamd/status_t.hpp"
 #include "tests/testing/datasets.h"
+#include "tests/testing/estimator_compare.h"
 #include "tests/testing/processes.h"
+#include "tests/testing/slamd_processes.h"
 #include "tests/testing/wire_steps.h"
 
 namespace slamd::server {
@@ -61,8 +63,19 @@ namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
+using testing::Client;
+using testing::ConfigParams;
+using testing::ExpectSameEstimators;
+using testing::Factors;
+using testing::Kill;
 using testing::OnlyLoopback;
+using testing::RecoverAndConverge;
+using testing::Recovered;
+using testing::Server;
+using testing::Start;
 using testing::StepMessages;
+using testing::TempDir;
+using testing::WallUs;
 using testing::WireMessage;
 
 // A larger receive buffer: re-sent bursts come back as bursts of reject_t.
@@ -83,152 +96,6 @@ constexpr const char* kConfig =
     "journal { sync: ALWAYS snapshot_every_updates: 300 snapshot_every_s: 0 segment_bytes: 65536 "
     "}\n"
     "log_level: \"info\"\n";
-
-class TempDir {
- public:
-  explicit TempDir(const std::string& tag) {
-    path_ = fs::temp_directory_path() / ("slamd_crash_" + tag + "_" + std::to_string(::getpid()));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    if (!::testing::Test::HasFailure()) fs::remove_all(path_);  // kept for a post-mortem
-  }
-  std::string str() const { return path_.string(); }
-
- private:
-  fs::path path_;
-};
-
-// One slamd process as the client sees it.
-struct Server {
-  std::string prefix;
-  std::string data_dir;
-  std::string log;
-  pid_t pid = -1;
-  std::set<std::uint64_t> estimated = {};  // pose indices with an estimate_t since Clear()
-  std::map<std::int64_t, int> dups = {};   // REASON_DUPLICATE rejects by message_utime
-  int other_rejects = 0;                   // rejects of any other reason
-  std::int64_t reply_id = -1;              // last query_reply_t request_id
-  std::int64_t status_utime = 0;           // of the last status_t
-  slamd::status_t status = {};
-  std::vector<Subscription> subs = {};
-};
-
-class Client {
- public:
-  Client() : bus_(LcmBus::Create(LcmBusParams{.url = kUrl}).value()) {}
-
-  void Attach(Server* s) {
-    s->subs.push_back(Subscribe<slamd::estimate_t>(
-                          *bus_, s->prefix + "ESTIMATE",
-                          [s](std::string_view, const slamd::estimate_t& m) {
-                            s->estimated.insert(static_cast<std::uint64_t>(m.pose_index));
-                          },
-                          nullptr)
-                          .value());
-    s->subs.push_back(Subscribe<slamd::reject_t>(
-                          *bus_, s->prefix + "REJECT",
-                          [s](std::string_view, const slamd::reject_t& m) {
-                            if (m.reason == slamd::reject_t::REASON_DUPLICATE) {
-                              ++s->dups[m.message_utime];
-                            } else {
-                              ++s->other_rejects;
-                            }
-                          },
-                          nullptr)
-                          .value());
-    s->subs.push_back(
-        Subscribe<slamd::query_reply_t>(
-            *bus_, s->prefix + "QUERY_REPLY",
-            [s](std::string_view, const slamd::query_reply_t& m) { s->reply_id = m.request_id; },
-            nullptr)
-            .value());
-    s->subs.push_back(Subscribe<slamd::status_t>(
-                          *bus_, s->prefix + "STATUS",
-                          [s](std::string_view, const slamd::status_t& m) {
-                            s->status = m;
-                            s->status_utime = m.utime;
-                          },
-                          nullptr)
-                          .value());
-  }
-
-  void Send(const Server& s, const StepMessages& step) {
-    for (const WireMessage& m : step) {
-      ASSERT_TRUE(bus_->Publish(s.prefix + m.suffix, m.bytes).ok());
-    }
-  }
-
-  // Handles incoming messages until `done()` or the timeout; returns done().
-  bool PumpUntil(const std::function<bool()>& done, double timeout_s) {
-    const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
-    while (!done()) {
-      if (Clock::now() > deadline) return false;
-      if (!bus_->HandleOnce(20).ok()) return false;
-    }
-    return true;
-  }
-  void Drain(int ms) {
-    const auto deadline = Clock::now() + std::chrono::milliseconds(ms);
-    while (Clock::now() < deadline) (void)bus_->HandleOnce(5);
-  }
-
-  // A query through B's queue: its reply means everything sent before it was processed.
-  bool Barrier(Server* s) {
-    slamd::query_t q;
-    ToLcm(QueryRequest{.utime = 0,
-                       .client = "crash_test",
-                       .request_id = ++request_id_,
-                       .keys = {WireKey{kRobot, KeyKind::kPose, 0}}},
-          &q);
-    if (!Publish(*bus_, s->prefix + "QUERY", q).ok()) return false;
-    const std::int64_t id = request_id_;
-    return PumpUntil([&] { return s->reply_id == id; }, 20.0);
-  }
-
- private:
-  std::unique_ptr<LcmBus> bus_;
-  std::int64_t request_id_ = 0;
-};
-
-std::int64_t WallUs() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
-// Starts slamd on s's data dir and waits until it listens (its first status_t: slamd recovers
-// and subscribes before its threads start).
-void Start(const std::string& config, Client& client, Server* s) {
-  const std::int64_t t0 = WallUs();
-  const pid_t pid = fork();
-  ASSERT_GE(pid, 0);
-  if (pid == 0) {
-    const int fd = ::open(s->log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    if (fd >= 0) ::dup2(fd, 2);
-    execl(SLAMD_PATH, SLAMD_PATH, "--config", config.c_str(), "--lcm-url", kUrl, "--data-dir",
-          s->data_dir.c_str(), "--channel-prefix", s->prefix.c_str(), static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  s->pid = pid;
-  ASSERT_TRUE(client.PumpUntil([&] { return s->status_utime > t0; }, 30.0))
-      << "no status_t from slamd " << s->prefix << " (log " << s->log << ")";
-}
-
-void Kill(Server* s, int signal) {
-  ASSERT_GT(s->pid, 0);
-  ASSERT_EQ(::kill(s->pid, signal), 0);
-  int status = 0;
-  ASSERT_EQ(::waitpid(s->pid, &status, 0), s->pid);
-  if (signal == SIGTERM) {
-    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0)
-        << "slamd " << s->prefix << " did not stop cleanly (log " << s->log << ")";
-  } else {
-    ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == signal);
-  }
-  s->pid = -1;
-}
 
 // How many of `step`'s messages are in the journal of `dir` (same channel, same bytes).
 int Journaled(const std::string& dir, const std::string& prefix, const StepMessages& step) {
@@ -255,103 +122,6 @@ std::string ReadText(const std::string& path) {
   return ss.str();
 }
 
-// A factor's identity (type and keys) and what it measures: its unwhitened error at a fixed
-// point (which determines the measured value of between factors and priors) and its chi2 there
-// (the noise). Compared with a tolerance: snapshots store noise as square-root information.
-using FactorSet = std::multimap<std::string, std::vector<double>>;
-
-FactorSet Factors(const std::vector<core::FactorPtr>& factors, const core::Values& at) {
-  FactorSet out;
-  for (const core::FactorPtr& f : factors) {
-    std::string id = f->Name();
-    for (core::Key k : f->keys()) id.append(" ").append(core::KeyToString(k));
-    const auto e = f->Error(at);
-    std::vector<double> v(e.data(), e.data() + e.size());
-    v.push_back(f->Chi2(at));
-    out.emplace(std::move(id), std::move(v));
-  }
-  return out;
-}
-
-// a and b hold the same factors: same identities, none twice, values within 1e-9 relative.
-void ExpectSameFactors(const FactorSet& a, const FactorSet& b) {
-  if (a.size() != b.size()) {
-    std::set<std::string> ia, ib;
-    for (const auto& [id, v] : a) ia.insert(id);
-    for (const auto& [id, v] : b) ib.insert(id);
-    std::string only_a, only_b;
-    for (const std::string& id : ia) {
-      if (!ib.count(id)) only_a += " [" + id + "]";
-    }
-    for (const std::string& id : ib) {
-      if (!ia.count(id)) only_b += " [" + id + "]";
-    }
-    FAIL() << "factor counts differ: " << a.size() << " vs " << b.size()
-           << "; only in the first:" << only_a << "; only in the second:" << only_b;
-  }
-  std::set<std::string> ids;
-  for (const auto& [id, v] : a) EXPECT_TRUE(ids.insert(id).second) << "doubled factor " << id;
-  int differ = 0;
-  for (auto ia = a.begin(), ib = b.begin(); ia != a.end(); ++ia, ++ib) {
-    if (ia->first != ib->first) {
-      ADD_FAILURE() << "factor " << ia->first << " vs " << ib->first;
-      return;
-    }
-    for (size_t i = 0; i < ia->second.size(); ++i) {
-      const double x = ia->second[i], y = ib->second[i];
-      if (std::abs(x - y) > 1e-9 * (1.0 + std::abs(x))) ++differ;
-    }
-  }
-  EXPECT_EQ(differ, 0) << "factors with the same keys measure different values";
-}
-
-struct Recovered {
-  std::unique_ptr<Estimator> estimator;
-  EstimatorState state;
-};
-
-// Recovers `dir` in-process and refines to convergence.
-Recovered RecoverAndConverge(const std::string& dir, const ServerParams& params) {
-  core::Result<RecoveryResult> r = Recover(dir, params.estimator, params.isam2, false);
-  SLAMD_CHECK(r.ok()) << r.status().ToString();
-  EXPECT_EQ(r.value().torn_tail_offset, -1) << dir;
-  EXPECT_TRUE(r.value().pending.empty()) << dir;
-  Recovered out{std::move(r.value().estimator), {}};
-  for (int i = 0; i < 100; ++i) {
-    const core::Isam2::RefineResult rr = out.estimator->Refine(30.0);
-    SLAMD_CHECK(rr.status.ok()) << rr.status.ToString();
-    if (rr.converged) break;
-  }
-  out.state = out.estimator->ExportState();
-  return out;
-}
-
-// Both recovered estimators have the same variables, estimates within tol, and the same
-// multiset of factors (compared at a's estimate).
-void ExpectSameEstimators(const Recovered& a, const Recovered& b, int expected_factors,
-                          double tol) {
-  const core::Values ea = a.estimator->solver().CalculateEstimate();
-  const core::Values eb = b.estimator->solver().CalculateEstimate();
-  ASSERT_EQ(ea.size(), eb.size());
-  double worst = 0.0;
-  for (core::Key k : ea.keys()) {
-    ASSERT_TRUE(eb.Contains(k)) << core::KeyToString(k);
-    worst = std::max(worst, core::LocalCoordinates(ea.Get(k), eb.Get(k)).lpNorm<Eigen::Infinity>());
-  }
-  EXPECT_LE(worst, tol) << "largest estimate difference";
-  std::printf("[ crash    ] %zu variables, largest estimate difference %.3g\n", ea.size(), worst);
-
-  const FactorSet fa = Factors(a.state.factors, ea), fb = Factors(b.state.factors, ea);
-  EXPECT_EQ(static_cast<int>(fa.size()), expected_factors);
-  ExpectSameFactors(fa, fb);
-}
-
-ServerParams ConfigParams(const std::string& config_path) {
-  core::Result<ServerParams> p = LoadConfigFile(config_path);
-  SLAMD_CHECK(p.ok()) << p.status().ToString();
-  return p.value();
-}
-
 TEST(ServerCrashNetnsTest, KilledServerRecoversToTheUninterruptedResult) {
   ASSERT_TRUE(OnlyLoopback()) << testing::kNotInNetns;
   const std::string path = testing::SharedDatasetPath("manhattan.g2o");
@@ -363,14 +133,14 @@ TEST(ServerCrashNetnsTest, KilledServerRecoversToTheUninterruptedResult) {
   const std::vector<StepMessages> messages =
       testing::MakeWireSteps(steps, n, kRobot, kAnchorSigma, &expected_factors);
 
-  TempDir tmp("main");
+  TempDir tmp("crash_main");
   const std::string config = tmp.str() + "/slamd.textproto";
   std::ofstream(config) << kConfig;
   Server a{.prefix = "A_", .data_dir = tmp.str() + "/a", .log = tmp.str() + "/a.log"};
   Server b{.prefix = "B_", .data_dir = tmp.str() + "/b", .log = tmp.str() + "/b.log"};
   fs::create_directories(a.data_dir);
   fs::create_directories(b.data_dir);
-  Client client;
+  Client client(kUrl, kRobot);
   client.Attach(&a);
   client.Attach(&b);
   ASSERT_NO_FATAL_FAILURE(Start(config, client, &a));
@@ -506,12 +276,12 @@ TEST(ServerCrashNetnsTest, TornJournalTailAfterKillDuringBurst) {
   const std::vector<StepMessages> messages =
       testing::MakeWireSteps(steps, kBurst, kRobot, kAnchorSigma, &expected_factors);
 
-  TempDir tmp("torn");
+  TempDir tmp("crash_torn");
   const std::string config = tmp.str() + "/slamd.textproto";
   std::ofstream(config) << kConfig;
   Server c{.prefix = "C_", .data_dir = tmp.str() + "/c", .log = tmp.str() + "/c.log"};
   fs::create_directories(c.data_dir);
-  Client client;
+  Client client(kUrl, kRobot);
   client.Attach(&c);
   ASSERT_NO_FATAL_FAILURE(Start(config, client, &c));
   for (int k = 0; k < kBurst; ++k) ASSERT_NO_FATAL_FAILURE(client.Send(c, messages[k]));

@@ -142,6 +142,8 @@ inline void Put(Fields& f, const std::string& path, const slamd::status_t& m) {
   PUT(update_latency_p50_us), PUT(update_latency_p90_us), PUT(update_latency_p99_us);
   PUT(update_latency_max_us), PUT(publish_latency_p50_us), PUT(publish_latency_p99_us);
   PUT(journal_records), PUT(journal_bytes), PUT(journal_disk_bytes), PUT(journal_segments);
+  PUT_BOOL(replication_held), PUT(replication_holds), PUT(replicated_batches),
+      PUT(replication_pending_bytes);
   PUT(chi2), PUT(residual_dimension), PUT_BOOL(settled);
 }
 

@@ -1,0 +1,106 @@
+#include "server/replication/nats_client.h"
+
+#include <nats/nats.h>
+
+#include <sstream>
+
+namespace slamd::server {
+namespace {
+
+std::string JoinServers(const std::vector<std::string>& servers) {
+  std::string all;
+  for (const std::string& u : servers) all += (all.empty() ? "" : ",") + u;
+  return all;
+}
+
+}  // namespace
+
+core::Status NatsOptions::Validate() const {
+  if (servers.empty()) return core::InvalidArgument("NatsOptions::servers: empty");
+  for (const std::string& s : servers) {
+    if (s.rfind("nats://", 0) != 0) {
+      return core::InvalidArgument("NatsOptions::servers: '" + s + "' is not a nats:// URL");
+    }
+  }
+  if (connect_timeout_ms < 1) {
+    return core::InvalidArgument("NatsOptions::connect_timeout_ms = " +
+                                 std::to_string(connect_timeout_ms) + "; violates >= 1");
+  }
+  if (reconnect_wait_ms < 1) {
+    return core::InvalidArgument("NatsOptions::reconnect_wait_ms = " +
+                                 std::to_string(reconnect_wait_ms) + "; violates >= 1");
+  }
+  return core::Status::Ok();
+}
+
+std::vector<std::string> SplitServers(const std::string& comma_separated) {
+  std::vector<std::string> out;
+  std::stringstream in(comma_separated);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    const size_t b = item.find_first_not_of(' ');
+    const size_t e = item.find_last_not_of(' ');
+    if (b != std::string::npos) out.push_back(item.substr(b, e - b + 1));
+  }
+  return out;
+}
+
+core::Status NatsStatus(const char* what, int nats_status, int js_error) {
+  const auto s = static_cast<natsStatus>(nats_status);
+  if (s == NATS_OK) return core::Status::Ok();
+  std::string m = std::string(what) + ": " + natsStatus_GetText(s);
+  if (js_error != 0) m += " (JetStream error " + std::to_string(js_error) + ")";
+  switch (s) {
+    case NATS_TIMEOUT:
+    case NATS_NO_SERVER:
+    case NATS_NO_RESPONDERS:
+    case NATS_CONNECTION_CLOSED:
+    case NATS_CONNECTION_DISCONNECTED:
+    case NATS_STALE_CONNECTION:
+    case NATS_IO_ERROR:
+      return core::Unavailable(m);
+    default:
+      return core::IoError(m);
+  }
+}
+
+core::Result<std::unique_ptr<NatsClient>> NatsClient::Connect(const NatsOptions& options) {
+  SLAMD_RETURN_IF_ERROR(options.Validate());
+  natsOptions* opts = nullptr;
+  std::vector<const char*> urls;
+  for (const std::string& s : options.servers) urls.push_back(s.c_str());
+  natsStatus s = natsOptions_Create(&opts);
+  if (s == NATS_OK) s = natsOptions_SetServers(opts, urls.data(), static_cast<int>(urls.size()));
+  if (s == NATS_OK) s = natsOptions_SetTimeout(opts, options.connect_timeout_ms);
+  if (s == NATS_OK) s = natsOptions_SetMaxReconnect(opts, -1);
+  if (s == NATS_OK) s = natsOptions_SetReconnectWait(opts, options.reconnect_wait_ms);
+  // Whichever server answers first, not always the first listed.
+  if (s == NATS_OK) s = natsOptions_SetNoRandomize(opts, false);
+  natsConnection* nc = nullptr;
+  if (s == NATS_OK) s = natsConnection_Connect(&nc, opts);
+  natsOptions_Destroy(opts);
+  if (s != NATS_OK) {
+    return NatsStatus(("cannot connect to NATS at " + JoinServers(options.servers)).c_str(), s);
+  }
+  jsCtx* js = nullptr;
+  s = natsConnection_JetStream(&js, nc, nullptr);
+  if (s != NATS_OK) {
+    natsConnection_Destroy(nc);
+    return NatsStatus("cannot open JetStream", s);
+  }
+  return std::unique_ptr<NatsClient>(new NatsClient(options, nc, js));
+}
+
+NatsClient::~NatsClient() {
+  jsCtx_Destroy(js_);
+  natsConnection_Close(nc_);
+  natsConnection_Destroy(nc_);
+}
+
+bool NatsClient::connected() const {
+  return natsConnection_Status(nc_) == NATS_CONN_STATUS_CONNECTED;
+}
+
+std::string NatsClient::servers() const { return JoinServers(options_.servers); }
+
+}  // namespace slamd::server

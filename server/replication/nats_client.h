@@ -1,0 +1,65 @@
+// NatsClient: one connection to a NATS cluster with its JetStream context (libnats, the C
+// client), for the replicated journal. It reconnects by itself (forever, every
+// reconnect_wait_ms, trying each server), buffering what is published meanwhile; calls made
+// while it is disconnected time out and return Unavailable.
+//
+// Errors from libnats become a Status naming the call and what NATS said
+// (NatsStatus): NATS_TIMEOUT, NATS_NO_SERVER and a closed or reconnecting connection are
+// Unavailable (the caller retries), JetStream API errors keep their code in the message.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/base/status.h"
+
+typedef struct __natsConnection natsConnection;
+typedef struct __jsCtx jsCtx;
+
+namespace slamd::server {
+
+// How long requests that create or look up streams and consumers wait: a replicated stream's or
+// consumer's RAFT group takes longer to form than an append to be acknowledged [ms].
+inline constexpr int kNatsAdminWaitMs = 5000;
+
+struct NatsOptions {
+  // The servers of the cluster, e.g. {"nats://127.0.0.1:4222", "nats://127.0.0.1:4223"}.
+  std::vector<std::string> servers;
+  int connect_timeout_ms = 2000;  // per server, at the first connection [ms]
+  int reconnect_wait_ms = 100;    // between attempts once connected [ms]
+
+  core::Status Validate() const;  // "NatsOptions::servers: empty", ...
+};
+
+// "nats://a:4222,nats://b:4222" -> its entries (empty ones dropped).
+std::vector<std::string> SplitServers(const std::string& comma_separated);
+
+// The status of a libnats call: Ok for NATS_OK, else Unavailable (time-outs, no server, lost
+// connection) or IoError, with `what` and the library's text (and the JetStream error code when
+// it is not 0).
+core::Status NatsStatus(const char* what, int nats_status, int js_error = 0);
+
+class NatsClient {
+ public:
+  // Connects to one of the servers (Unavailable naming them when none answers) and opens the
+  // JetStream context.
+  static core::Result<std::unique_ptr<NatsClient>> Connect(const NatsOptions& options);
+  ~NatsClient();
+  NatsClient(const NatsClient&) = delete;
+  NatsClient& operator=(const NatsClient&) = delete;
+
+  natsConnection* connection() const { return nc_; }
+  jsCtx* jetstream() const { return js_; }
+  bool connected() const;       // not reconnecting, not closed
+  std::string servers() const;  // as given, comma-separated (for messages)
+
+ private:
+  NatsClient(const NatsOptions& options, natsConnection* nc, jsCtx* js)
+      : options_(options), nc_(nc), js_(js) {}
+  const NatsOptions options_;
+  natsConnection* nc_ = nullptr;
+  jsCtx* js_ = nullptr;
+};
+
+}  // namespace slamd::server

@@ -1,0 +1,277 @@
+#include "server/replication/stream_journal.h"
+
+#include <nats/nats.h>
+
+#include <algorithm>
+#include <charconv>
+#include <random>
+
+namespace slamd::server {
+namespace {
+
+constexpr const char* kSourceHeader = "Slamd-Source";
+constexpr const char* kJournalEndHeader = "Slamd-Journal-End";
+constexpr const char* kLastMessageHeader = "Slamd-Last-Message";
+constexpr std::int64_t kDuplicateWindowNs = std::int64_t{120} * 1000 * 1000 * 1000;
+
+// 16 hex digits, different for every writer (pid and a random device).
+std::string NewWriterId() {
+  std::random_device rd;
+  const std::uint64_t v = (std::uint64_t{rd()} << 32) ^ rd() ^ std::uint64_t(::getpid());
+  char buf[17];
+  std::snprintf(buf, sizeof(buf), "%016llx", static_cast<unsigned long long>(v));
+  return buf;
+}
+
+std::int64_t NumberHeader(natsMsg* msg, const char* key) {
+  const char* v = nullptr;
+  if (natsMsgHeader_Get(msg, key, &v) != NATS_OK || v == nullptr) return 0;
+  std::int64_t n = 0;
+  const char* end = v + std::strlen(v);
+  if (std::from_chars(v, end, n).ptr != end) return 0;
+  return n;
+}
+
+jsOptions WaitOptions(int wait_ms) {
+  jsOptions jo;
+  jsOptions_Init(&jo);
+  jo.Wait = wait_ms;
+  return jo;
+}
+
+// The newest message of the stream (its position) and its Nats-Msg-Id.
+core::Result<std::pair<StreamPosition, std::string>> ReadNewest(jsCtx* js,
+                                                                const StreamJournalOptions& o) {
+  jsOptions jo = WaitOptions(o.ack_timeout_ms);
+  natsMsg* m = nullptr;
+  jsErrCode jerr = static_cast<jsErrCode>(0);
+  const natsStatus s = js_GetLastMsg(&m, js, o.stream.c_str(), o.subject.c_str(), &jo, &jerr);
+  if (s != NATS_OK) {
+    return NatsStatus(("cannot read the last message of stream " + o.stream).c_str(), s, jerr);
+  }
+  std::pair<StreamPosition, std::string> out{PositionOf(m), ""};
+  const char* id = nullptr;
+  if (natsMsgHeader_Get(m, "Nats-Msg-Id", &id) == NATS_OK && id != nullptr) out.second = id;
+  natsMsg_Destroy(m);
+  return out;
+}
+
+bool ValidStreamName(const std::string& name) {
+  return !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
+  });
+}
+
+core::Status CheckRange(const char* field, std::int64_t v, std::int64_t lo, std::int64_t hi) {
+  if (v >= lo && v <= hi) return core::Status::Ok();
+  return core::InvalidArgument(std::string("StreamJournalOptions::") + field + " = " +
+                               std::to_string(v) + "; violates " +
+                               (v < lo ? ">= " + std::to_string(lo) : "<= " + std::to_string(hi)));
+}
+
+}  // namespace
+
+core::Status StreamJournalOptions::Validate() const {
+  SLAMD_RETURN_IF_ERROR(nats.Validate());
+  if (!ValidStreamName(stream)) {
+    return core::InvalidArgument("StreamJournalOptions::stream = '" + stream +
+                                 "'; violates [A-Za-z0-9_-]+");
+  }
+  if (subject.empty() || subject.find_first_of(" *>") != std::string::npos) {
+    return core::InvalidArgument("StreamJournalOptions::subject = '" + subject +
+                                 "'; violates: a subject without spaces or wildcards");
+  }
+  SLAMD_RETURN_IF_ERROR(CheckRange("replicas", replicas, 1, 5));
+  SLAMD_RETURN_IF_ERROR(CheckRange("ack_timeout_ms", ack_timeout_ms, 1, 60000));
+  SLAMD_RETURN_IF_ERROR(CheckRange("max_batch_bytes", max_batch_bytes, 4096, 1000000));
+  if (source.empty()) return core::InvalidArgument("StreamJournalOptions::source: empty");
+  return core::Status::Ok();
+}
+
+StreamPosition PositionOf(natsMsg* msg) {
+  StreamPosition p{.sequence = static_cast<std::int64_t>(natsMsg_GetSequence(msg)),
+                   .journal_end = NumberHeader(msg, kJournalEndHeader),
+                   .last_message = NumberHeader(msg, kLastMessageHeader)};
+  const char* v = nullptr;
+  if (natsMsgHeader_Get(msg, kSourceHeader, &v) == NATS_OK && v != nullptr) p.source = v;
+  return p;
+}
+
+core::Result<std::unique_ptr<StreamJournal>> StreamJournal::Open(
+    const StreamJournalOptions& options) {
+  SLAMD_RETURN_IF_ERROR(options.Validate());
+  core::Result<std::unique_ptr<NatsClient>> client = NatsClient::Connect(options.nats);
+  if (!client.ok()) return client.status();
+  jsCtx* js = client.value()->jetstream();
+  jsOptions jo = WaitOptions(std::max(options.ack_timeout_ms, kNatsAdminWaitMs));
+  jsStreamInfo* si = nullptr;
+  jsErrCode jerr = static_cast<jsErrCode>(0);
+  natsStatus s = js_GetStreamInfo(&si, js, options.stream.c_str(), &jo, &jerr);
+  if (s == NATS_NOT_FOUND) {
+    jsStreamConfig cfg;
+    jsStreamConfig_Init(&cfg);
+    const char* subjects[] = {options.subject.c_str()};
+    cfg.Name = options.stream.c_str();
+    cfg.Subjects = subjects;
+    cfg.SubjectsLen = 1;
+    cfg.Storage = js_FileStorage;
+    cfg.Replicas = options.replicas;
+    cfg.Duplicates = kDuplicateWindowNs;
+    jerr = static_cast<jsErrCode>(0);
+    s = js_AddStream(&si, js, &cfg, &jo, &jerr);
+    if (s != NATS_OK) {
+      return NatsStatus(("cannot create stream " + options.stream).c_str(), s, jerr);
+    }
+  } else if (s != NATS_OK) {
+    return NatsStatus(("cannot read stream " + options.stream).c_str(), s, jerr);
+  }
+  const bool same_subject =
+      si->Config->SubjectsLen == 1 && options.subject == si->Config->Subjects[0];
+  const std::int64_t last = static_cast<std::int64_t>(si->State.LastSeq);
+  jsStreamInfo_Destroy(si);
+  if (!same_subject) {
+    return core::FailedPrecondition("stream " + options.stream +
+                                    " exists and does not capture exactly the subject " +
+                                    options.subject);
+  }
+  StreamPosition end;
+  if (last > 0) {
+    auto newest = ReadNewest(js, options);
+    if (!newest.ok()) return newest.status();
+    end = std::move(newest).value().first;
+  }
+  return std::unique_ptr<StreamJournal>(
+      new StreamJournal(options, std::move(client).value(), std::move(end)));
+}
+
+StreamJournal::StreamJournal(const StreamJournalOptions& options,
+                             std::unique_ptr<NatsClient> client, StreamPosition end)
+    : options_(options),
+      client_(std::move(client)),
+      writer_id_(NewWriterId()),
+      end_(std::move(end)) {}
+
+void StreamJournal::Stage(std::string_view frame, Position after) {
+  std::lock_guard lock(stage_mutex_);
+  staged_.append(frame);
+  marks_.push_back({.end = staged_.size(), .position = after});
+}
+
+void StreamJournal::CutBatchesLocked() {
+  const size_t max = static_cast<size_t>(options_.max_batch_bytes);
+  size_t begin = 0, next = 0;  // next: the first mark not yet in a batch
+  while (begin < staged_.size()) {
+    size_t end = begin;
+    while (next < marks_.size() && marks_[next].end - begin <= max) {  // whole records
+      end = marks_[next].end;
+      cut_ = marks_[next].position;
+      ++next;
+    }
+    if (end == begin) end = std::min(staged_.size(), begin + max);  // a longer record, cut
+    pending_.push_back({.id = writer_id_ + "-" + std::to_string(next_batch_++),
+                        .bytes = staged_.substr(begin, end - begin),
+                        .end = cut_});
+    begin = end;
+  }
+  staged_.clear();
+  marks_.clear();
+}
+
+void StreamJournal::Stored(const Batch& batch, std::int64_t sequence) {
+  end_ = {.sequence = std::max(end_.sequence, sequence),
+          .source = options_.source,
+          .journal_end = batch.end.journal_end,
+          .last_message = batch.end.last_message};
+  ++batches_published_;
+}
+
+StreamJournal::Sent StreamJournal::Publish(const Batch& batch, core::Status* error) {
+  natsMsg* m = nullptr;
+  const std::string expected = std::to_string(end_.sequence);
+  const std::string journal_end = std::to_string(batch.end.journal_end);
+  const std::string last_message = std::to_string(batch.end.last_message);
+  natsStatus s = natsMsg_Create(&m, options_.subject.c_str(), nullptr, batch.bytes.data(),
+                                static_cast<int>(batch.bytes.size()));
+  if (s == NATS_OK) s = natsMsgHeader_Set(m, "Nats-Msg-Id", batch.id.c_str());
+  if (s == NATS_OK) s = natsMsgHeader_Set(m, "Nats-Expected-Last-Sequence", expected.c_str());
+  if (s == NATS_OK) s = natsMsgHeader_Set(m, kSourceHeader, options_.source.c_str());
+  if (s == NATS_OK) s = natsMsgHeader_Set(m, kJournalEndHeader, journal_end.c_str());
+  if (s == NATS_OK) s = natsMsgHeader_Set(m, kLastMessageHeader, last_message.c_str());
+  jsPubOptions po;
+  jsPubOptions_Init(&po);
+  po.MaxWait = options_.ack_timeout_ms;
+  jsPubAck* ack = nullptr;
+  jsErrCode jerr = static_cast<jsErrCode>(0);
+  if (s == NATS_OK) s = js_PublishMsg(&ack, client_->jetstream(), m, &po, &jerr);
+  natsMsg_Destroy(m);
+  if (s == NATS_OK) {
+    Stored(batch, static_cast<std::int64_t>(ack->Sequence));
+    jsPubAck_Destroy(ack);
+    return Sent::kStored;
+  }
+  if (jerr == JSStreamWrongLastSequenceErr) return Sent::kMoved;
+  *error = NatsStatus(("stream " + options_.stream + ": batch " + batch.id + " not stored").c_str(),
+                      s, jerr);
+  return Sent::kFailed;
+}
+
+core::Status StreamJournal::Reconcile() {
+  auto newest = ReadNewest(client_->jetstream(), options_);
+  if (!newest.ok()) return newest.status();
+  const std::int64_t seq = newest.value().first.sequence;
+  const std::string& msg_id = newest.value().second;
+  const auto it = std::find_if(pending_.begin(), pending_.end(),
+                               [&](const Batch& b) { return b.id == msg_id; });
+  if (it == pending_.end()) {
+    return core::FailedPrecondition("stream " + options_.stream + " was appended to by another " +
+                                    "writer (message " + std::to_string(seq) + ", id '" + msg_id +
+                                    "'): this slamd may no longer write it");
+  }
+  batches_published_ += it - pending_.begin();
+  Stored(*it, seq);
+  pending_.erase(pending_.begin(), it + 1);
+  return core::Status::Ok();
+}
+
+core::Status StreamJournal::Commit() {
+  std::lock_guard lock(commit_mutex_);
+  {
+    std::lock_guard stage(stage_mutex_);
+    CutBatchesLocked();
+  }
+  while (!pending_.empty()) {
+    core::Status error;
+    switch (Publish(pending_.front(), &error)) {
+      case Sent::kStored:
+        pending_.pop_front();
+        break;
+      case Sent::kMoved:
+        SLAMD_RETURN_IF_ERROR(Reconcile());
+        break;
+      case Sent::kFailed:
+        return error;
+    }
+  }
+  return core::Status::Ok();
+}
+
+StreamPosition StreamJournal::stream_end() const {
+  std::lock_guard lock(commit_mutex_);
+  return end_;
+}
+std::int64_t StreamJournal::pending_bytes() const {
+  std::int64_t n = 0;
+  {
+    std::lock_guard lock(stage_mutex_);
+    n += static_cast<std::int64_t>(staged_.size());
+  }
+  std::lock_guard lock(commit_mutex_);
+  for (const Batch& b : pending_) n += static_cast<std::int64_t>(b.bytes.size());
+  return n;
+}
+std::int64_t StreamJournal::batches_published() const {
+  std::lock_guard lock(commit_mutex_);
+  return batches_published_;
+}
+
+}  // namespace slamd::server

@@ -1,0 +1,160 @@
+// NatsCluster: real nats-server processes with JetStream for the replication tests (label ha),
+// a cluster of n on loopback ports (client 14222 + i, routes 16222 + i), each with its store in
+// a directory of the test's own. Only inside a private network namespace (OnlyLoopback()), so
+// ports and traffic never meet anything else. Kill(i) (SIGKILL), Stop(i) (SIGTERM), Start(i)
+// (again, on the same store). Tests skip when nats-server is not installed (HaveNatsServer).
+#pragma once
+
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <nats/nats.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "server/replication/nats_client.h"
+#include "tests/testing/processes.h"
+
+namespace slamd::testing {
+
+inline bool HaveNatsServer() { return std::system("command -v nats-server >/dev/null 2>&1") == 0; }
+
+class NatsCluster {
+ public:
+  static constexpr int kClientPort = 14222;
+  static constexpr int kRoutePort = 16222;
+
+  NatsCluster(const std::string& dir, int n) : dir_(dir), pids_(static_cast<size_t>(n), -1) {
+    std::filesystem::create_directories(dir_);
+    for (int i = 0; i < n; ++i) WriteConfig(i);
+  }
+  ~NatsCluster() {
+    for (int i = 0; i < size(); ++i) Kill(i);
+  }
+  NatsCluster(const NatsCluster&) = delete;
+  NatsCluster& operator=(const NatsCluster&) = delete;
+
+  int size() const { return static_cast<int>(pids_.size()); }
+  static std::string Url(int i) { return "nats://127.0.0.1:" + std::to_string(kClientPort + i); }
+  // Every server's URL, comma-separated (replication.servers).
+  std::string Urls() const {
+    std::string all;
+    for (int i = 0; i < size(); ++i) all += (i ? "," : "") + Url(i);
+    return all;
+  }
+  std::vector<std::string> UrlList() const {
+    std::vector<std::string> all;
+    for (int i = 0; i < size(); ++i) all.push_back(Url(i));
+    return all;
+  }
+
+  // Starts server i and waits (up to 10 s) until its client port accepts connections.
+  void Start(int i) {
+    ASSERT_LT(pids_[i], 0) << "nats server " << i << " already running";
+    pids_[i] = Spawn({"nats-server", "-c", ConfigPath(i)}, dir_ + "/n" + std::to_string(i) + ".log",
+                     Streams::kStdoutAndStderr);
+    ASSERT_GT(pids_[i], 0);
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (!Accepts(kClientPort + i)) {
+      int status = 0;
+      if (waitpid(pids_[i], &status, WNOHANG) == pids_[i]) {
+        pids_[i] = -1;
+        FAIL() << "nats server " << i << " exited: " << Log(i);
+      }
+      ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "nats server " << i << " not up";
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  }
+  void StartAll() {
+    for (int i = 0; i < size(); ++i) Start(i);
+  }
+  // Waits (up to timeout_s) until the cluster answers JetStream requests (its meta leader
+  // elected): true when it does.
+  bool WaitForJetStream(double timeout_s) const {
+    const auto deadline = std::chrono::steady_clock::now() +
+                          std::chrono::milliseconds(static_cast<int>(timeout_s * 1e3));
+    while (std::chrono::steady_clock::now() < deadline) {
+      auto client = server::NatsClient::Connect({.servers = UrlList()});
+      if (client.ok()) {
+        jsAccountInfo* info = nullptr;
+        jsErrCode jerr = static_cast<jsErrCode>(0);
+        if (js_GetAccountInfo(&info, client.value()->jetstream(), nullptr, &jerr) == NATS_OK) {
+          jsAccountInfo_Destroy(info);
+          return true;
+        }
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    }
+    return false;
+  }
+  // The index of the server leading `stream`'s RAFT group (-1 when none or unknown).
+  int StreamLeader(const std::string& stream) const {
+    auto client = server::NatsClient::Connect({.servers = UrlList()});
+    if (!client.ok()) return -1;
+    jsStreamInfo* si = nullptr;
+    jsErrCode jerr = static_cast<jsErrCode>(0);
+    if (js_GetStreamInfo(&si, client.value()->jetstream(), stream.c_str(), nullptr, &jerr) !=
+        NATS_OK) {
+      return -1;
+    }
+    int leader = -1;
+    if (si->Cluster != nullptr && si->Cluster->Leader != nullptr) {
+      const std::string name = si->Cluster->Leader;  // "n<i>"
+      if (name.size() > 1 && name[0] == 'n') leader = std::atoi(name.c_str() + 1);
+    }
+    jsStreamInfo_Destroy(si);
+    return leader;
+  }
+  void Kill(int i) { Signal(i, SIGKILL); }
+  void Stop(int i) { Signal(i, SIGTERM); }
+  bool running(int i) const { return pids_[i] > 0; }
+  std::string Log(int i) const {
+    std::ifstream in(dir_ + "/n" + std::to_string(i) + ".log");
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  }
+
+ private:
+  std::string ConfigPath(int i) const { return dir_ + "/n" + std::to_string(i) + ".conf"; }
+  void WriteConfig(int i) const {
+    std::ofstream out(ConfigPath(i));
+    out << "server_name: n" << i << "\nlisten: 127.0.0.1:" << kClientPort + i
+        << "\njetstream { store_dir: \"" << dir_ << "/store" << i << "\" }\n";
+    if (size() == 1) return;
+    out << "cluster {\n  name: slamd_test\n  listen: 127.0.0.1:" << kRoutePort + i
+        << "\n  routes: [";
+    for (int j = 0; j < size(); ++j) {
+      if (j != i) out << "\n    nats-route://127.0.0.1:" << kRoutePort + j;
+    }
+    out << "\n  ]\n}\n";
+  }
+  void Signal(int i, int sig) {
+    if (pids_[i] <= 0) return;
+    kill(pids_[i], sig);
+    WaitExit(pids_[i]);
+    pids_[i] = -1;
+  }
+  static bool Accepts(int port) {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(static_cast<uint16_t>(port));
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    const bool ok = connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a)) == 0;
+    close(fd);
+    return ok;
+  }
+
+  std::string dir_;
+  std::vector<pid_t> pids_;
+};
+
+}  // namespace slamd::testing
