@@ -1,10 +1,10 @@
 #include "server/estimator/recovery.h"
 
 #include "core/base/timing.h"
+#include "server/estimator/journal_replay.h"
 #include "server/journal/journal_reader.h"
 #include "server/journal/journal_segments.h"
 #include "server/journal/snapshot_file.h"
-#include "server/messages/inbound_codec.h"
 #include "server/snapshot/estimator_state.h"
 #include "server/snapshot/state_codec.h"
 #include "slamd_proto/journal.pb.h"
@@ -72,9 +72,9 @@ core::Result<RecoveryResult> Recover(const std::string& data_dir, const Estimato
   }
   // Rebuilds started in the replay catch up as their swap records say, not as threads run.
   out.estimator->SetReplaying(true);
+  JournalReplay replay(out.estimator.get(), position.last_message_sequence);
   journal::JournalRecord record;
   std::int64_t offset = 0;
-  std::vector<Inbound> collected;
   for (;;) {
     const JournalReadState state = reader.Next(&record, &offset);
     if (state == JournalReadState::kCleanEnd) break;
@@ -88,57 +88,17 @@ core::Result<RecoveryResult> Recover(const std::string& data_dir, const Estimato
           reader.error().code(),
           reader.error().message() + (salvage ? "" : " (slamd --salvage skips corrupt records)"));
     }
-    if (record.has_message()) {
-      const journal::InboundMessage& m = record.message();
-      if (m.sequence() <= position.last_message_sequence) continue;  // in the snapshot
-      if (m.sequence() != out.last_sequence + 1 && !salvage) {
-        return core::DataLoss(At(path, offset) + ": message sequence " +
-                              std::to_string(m.sequence()) + " after " +
-                              std::to_string(out.last_sequence) + " (a gap: records are missing)");
-      }
-      out.last_sequence = m.sequence();
-      const auto* data = reinterpret_cast<const std::uint8_t*>(m.lcm_payload().data());
-      core::Result<Inbound> in = DecodeInbound(m.message_type(), {data, m.lcm_payload().size()});
-      if (!in.ok()) {
-        if (salvage) {
-          out.notes.push_back(At(path, offset) + ": skipped: " + in.status().message());
-          continue;
-        }
-        return core::DataLoss(At(path, offset) + ": " + in.status().message());
-      }
-      in.value().journal_sequence = m.sequence();
-      collected.push_back(std::move(in).value());
-      ++out.replayed_messages;
-    } else if (offset < position.journal_offset) {
-      continue;  // a boundary or refinement the snapshot already includes
-    } else if (record.has_boundary()) {
-      const std::int64_t last = record.boundary().last_message_sequence();
-      std::vector<Inbound> batch;
-      size_t n = 0;
-      while (n < collected.size() && collected[n].journal_sequence <= last) ++n;
-      batch.assign(std::make_move_iterator(collected.begin()),
-                   std::make_move_iterator(collected.begin() + static_cast<std::ptrdiff_t>(n)));
-      collected.erase(collected.begin(), collected.begin() + static_cast<std::ptrdiff_t>(n));
-      out.estimator->Process(std::move(batch));
-      ++out.replayed_updates;
-    } else if (record.has_refinement()) {
-      out.estimator->Refine(std::numeric_limits<double>::infinity(), record.refinement().rounds());
-      ++out.replayed_refinements;
-    } else if (record.has_removal()) {
-      const auto& keys = record.removal().keys();
-      const core::Status removed =
-          out.estimator->RemoveVariables({keys.data(), static_cast<size_t>(keys.size())});
-      if (!removed.ok()) out.notes.push_back(At(path, offset) + ": " + removed.message());
-      if (removed.ok()) ++out.replayed_removals;
-    } else if (record.has_rebuild_swap()) {
-      // None in flight when the rebuild started before the snapshot: then there is none to swap.
-      const auto& rounds = record.rebuild_swap().catch_up_rounds();
-      const core::Result<bool> swapped =
-          out.estimator->FinishRebuild({rounds.data(), static_cast<size_t>(rounds.size())});
-      if (!swapped.ok()) out.notes.push_back(At(path, offset) + ": " + swapped.status().message());
-      if (swapped.ok() && swapped.value()) ++out.replayed_rebuild_swaps;
-    }
+    // A boundary or refinement the snapshot already includes (messages check their sequence).
+    if (!record.has_message() && offset < position.journal_offset) continue;
+    SLAMD_RETURN_IF_ERROR(replay.Apply(record, At(path, offset), salvage));
   }
+  out.last_sequence = replay.last_sequence();
+  out.replayed_messages = replay.messages();
+  out.replayed_updates = replay.updates();
+  out.replayed_refinements = replay.refinements();
+  out.replayed_rebuild_swaps = replay.rebuild_swaps();
+  out.replayed_removals = replay.removals();
+  for (std::string& note : replay.notes()) out.notes.push_back(std::move(note));
   out.salvaged_bytes = reader.skipped_bytes();
   if (out.torn_tail_offset >= 0) {
     SLAMD_RETURN_IF_ERROR(
@@ -147,7 +107,7 @@ core::Result<RecoveryResult> Recover(const std::string& data_dir, const Estimato
   out.segments = reader.segments();
   if (out.torn_tail_offset >= 0) out.segments.back().end = out.torn_tail_offset;
   out.estimator->SetReplaying(false);
-  out.pending = std::move(collected);
+  out.pending = replay.TakePending();
   out.seconds = timer.Seconds();
   return out;
 }

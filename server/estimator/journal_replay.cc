@@ -1,0 +1,64 @@
+#include "server/estimator/journal_replay.h"
+
+#include <iterator>
+#include <limits>
+
+#include "server/messages/inbound_codec.h"
+#include "slamd_proto/journal.pb.h"
+
+namespace slamd::server {
+
+core::Status JournalReplay::Apply(const journal::JournalRecord& record, const std::string& where,
+                                  bool salvage) {
+  if (record.has_message()) {
+    const journal::InboundMessage& m = record.message();
+    if (m.sequence() <= last_sequence_) return core::Status::Ok();  // already included
+    if (m.sequence() != last_sequence_ + 1 && !salvage) {
+      return core::DataLoss(where + ": message sequence " + std::to_string(m.sequence()) +
+                            " after " + std::to_string(last_sequence_) +
+                            " (a gap: records are missing)");
+    }
+    last_sequence_ = m.sequence();
+    const auto* data = reinterpret_cast<const std::uint8_t*>(m.lcm_payload().data());
+    core::Result<Inbound> in = DecodeInbound(m.message_type(), {data, m.lcm_payload().size()});
+    if (!in.ok()) {
+      if (!salvage) return core::DataLoss(where + ": " + in.status().message());
+      notes_.push_back(where + ": skipped: " + in.status().message());
+      return core::Status::Ok();
+    }
+    in.value().journal_sequence = m.sequence();
+    collected_.push_back(std::move(in).value());
+    ++messages_;
+  } else if (record.has_boundary()) {
+    const std::int64_t last = record.boundary().last_message_sequence();
+    size_t n = 0;
+    while (n < collected_.size() && collected_[n].journal_sequence <= last) ++n;
+    std::vector<Inbound> batch(
+        std::make_move_iterator(collected_.begin()),
+        std::make_move_iterator(collected_.begin() + static_cast<std::ptrdiff_t>(n)));
+    collected_.erase(collected_.begin(), collected_.begin() + static_cast<std::ptrdiff_t>(n));
+    estimator_->Process(std::move(batch));
+    ++updates_;
+  } else if (record.has_refinement()) {
+    estimator_->Refine(std::numeric_limits<double>::infinity(), record.refinement().rounds());
+    ++refinements_;
+  } else if (record.has_removal()) {
+    const auto& keys = record.removal().keys();
+    const core::Status removed =
+        estimator_->RemoveVariables({keys.data(), static_cast<size_t>(keys.size())});
+    if (!removed.ok()) notes_.push_back(where + ": " + removed.message());
+    if (removed.ok()) ++removals_;
+  } else if (record.has_rebuild_swap()) {
+    // None in flight when the rebuild started before the snapshot: then there is none to swap.
+    const auto& rounds = record.rebuild_swap().catch_up_rounds();
+    const core::Result<bool> swapped =
+        estimator_->FinishRebuild({rounds.data(), static_cast<size_t>(rounds.size())});
+    if (!swapped.ok()) notes_.push_back(where + ": " + swapped.status().message());
+    if (swapped.ok() && swapped.value()) ++rebuild_swaps_;
+  }
+  return core::Status::Ok();
+}
+
+std::vector<Inbound> JournalReplay::TakePending() { return std::move(collected_); }
+
+}  // namespace slamd::server
