@@ -2,6 +2,7 @@
 
 #include <nats/nats.h>
 
+#include <cstring>
 #include <sstream>
 
 namespace slamd::server {
@@ -50,6 +51,10 @@ core::Status NatsStatus(const char* what, int nats_status, int js_error) {
   if (s == NATS_OK) return core::Status::Ok();
   std::string m = std::string(what) + ": " + natsStatus_GetText(s);
   if (js_error != 0) m += " (JetStream error " + std::to_string(js_error) + ")";
+  const char* detail = nats_GetLastError(nullptr);  // this thread's last libnats error
+  if (detail != nullptr && *detail != '\0' && std::strcmp(detail, natsStatus_GetText(s)) != 0) {
+    m += std::string(": ") + detail;
+  }
   switch (s) {
     case NATS_TIMEOUT:
     case NATS_NO_SERVER:

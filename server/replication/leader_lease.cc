@@ -1,0 +1,114 @@
+#include "server/replication/leader_lease.h"
+
+#include <nats/nats.h>
+
+namespace slamd::server {
+
+core::Status LeaderLeaseOptions::Validate() const {
+  SLAMD_RETURN_IF_ERROR(nats.Validate());
+  const auto name_ok = [](const std::string& s) {
+    return !s.empty() && s.find_first_not_of(
+                             "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
+                             "0123456789_-") == std::string::npos;
+  };
+  if (!name_ok(bucket)) {
+    return core::InvalidArgument("LeaderLeaseOptions::bucket = '" + bucket +
+                                 "'; violates [A-Za-z0-9_-]+");
+  }
+  if (!name_ok(key)) {
+    return core::InvalidArgument("LeaderLeaseOptions::key = '" + key +
+                                 "'; violates [A-Za-z0-9_-]+");
+  }
+  if (ttl_ms < 100 || ttl_ms > 60000) {
+    return core::InvalidArgument("LeaderLeaseOptions::ttl_ms = " + std::to_string(ttl_ms) +
+                                 "; violates 100..60000");
+  }
+  if (replicas < 1 || replicas > 5) {
+    return core::InvalidArgument("LeaderLeaseOptions::replicas = " + std::to_string(replicas) +
+                                 "; violates 1..5");
+  }
+  if (holder.empty()) return core::InvalidArgument("LeaderLeaseOptions::holder: empty");
+  return core::Status::Ok();
+}
+
+core::Result<std::unique_ptr<LeaderLease>> LeaderLease::Open(const LeaderLeaseOptions& options) {
+  SLAMD_RETURN_IF_ERROR(options.Validate());
+  core::Result<std::unique_ptr<NatsClient>> client = NatsClient::Connect(options.nats);
+  if (!client.ok()) return client.status();
+  kvStore* kv = nullptr;
+  natsStatus s = js_KeyValue(&kv, client.value()->jetstream(), options.bucket.c_str());
+  if (s == NATS_NOT_FOUND) {
+    kvConfig cfg;
+    kvConfig_Init(&cfg);
+    cfg.Bucket = options.bucket.c_str();
+    cfg.History = 1;
+    cfg.TTL = std::int64_t{options.ttl_ms} * 1000000;  // [ns], as the stream's MaxAge
+    cfg.Replicas = options.replicas;
+    cfg.StorageType = js_FileStorage;
+    s = js_CreateKeyValue(&kv, client.value()->jetstream(), &cfg);
+  }
+  if (s != NATS_OK) {
+    return NatsStatus(("cannot open the lease bucket " + options.bucket).c_str(), s);
+  }
+  return std::unique_ptr<LeaderLease>(new LeaderLease(options, std::move(client).value(), kv));
+}
+
+LeaderLease::~LeaderLease() { kvStore_Destroy(kv_); }
+
+core::Result<bool> LeaderLease::TryAcquire() {
+  if (held_) return true;
+  std::uint64_t rev = 0;
+  const Clock::time_point t = Clock::now();
+  const natsStatus s =
+      kvStore_CreateString(&rev, kv_, options_.key.c_str(), options_.holder.c_str());
+  if (s == NATS_OK) {
+    held_ = true;
+    revision_ = rev;
+    renewed_ = t;
+    return true;
+  }
+  // Refused because the key exists (JetStream's wrong-last-sequence): someone holds it.
+  if (s == NATS_ERR) return false;
+  return NatsStatus(("cannot take the lease " + options_.bucket + "/" + options_.key).c_str(), s);
+}
+
+core::Status LeaderLease::Renew() {
+  if (!held_) return core::FailedPrecondition("the lease is not held");
+  std::uint64_t rev = 0;
+  const Clock::time_point t = Clock::now();
+  const natsStatus s =
+      kvStore_UpdateString(&rev, kv_, options_.key.c_str(), options_.holder.c_str(), revision_);
+  if (s == NATS_OK) {
+    revision_ = rev;
+    renewed_ = t;
+    return core::Status::Ok();
+  }
+  const bool lapsed = Clock::now() - renewed_ >= std::chrono::milliseconds(options_.ttl_ms);
+  if (s == NATS_ERR || lapsed) {
+    held_ = false;
+    return core::FailedPrecondition("lost the lease " + options_.bucket + "/" + options_.key +
+                                    (s == NATS_ERR
+                                         ? ": someone else wrote it"
+                                         : ": not renewed for " + std::to_string(options_.ttl_ms) +
+                                               " ms (" + natsStatus_GetText(s) + ")"));
+  }
+  return NatsStatus("cannot renew the lease", s);
+}
+
+core::Status LeaderLease::Release() {
+  if (!held_) return core::Status::Ok();
+  held_ = false;
+  return NatsStatus("cannot release the lease", kvStore_Delete(kv_, options_.key.c_str()));
+}
+
+core::Result<std::string> LeaderLease::Holder() {
+  kvEntry* e = nullptr;
+  const natsStatus s = kvStore_Get(&e, kv_, options_.key.c_str());
+  if (s == NATS_NOT_FOUND) return std::string();
+  if (s != NATS_OK) return NatsStatus("cannot read the lease", s);
+  std::string holder = kvEntry_ValueString(e);
+  kvEntry_Destroy(e);
+  return holder;
+}
+
+}  // namespace slamd::server
