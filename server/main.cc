@@ -3,7 +3,9 @@
 //
 //   slamd [--config FILE] [--lcm-url URL] [--data-dir DIR] [--channel-prefix P] [--log-level L]
 //   slamd --print-default-config
-// Exit codes: 0 clean stop, 2 bad flags or config, 1 runtime failure (e.g. LCM cannot start).
+// Exit codes: 0 clean stop, 2 bad flags or config, 1 runtime failure (e.g. LCM cannot start),
+// 3 deposed: a replicated pair's leader lost its lease or found another writer on the stream,
+// or a standby could not follow it (restart it on an empty data directory to follow again).
 #include <spdlog/async.h>
 #include <spdlog/sinks/rotating_file_sink.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
@@ -109,11 +111,18 @@ int main(int argc, char** argv) {
     return 1;
   }
   daemon.value()->Start();
-  int signal = 0;
-  sigwait(&signals, &signal);
-  log->info("signal {}: stopping intake, finishing the update", signal);
+  // Until a signal, or until this slamd of a replicated pair is deposed (it lost the lease, or
+  // another slamd wrote the stream): then it stops with exit code 3.
+  const timespec tick{.tv_sec = 0, .tv_nsec = 100'000'000};
+  int signal = -1;
+  while (signal < 0 && !daemon.value()->deposed()) signal = sigtimedwait(&signals, nullptr, &tick);
+  if (signal > 0) {
+    log->info("signal {}: stopping intake, finishing the update", signal);
+  } else {
+    log->critical("no longer the leader of the replicated pair: stopping (exit 3)");
+  }
   daemon.value()->Stop();
   daemon.value().reset();
   spdlog::shutdown();
-  return 0;
+  return signal > 0 ? 0 : 3;
 }

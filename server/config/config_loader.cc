@@ -126,6 +126,9 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   if (rep.has_subject()) p->replication.subject = rep.subject();
   if (rep.has_replicas()) p->replication.replicas = rep.replicas();
   if (rep.has_ack_timeout_ms()) p->replication.ack_timeout_ms = rep.ack_timeout_ms();
+  if (rep.has_lease_ttl_ms()) p->replication.lease_ttl_ms = rep.lease_ttl_ms();
+  if (rep.has_lease_bucket()) p->replication.lease_bucket = rep.lease_bucket();
+  if (rep.has_standby_keep_s()) p->replication.standby_keep_s = rep.standby_keep_s();
   const proto::EstimatorConfig& e = config.estimator();
   if (e.has_new_robot_anchor()) {
     p->estimator.new_robot_anchor = static_cast<AnchorPolicy>(e.new_robot_anchor());
@@ -370,6 +373,11 @@ std::string DefaultConfigText() {
       << "  replicas: " << d.replication.replicas << "  # copies of each record, 1..5\n"
       << "  ack_timeout_ms: " << d.replication.ack_timeout_ms
       << "  # unacknowledged this long: intake held [ms]\n"
+      << "  lease_ttl_ms: " << d.replication.lease_ttl_ms
+      << "  # > 0: a replicated pair, the lease holder leads, the other is a standby [ms]\n"
+      << "  lease_bucket: " << Quote(d.replication.lease_bucket) << "\n"
+      << "  standby_keep_s: " << Num(d.replication.standby_keep_s)
+      << "  # a standby journals what it heard this long before it took over [s]\n"
       << "}\n";
   return out.str();
 }

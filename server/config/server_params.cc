@@ -61,6 +61,12 @@ core::Status ServerParams::Validate() const {
   SLAMD_CONFIG_CHECK(replication.replicas, <=, 5);
   SLAMD_CONFIG_CHECK(replication.ack_timeout_ms, >=, 1);
   SLAMD_CONFIG_CHECK(replication.ack_timeout_ms, <=, 60000);
+  if (replication.lease_ttl_ms != 0) {
+    SLAMD_CONFIG_CHECK(replication.lease_ttl_ms, >=, 100);
+    SLAMD_CONFIG_CHECK(replication.lease_ttl_ms, <=, 60000);
+  }
+  SLAMD_CONFIG_CHECK(replication.standby_keep_s, >=, 0.1);
+  SLAMD_CONFIG_CHECK(replication.standby_keep_s, <=, 600.0);
   SLAMD_CONFIG_CHECK(journal.sync_interval_ms, >=, 1);
   SLAMD_CONFIG_CHECK(journal.sync_interval_ms, <=, 60000);
   SLAMD_CONFIG_CHECK(journal.snapshot_every_updates, >=, 0);

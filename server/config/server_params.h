@@ -105,6 +105,15 @@ struct ServerParams {
     // How long an update's records may wait for the stream's acknowledgement before intake is
     // held [ms]; 1..60000.
     int ack_timeout_ms = 1000;
+    // A replicated pair (hot standby): > 0 = slamd contends for a lease of this length in the
+    // JetStream key-value bucket `lease_bucket`; the holder leads (journals, publishes), the
+    // other follows the stream as a standby and takes over once the lease lapses. 0 = no lease:
+    // this slamd always leads [ms]; 0 or 100..60000.
+    int lease_ttl_ms = 0;
+    std::string lease_bucket = "SLAMD_LEADER";
+    // What a standby hears directly from the robots is kept this long, and journaled when it
+    // takes over (what the old leader accepted but never got into the stream) [s]; 0.1..600.
+    double standby_keep_s = 30.0;
   };
   Replication replication = {};
 

@@ -109,10 +109,8 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
     if (!opened.ok()) return opened.status();
     journal = std::move(opened).value();
   }
-  core::Result<std::unique_ptr<StreamJournal>> replica = StartReplica(params, journal.get(), *log);
-  if (!replica.ok()) return replica.status();
-  std::unique_ptr<Daemon> daemon(new Daemon(params, bus, std::move(estimator),
-                                            std::move(replica).value(), std::move(journal)));
+  std::unique_ptr<Daemon> daemon(new Daemon(params, bus, std::move(estimator), std::move(journal)));
+  SLAMD_RETURN_IF_ERROR(daemon->StartReplication());
   if (!pending.empty()) {
     // Accepted and journaled before the restart but never processed: first, as one update.
     // Their senders never heard back: their rejections go out now.
@@ -135,12 +133,11 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
 }
 
 Daemon::Daemon(const ServerParams& params, Bus* bus, std::unique_ptr<Estimator> estimator,
-               std::unique_ptr<StreamJournal> replica, std::unique_ptr<Journal> journal)
+               std::unique_ptr<Journal> journal)
     : params_(params),
       bus_(bus),
       channels_{params.channel_prefix},
       estimator_(std::move(estimator)),
-      replica_(std::move(replica)),
       journal_(std::move(journal)),
       queue_(params.queue.depth),
       snapshot_(estimator_->snapshot()) {
@@ -184,6 +181,14 @@ void Daemon::OnInbound(std::string_view channel, const Msg& msg) {
                                                      std::to_string(params_.queue.depth) + ")"};
     Inbound in{std::move(checked).value(), SteadyMicros()};
     constexpr bool kJournaled = Spec::kRole != MessageRole::kQuery;
+    if (standby_) {  // the leader answers; kept in case this slamd takes over
+      if (kJournaled) {
+        std::vector<std::uint8_t> bytes(static_cast<size_t>(msg.getEncodedSize()));
+        msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+        Hear(channel, type, std::move(bytes));
+      }
+      return;
+    }
     if (kJournaled && !WaitForReplication(params_.queue.block_timeout_s)) {
       PublishReject({RejectReason::kReplicationUnavailable,
                      std::string(type) + ": the replicated journal (NATS stream " +
@@ -474,6 +479,10 @@ void Daemon::EstimatorLoop() {
   // Waits at most 50 ms for messages so status keeps going when idle; not at all while a
   // refinement is still due, so the map converges between messages.
   while (!stop_estimator_) {
+    if (standby_) {
+      StandbyStep();
+      continue;
+    }
     double wait_s = estimator_->Rebuilding() ? 0.001 : 0.05;  // a rebuild is swapped in promptly
     if (RefineDue()) {
       wait_s = std::clamp(params_.refine.idle_s - IdleMicros() * 1e-6, 0.0, wait_s);
@@ -502,6 +511,7 @@ void Daemon::Start() {
     core::NameThisThread("slamd-intake");
     IntakeLoop();
   });
+  if (lease_ && lease_->held()) StartLeaseThread();
   log_->info("slamd running: prefix '{}', queue {}, refine {}", params_.channel_prefix,
              params_.queue.depth, params_.refine.enabled ? "on" : "off");
 }
@@ -541,8 +551,9 @@ void Daemon::Stop() {
     }
     ShareSnapshot();
   }
+  ReleaseLease();
   const std::shared_ptr<const EstimateSnapshot> snap = snapshot();
-  PublishStatus(*snap);
+  if (!standby_) PublishStatus(*snap);
   log_->info("slamd stopped after {} updates; {} messages received", snap->counters.updates,
              received_.load());
   log_->flush();

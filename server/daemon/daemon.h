@@ -44,6 +44,7 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <mutex>
 #include <set>
@@ -56,8 +57,11 @@
 #include "server/daemon/ingest_queue.h"
 #include "server/daemon/snapshot_writer.h"
 #include "server/estimator/estimator.h"
+#include "server/estimator/journal_replay.h"
 #include "server/journal/journal.h"
+#include "server/replication/leader_lease.h"
 #include "server/replication/stream_journal.h"
+#include "server/replication/stream_reader.h"
 #include "server/transport/bus.h"
 #include "server/transport/channels.h"
 
@@ -91,6 +95,10 @@ class Daemon {
   int StepEstimator(double timeout_s);
 
   std::shared_ptr<const EstimateSnapshot> snapshot() const;
+  // This slamd lost the lease while leading (a replicated pair): it holds intake and publishes
+  // nothing; main() stops it.
+  bool deposed() const { return deposed_; }
+  bool standby() const { return standby_; }
   // The estimator, for tests that drive the daemon by hand (no threads running).
   const Estimator& estimator_for_tests() const { return *estimator_; }
   const Journal* journal_for_tests() const { return journal_.get(); }  // null without data_dir
@@ -98,17 +106,28 @@ class Daemon {
 
  private:
   Daemon(const ServerParams& params, Bus* bus, std::unique_ptr<Estimator> estimator,
-         std::unique_ptr<StreamJournal> replica, std::unique_ptr<Journal> journal);
-  // The replicated journal when params.replication.servers is set (daemon_replication.cc), else
-  // null.
-  static core::Result<std::unique_ptr<StreamJournal>> StartReplica(const ServerParams& params,
-                                                                   Journal* journal,
-                                                                   spdlog::logger& log);
+         std::unique_ptr<Journal> journal);
+
+  // Replication (daemon_replication.cc). When params.replication.servers is set: the replicated
+  // journal, or with a lease (lease_ttl_ms) either that (lease taken) or the standby's follower.
+  core::Status StartReplication();
   // Commits the replica (true without one). A failure holds intake and the estimates until a
   // later commit succeeds.
   bool CommitReplica();
   // Intake's wait while replication is held: true once it is not, false after timeout_s.
   bool WaitForReplication(double timeout_s) const;
+  // Standby: keeps a message heard from a robot (replication.standby_keep_s).
+  void Hear(std::string_view channel, std::string_view type, std::vector<std::uint8_t> bytes);
+  // Standby (estimator thread): applies what the stream brought, copies it into the local
+  // journal, and takes over once the lease is free.
+  void StandbyStep();
+  // One record of the followed stream, applied and copied; false when it could not be.
+  bool ApplyFollowed(const journal::JournalRecord& record);
+  // The rest of the stream, then the replicated journal from this data directory, the old
+  // leader's unprocessed messages, what this slamd heard, and every robot's estimate.
+  void TakeOver();
+  void StartLeaseThread();  // slamd-lease: renews the lease every lease_ttl_ms / 4
+  void ReleaseLease();      // joins slamd-lease; a held lease is released (clean hand-over)
   // Swaps in the estimator's rebuilt solver (ready), journals the swap, publishes.
   void SwapRebuild();
   // The estimator's lifelong window (EstimatorParams::window), journaled when it removed any.
@@ -175,6 +194,22 @@ class Daemon {
   std::atomic<std::int64_t> replication_holds_{0};
   // Receipt times of applied messages whose estimates wait for the replica [µs, steady clock].
   std::vector<std::int64_t> unreplicated_received_us_;
+  // A replicated pair: the lease (null without one); while standby_, the followed stream and its
+  // replay (estimator thread) and what intake heard (heard_mutex_).
+  std::unique_ptr<LeaderLease> lease_;
+  std::atomic<bool> standby_{false};
+  std::atomic<bool> deposed_{false};  // the lease was lost while leading: this slamd must stop
+  std::unique_ptr<StreamReader> follower_;
+  std::unique_ptr<JournalReplay> replay_;
+  struct Heard {
+    std::string channel, type;
+    std::vector<std::uint8_t> bytes;
+    std::int64_t steady_us = 0;
+  };
+  std::mutex heard_mutex_;
+  std::deque<Heard> heard_;
+  std::atomic<bool> stop_lease_{false};
+  std::thread lease_thread_;
   IngestQueue queue_;
   // Journal append + queue push, so journal order = queue order; and intake_held_.
   std::mutex intake_mutex_;

@@ -1,45 +1,90 @@
-// The daemon's side of the replicated journal (server/replication): starting it, committing it
-// after each update, and holding intake and estimates while the stream does not acknowledge.
+// The daemon's side of replication (server/replication): the replicated journal, committed after
+// each update, with intake and estimates held while the stream does not acknowledge; and a
+// replicated pair, where the slamd holding the lease leads and the other follows the stream as
+// a hot standby (the same updates, in the same order, from the stream's records), keeps what it
+// hears from the robots, and takes over when the lease lapses.
 #include <spdlog/spdlog.h>
 
 #include <chrono>
 #include <thread>
 
+#include "core/base/thread_name.h"
 #include "server/daemon/daemon.h"
+#include "server/messages/inbound_codec.h"
 #include "server/replication/replicated_journal.h"
+#include "slamd_proto/journal.pb.h"
 
 namespace slamd::server {
+namespace {
 
-core::Result<std::unique_ptr<StreamJournal>> Daemon::StartReplica(const ServerParams& params,
-                                                                  Journal* journal,
-                                                                  spdlog::logger& log) {
-  const ServerParams::Replication& r = params.replication;
-  if (r.servers.empty()) return std::unique_ptr<StreamJournal>();
-  if (journal == nullptr) {
+StreamJournalOptions StreamOptions(const ServerParams::Replication& r) {
+  return {.nats = {.servers = SplitServers(r.servers)},
+          .stream = r.stream,
+          .subject = r.subject,
+          .replicas = r.replicas,
+          .ack_timeout_ms = r.ack_timeout_ms};
+}
+
+}  // namespace
+
+core::Status Daemon::StartReplication() {
+  const ServerParams::Replication& r = params_.replication;
+  if (r.servers.empty()) return core::Status::Ok();
+  if (!journal_) {
     return core::InvalidArgument(
         "replication.servers is set and data_dir is not: the "
         "replicated journal is a copy of the local one");
   }
-  const StreamJournalOptions options{.nats = {.servers = SplitServers(r.servers)},
-                                     .stream = r.stream,
-                                     .subject = r.subject,
-                                     .replicas = r.replicas,
-                                     .ack_timeout_ms = r.ack_timeout_ms};
+  if (r.lease_ttl_ms > 0) {
+    core::Result<std::string> id = DataDirectoryId(params_.data_dir);
+    if (!id.ok()) return id.status();
+    core::Result<std::unique_ptr<LeaderLease>> lease =
+        LeaderLease::Open({.nats = {.servers = SplitServers(r.servers)},
+                           .bucket = r.lease_bucket,
+                           .ttl_ms = r.lease_ttl_ms,
+                           .replicas = r.replicas,
+                           .holder = id.value()});
+    if (!lease.ok())
+      return core::Status(lease.status().code(), "replication: " + lease.status().message());
+    lease_ = std::move(lease).value();
+    core::Result<bool> taken = lease_->TryAcquire();
+    if (!taken.ok()) return taken.status();
+    if (!taken.value()) {
+      if (journal_->last_sequence() > 0) {
+        return core::FailedPrecondition(
+            "replication: another slamd leads (lease " + r.lease_bucket + ") and data_dir '" +
+            params_.data_dir + "' holds a journal: a standby starts from an empty data directory");
+      }
+      core::Result<std::unique_ptr<StreamReader>> follower =
+          StreamReader::Open(StreamOptions(r), 1);
+      if (!follower.ok()) return follower.status();
+      follower_ = std::move(follower).value();
+      replay_ = std::make_unique<JournalReplay>(estimator_.get(), 0);
+      standby_ = true;
+      const core::Result<std::string> holder = lease_->Holder();
+      log_->info("replication: standby, following stream {} (the lease is held by '{}')", r.stream,
+                 holder.ok() ? holder.value() : "?");
+      return core::Status::Ok();
+    }
+  }
   core::Result<std::unique_ptr<StreamJournal>> started =
-      StartReplication(params.data_dir, options, journal);
+      server::StartReplication(params_.data_dir, StreamOptions(r), journal_.get());
   if (!started.ok()) {
     return core::Status(started.status().code(), "replication: " + started.status().message());
   }
-  const StreamPosition end = started.value()->stream_end();
-  log.info(
-      "replication: journal in stream {} ({} replicas) on {}; it ends at message {} "
+  replica_ = std::move(started).value();
+  const StreamPosition end = replica_->stream_end();
+  log_->info(
+      "replication: {}journal in stream {} ({} replicas) on {}; it ends at message {} "
       "(journal offset {}, accepted message {})",
-      r.stream, r.replicas, r.servers, end.sequence, end.journal_end, end.last_message);
-  return started;
+      lease_ ? "leader, " : "", r.stream, r.replicas, r.servers, end.sequence, end.journal_end,
+      end.last_message);
+  return core::Status::Ok();
 }
 
 bool Daemon::CommitReplica() {
   if (!replica_) return true;
+  if (deposed_) return false;
   const core::Status s = replica_->Commit();
   if (s.ok()) {
     if (replication_held_.exchange(false)) {
@@ -54,6 +99,9 @@ bool Daemon::CommitReplica() {
         "acknowledges ({} bytes pending)",
         s.ToString(), replica_->pending_bytes());
   }
+  if (s.code() == core::StatusCode::kFailedPrecondition && !deposed_.exchange(true)) {
+    log_->critical("replication: another slamd writes the stream: this one stops leading");
+  }
   return false;
 }
 
@@ -65,6 +113,151 @@ bool Daemon::WaitForReplication(double timeout_s) const {
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   return true;
+}
+
+void Daemon::Hear(std::string_view channel, std::string_view type,
+                  std::vector<std::uint8_t> bytes) {
+  const std::int64_t now = SteadyMicros();
+  const auto keep_us = static_cast<std::int64_t>(params_.replication.standby_keep_s * 1e6);
+  std::lock_guard lock(heard_mutex_);
+  while (!heard_.empty() && heard_.front().steady_us < now - keep_us) heard_.pop_front();
+  heard_.push_back({std::string(channel), std::string(type), std::move(bytes), now});
+}
+
+bool Daemon::ApplyFollowed(const journal::JournalRecord& record) {
+  const std::string where = "stream " + params_.replication.stream + " after message " +
+                            std::to_string(follower_->position().sequence);
+  core::Status s = replay_->Apply(record, where, false);
+  if (s.ok()) s = journal_->AppendCopy(record);
+  if (!s.ok()) {
+    log_->critical("replication: standby cannot follow: {}", s.ToString());
+    deposed_ = true;
+  }
+  return s.ok();
+}
+
+void Daemon::StandbyStep() {
+  journal::JournalRecord record;
+  for (int n = 0; n < 1000 && !deposed_; ++n) {  // then a look at the lease
+    core::Result<bool> got = follower_->Next(&record, n == 0 ? 50 : 0);
+    if (!got.ok()) {
+      log_->error("replication: standby: {}", got.status().ToString());
+      break;
+    }
+    if (!got.value() || !ApplyFollowed(record)) break;
+  }
+  const core::Status committed = journal_->Commit();
+  if (!committed.ok()) NoteJournalError(committed);
+  if (deposed_) return;
+  core::Result<bool> taken = lease_->TryAcquire();
+  if (taken.ok() && taken.value()) TakeOver();
+}
+
+void Daemon::TakeOver() {
+  const ServerParams::Replication& r = params_.replication;
+  const std::int64_t t0 = SteadyMicros();
+  journal::JournalRecord record;
+  // The rest of the stream; then the replicated journal continues from this data directory.
+  core::Result<std::unique_ptr<StreamJournal>> replica = core::Unavailable("not tried");
+  for (int attempt = 0; attempt < 100 && !replica.ok() && !deposed_; ++attempt) {
+    core::Result<bool> got = true;
+    while (got.ok() && got.value()) {
+      got = follower_->Next(&record, 100);
+      if (got.ok() && got.value() && !ApplyFollowed(record)) return;
+    }
+    replica = TakeOverReplication(params_.data_dir, StreamOptions(r), journal_.get(),
+                                  follower_->position().sequence);
+    if (!replica.ok()) log_->warn("replication: taking over: {}", replica.status().ToString());
+  }
+  if (!replica.ok()) {
+    log_->critical("replication: cannot take over the stream: {}", replica.status().ToString());
+    deposed_ = true;
+    return;
+  }
+  replica_ = std::move(replica).value();
+  const std::int64_t stream_end = follower_->position().sequence;
+  follower_.reset();
+  std::vector<Inbound> pending = replay_->TakePending();
+  replay_.reset();
+  processed_sequence_ = journal_->last_sequence();
+  // The old leader's accepted, unprocessed messages first, as one update (as after a restart).
+  if (!pending.empty()) {
+    estimator_->Process(pending);
+    JournalUpdate(pending);
+  }
+  std::deque<Heard> heard;
+  {
+    std::lock_guard lock(heard_mutex_);
+    heard.swap(heard_);
+    standby_ = false;  // intake queues from now on
+  }
+  // What the robots sent while this slamd followed: what the old leader got into the stream is
+  // held already (ignored by identity), the rest is new. In chunks the queue has room for.
+  const int chunk = std::max(1, queue_.capacity() / 2);
+  size_t journaled = 0;
+  while (!heard.empty()) {
+    {
+      std::lock_guard lock(intake_mutex_);
+      for (int n = 0; n < chunk && !heard.empty(); ++n, heard.pop_front()) {
+        const Heard& h = heard.front();
+        core::Result<Inbound> in = DecodeInbound(h.type, h.bytes);
+        if (!in.ok()) continue;  // it was valid when heard
+        const core::Result<std::int64_t> seq =
+            journal_->AppendMessage(h.channel, h.type, h.bytes, WallMicros());
+        if (!seq.ok()) {
+          NoteJournalError(seq.status());
+          continue;
+        }
+        in.value().received_us = h.steady_us;
+        in.value().journal_sequence = seq.value();
+        intake_held_.push_back(std::move(in).value());
+        ++journaled;
+      }
+      QueueHeldLocked();
+    }
+    StepEstimator(0.0);
+  }
+  StartLeaseThread();
+  published_sequence_ = 0;  // every robot's estimate, now
+  PublishEstimates(*ShareSnapshot(), SteadyMicros());
+  log_->warn(
+      "replication: took over as leader in {:.3f} s: stream at message {}, {} updates "
+      "replayed, {} old-leader messages still to process, {} heard messages journaled",
+      (SteadyMicros() - t0) * 1e-6, stream_end, estimator_->snapshot()->update_sequence,
+      pending.size(), journaled);
+}
+
+void Daemon::StartLeaseThread() {
+  if (!lease_ || lease_thread_.joinable()) return;
+  lease_thread_ = std::thread([this] {
+    core::NameThisThread("slamd-lease");
+    const auto period = std::chrono::milliseconds(params_.replication.lease_ttl_ms / 4);
+    auto next = std::chrono::steady_clock::now() + period;
+    while (!stop_lease_) {
+      if (std::chrono::steady_clock::now() < next) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        continue;
+      }
+      next += period;
+      const core::Status s = lease_->Renew();
+      if (s.code() == core::StatusCode::kFailedPrecondition) {
+        log_->critical("replication: {}: this slamd stops leading", s.ToString());
+        replication_held_ = true;  // nothing more is accepted or published
+        deposed_ = true;
+        return;
+      }
+      if (!s.ok()) log_->warn("replication: {}", s.ToString());
+    }
+  });
+}
+
+void Daemon::ReleaseLease() {
+  stop_lease_ = true;
+  if (lease_thread_.joinable()) lease_thread_.join();
+  if (lease_ && lease_->held()) {
+    const core::Status s = lease_->Release();
+    if (!s.ok()) log_->warn("replication: {}", s.ToString());
+  }
 }
 
 }  // namespace slamd::server

@@ -148,6 +148,22 @@ core::Status Journal::AppendRemoval(std::int64_t update_sequence,
   return AppendLocked(record);
 }
 
+core::Status Journal::AppendCopy(const journal::JournalRecord& record) {
+  std::lock_guard lock(mutex_);
+  if (record.has_message()) {
+    const std::int64_t seq = record.message().sequence();
+    if (seq != last_sequence_ + 1) {
+      return core::FailedPrecondition("copied message " + std::to_string(seq) +
+                                      " does not follow the journal's last, " +
+                                      std::to_string(last_sequence_));
+    }
+    SLAMD_RETURN_IF_ERROR(AppendLocked(record));
+    last_sequence_ = seq;
+    return core::Status::Ok();
+  }
+  return AppendLocked(record);
+}
+
 core::Status Journal::Commit() {
   std::lock_guard lock(mutex_);
   return writer_->MaybeSync(JournalWriter::Clock::now());

@@ -63,6 +63,9 @@ class Journal {
   core::Status AppendRebuildSwap(std::int64_t update_sequence, std::span<const int> rounds);
   // After the estimator removed `keys` (its lifelong window) at update `update_sequence`.
   core::Status AppendRemoval(std::int64_t update_sequence, std::span<const std::uint64_t> keys);
+  // Appends a record another journal wrote (a standby copying the replicated journal): a
+  // message keeps its sequence, which must follow the last one (FailedPrecondition otherwise).
+  core::Status AppendCopy(const journal::JournalRecord& record);
   // Group commit per the sync policy (always: fdatasync now; interval: if due; never: no-op).
   core::Status Commit();
   // fdatasync now whatever the policy (shutdown).

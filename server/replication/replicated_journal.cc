@@ -117,4 +117,23 @@ core::Result<std::unique_ptr<StreamJournal>> StartReplication(const std::string&
   return stream;
 }
 
+core::Result<std::unique_ptr<StreamJournal>> TakeOverReplication(const std::string& data_dir,
+                                                                 StreamJournalOptions options,
+                                                                 Journal* journal,
+                                                                 std::int64_t consumed) {
+  core::Result<std::string> id = DataDirectoryId(data_dir);
+  if (!id.ok()) return id.status();
+  options.source = id.value();
+  core::Result<std::unique_ptr<StreamJournal>> opened = StreamJournal::Open(options);
+  if (!opened.ok()) return opened.status();
+  const std::int64_t end = opened.value()->stream_end().sequence;
+  if (end != consumed) {
+    return core::FailedPrecondition("stream " + options.stream + " ends at message " +
+                                    std::to_string(end) + ", this standby has read up to " +
+                                    std::to_string(consumed));
+  }
+  journal->set_replica(opened.value().get());
+  return opened;
+}
+
 }  // namespace slamd::server

@@ -31,4 +31,12 @@ core::Result<std::unique_ptr<StreamJournal>> StartReplication(const std::string&
                                                               StreamJournalOptions options,
                                                               Journal* journal);
 
+// A standby taking over the stream it followed: its journal is a copy of the stream's records
+// up to stream message `consumed`. FailedPrecondition when the stream holds more (read on and
+// call again). The returned stream journal is the journal's replica, as above.
+core::Result<std::unique_ptr<StreamJournal>> TakeOverReplication(const std::string& data_dir,
+                                                                 StreamJournalOptions options,
+                                                                 Journal* journal,
+                                                                 std::int64_t consumed);
+
 }  // namespace slamd::server

@@ -52,34 +52,6 @@ constexpr const char* kConfig =
     "queue { block_timeout_s: 0.05 }\n"
     "log_level: \"info\"\n";
 
-// Sends `step` until the estimate of `pose` comes (re-sending after each second without it);
-// returns the number of sends, 0 when it never came within timeout_s.
-int SendUntilEstimated(Client& client, Server* s, const StepMessages& step, std::uint64_t pose,
-                       double timeout_s) {
-  const auto deadline = std::chrono::steady_clock::now() +
-                        std::chrono::milliseconds(static_cast<int>(timeout_s * 1e3));
-  for (int sends = 1; std::chrono::steady_clock::now() < deadline; ++sends) {
-    client.Send(*s, step);
-    if (client.PumpUntil([&] { return s->estimated.count(pose) > 0; }, 1.0)) return sends;
-  }
-  return 0;
-}
-
-// The records of the whole stream, in order (until none comes for 2 s).
-std::vector<journal::JournalRecord> StreamRecords(const StreamJournalOptions& options) {
-  auto reader = StreamReader::Open(options, 1);
-  SLAMD_CHECK(reader.ok()) << reader.status().ToString();
-  std::vector<journal::JournalRecord> out;
-  journal::JournalRecord r;
-  while (true) {
-    core::Result<bool> got = reader.value()->Next(&r, 2000);
-    SLAMD_CHECK(got.ok()) << got.status().ToString();
-    if (!got.value()) break;
-    out.push_back(r);
-  }
-  return out;
-}
-
 TEST(ReplicationHaTest, ReplicatedJournalRidesOutNatsFailuresAndLosesNothing) {
   ASSERT_TRUE(testing::OnlyLoopback()) << testing::kNotInNetns;
   if (!testing::HaveNatsServer()) GTEST_SKIP() << "nats-server is not installed";
@@ -106,7 +78,9 @@ TEST(ReplicationHaTest, ReplicatedJournalRidesOutNatsFailuresAndLosesNothing) {
 
   auto stream_steps = [&](int from, int to) {
     for (int k = from; k < to; ++k) {
-      ASSERT_GT(SendUntilEstimated(client, &s, messages[k], core::KeyIndex(steps[k].pose), 30.0), 0)
+      ASSERT_GT(testing::SendUntilEstimated(client, &s, messages[k], core::KeyIndex(steps[k].pose),
+                                            30.0, 1.0),
+                0)
           << "step " << k << " never acknowledged (log " << s.log << ")";
     }
   };
@@ -160,7 +134,7 @@ TEST(ReplicationHaTest, ReplicatedJournalRidesOutNatsFailuresAndLosesNothing) {
   // The stream is the local journal, record for record.
   const StreamJournalOptions stream_options{.nats = {.servers = nats.UrlList()},
                                             .source = "reader"};
-  const std::vector<journal::JournalRecord> streamed = StreamRecords(stream_options);
+  const std::vector<journal::JournalRecord> streamed = testing::ReadWholeStream(stream_options);
   const core::Result<JournalContents> local = ReadJournal(s.data_dir);
   ASSERT_TRUE(local.ok()) << local.status().ToString();
   ASSERT_EQ(streamed.size(), local.value().records.size());

@@ -22,11 +22,38 @@
 #include <vector>
 
 #include "server/replication/nats_client.h"
+#include "server/replication/stream_reader.h"
+#include "slamd_proto/journal.pb.h"
 #include "tests/testing/processes.h"
 
 namespace slamd::testing {
 
 inline bool HaveNatsServer() { return std::system("command -v nats-server >/dev/null 2>&1") == 0; }
+
+// Every record of a replicated journal's stream from its beginning, in order (until none comes
+// for 2 s). Opening the reader is retried for 30 s (a cluster that just lost or regained servers
+// may take a while to place the consumer).
+inline std::vector<journal::JournalRecord> ReadWholeStream(
+    const server::StreamJournalOptions& options) {
+  std::vector<journal::JournalRecord> out;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  auto reader = server::StreamReader::Open(options, 1);
+  while (!reader.ok() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    reader = server::StreamReader::Open(options, 1);
+  }
+  EXPECT_TRUE(reader.ok()) << reader.status().ToString();
+  if (!reader.ok()) return out;
+  journal::JournalRecord r;
+  while (true) {
+    core::Result<bool> got = reader.value()->Next(&r, 2000);
+    EXPECT_TRUE(got.ok()) << got.status().ToString();
+    if (!got.ok() || !got.value()) break;
+    out.push_back(r);
+  }
+  EXPECT_EQ(reader.value()->buffered_bytes(), 0) << "the stream ends inside a record";
+  return out;
+}
 
 class NatsCluster {
  public:

@@ -7,7 +7,8 @@
 //  * Client: one LCM bus that listens to servers (Attach) and sends them steps; PumpUntil,
 //    Drain, Barrier (a query through a server's queue: its reply means everything sent before
 //    it was processed).
-//  * Start (waits for the first status_t), Kill (SIGTERM must exit 0), WallUs, ConfigParams.
+//  * Launch, Start (waits for the first status_t), WaitForLog, Kill (SIGTERM must exit 0),
+//    SendUntilEstimated (a robot's lock-step with re-sends), WallUs, ConfigParams.
 #pragma once
 
 #include <fcntl.h>
@@ -19,7 +20,9 @@
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <functional>
+#include <iterator>
 #include <map>
 #include <memory>
 #include <set>
@@ -67,6 +70,12 @@ class TempDir {
   std::filesystem::path path_;
 };
 
+inline std::int64_t WallUs() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
 // One slamd process as the client sees it.
 struct Server {
   std::string prefix;
@@ -74,6 +83,7 @@ struct Server {
   std::string log;
   pid_t pid = -1;
   std::set<std::uint64_t> estimated = {};  // pose indices with an estimate_t since Clear()
+  std::int64_t estimate_received_us = 0;   // when the last estimate_t arrived [µs, wall clock]
   std::map<std::int64_t, int> dups = {};   // REASON_DUPLICATE rejects by message_utime
   int other_rejects = 0;                   // rejects of any other reason
   std::map<int, int> rejects = {};         // every reject by reason
@@ -98,6 +108,7 @@ class Client {
                           *bus_, s->prefix + "ESTIMATE",
                           [s](std::string_view, const slamd::estimate_t& m) {
                             s->estimated.insert(static_cast<std::uint64_t>(m.pose_index));
+                            s->estimate_received_us = WallUs();
                           },
                           nullptr)
                           .value());
@@ -169,16 +180,22 @@ class Client {
   std::int64_t request_id_ = 0;
 };
 
-inline std::int64_t WallUs() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
+// Sends `step` to s until the estimate of `pose` comes, re-sending it every resend_s without
+// one (what a robot does with unacknowledged messages); the number of sends, 0 when it never
+// came within timeout_s.
+inline int SendUntilEstimated(Client& client, Server* s, const StepMessages& step,
+                              std::uint64_t pose, double timeout_s, double resend_s) {
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::milliseconds(static_cast<int>(timeout_s * 1e3));
+  for (int sends = 1; std::chrono::steady_clock::now() < deadline; ++sends) {
+    client.Send(*s, step);
+    if (client.PumpUntil([&] { return s->estimated.count(pose) > 0; }, resend_s)) return sends;
+  }
+  return 0;
 }
 
-// Starts slamd on s's data dir and waits until it listens (its first status_t: slamd recovers
-// and subscribes before its threads start).
-inline void Start(const std::string& config, Client& client, Server* s) {
-  const std::int64_t t0 = WallUs();
+// Starts slamd on s's data dir (its stderr appended to s->log) without waiting.
+inline void Launch(const std::string& config, const Client& client, Server* s) {
   const pid_t pid = fork();
   ASSERT_GE(pid, 0);
   if (pid == 0) {
@@ -190,8 +207,26 @@ inline void Start(const std::string& config, Client& client, Server* s) {
     _exit(127);
   }
   s->pid = pid;
+}
+
+// Starts slamd on s's data dir and waits until it listens (its first status_t: slamd recovers
+// and subscribes before its threads start).
+inline void Start(const std::string& config, Client& client, Server* s) {
+  const std::int64_t t0 = WallUs();
+  ASSERT_NO_FATAL_FAILURE(Launch(config, client, s));
   ASSERT_TRUE(client.PumpUntil([&] { return s->status_utime > t0; }, 30.0))
       << "no status_t from slamd " << s->prefix << " (log " << s->log << ")";
+}
+
+// Whether s's log contains `text`, waiting up to timeout_s while the client pumps.
+inline bool WaitForLog(Client& client, const Server& s, const std::string& text, double timeout_s) {
+  return client.PumpUntil(
+      [&] {
+        std::ifstream in(s.log);
+        const std::string log{std::istreambuf_iterator<char>(in), {}};
+        return log.find(text) != std::string::npos;
+      },
+      timeout_s);
 }
 
 inline void Kill(Server* s, int signal) {

@@ -78,23 +78,6 @@ class StreamJournalTest : public ::testing::Test {
       std::this_thread::sleep_for(std::chrono::milliseconds(200));
     }
   }
-  // Every record of the stream from its beginning (until none comes for 1 s).
-  std::vector<journal::JournalRecord> ReadAll(const StreamJournalOptions& options) {
-    auto reader = StreamReader::Open(options, 1);
-    EXPECT_TRUE(reader.ok()) << reader.status().ToString();
-    std::vector<journal::JournalRecord> out;
-    if (!reader.ok()) return out;
-    journal::JournalRecord r;
-    while (true) {
-      core::Result<bool> got = reader.value()->Next(&r, 1000);
-      EXPECT_TRUE(got.ok()) << got.status().ToString();
-      if (!got.ok() || !got.value()) break;
-      out.push_back(r);
-    }
-    EXPECT_EQ(reader.value()->buffered_bytes(), 0);
-    return out;
-  }
-
   std::string dir_;
   std::unique_ptr<NatsCluster> cluster_;
 };
@@ -121,7 +104,7 @@ TEST_F(StreamJournalTest, RecordsComeBackInOrderAcrossBatchesAndLongRecords) {
     EXPECT_EQ(stream->stream_end().last_message, static_cast<std::int64_t>(sent.size()));
   }
   EXPECT_GT(stream->batches_published(), 5 * 2);  // 4 KiB batches: cut
-  const std::vector<journal::JournalRecord> got = ReadAll(options);
+  const std::vector<journal::JournalRecord> got = testing::ReadWholeStream(options);
   ASSERT_EQ(got.size(), sent.size());
   for (size_t i = 0; i < sent.size(); ++i) {
     EXPECT_EQ(got[i].SerializeAsString(), sent[i].SerializeAsString()) << i;
@@ -171,7 +154,7 @@ TEST_F(StreamJournalTest, WithoutAQuorumCommitIsUnavailableAndKeepsTheRecords) {
   }
   ASSERT_TRUE(up.ok()) << up.ToString();
   EXPECT_EQ(stream->pending_bytes(), 0);
-  const std::vector<journal::JournalRecord> got = ReadAll(options);
+  const std::vector<journal::JournalRecord> got = testing::ReadWholeStream(options);
   ASSERT_EQ(got.size(), sent.size());  // each exactly once, in order
   for (size_t i = 0; i < sent.size(); ++i) {
     EXPECT_EQ(got[i].message().sequence(), static_cast<std::int64_t>(i) + 1);
@@ -232,7 +215,7 @@ TEST_F(StreamJournalTest, StartReplicationSendsWhatTheStreamLacks) {
   auto restarted = StartReplication(data_dir, options, journal.get());
   ASSERT_TRUE(restarted.ok()) << restarted.status().ToString();
   EXPECT_EQ(restarted.value()->stream_end().journal_end, journal->offset());
-  const std::vector<journal::JournalRecord> got = ReadAll(options);
+  const std::vector<journal::JournalRecord> got = testing::ReadWholeStream(options);
   auto local = ReadJournal(data_dir);
   ASSERT_TRUE(local.ok());
   ASSERT_EQ(got.size(), local.value().records.size());
