@@ -51,6 +51,12 @@ std::int64_t WallMicros() {
       .count();
 }
 
+JournalOptions JournalOptionsOf(const ServerParams& params) {
+  return {.writer = {.sync_policy = params.journal.sync,
+                     .interval_ms = params.journal.sync_interval_ms},
+          .segment_bytes = params.journal.segment_bytes};
+}
+
 core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params, Bus* bus) {
   SLAMD_RETURN_IF_ERROR(params.Validate());
   if (bus == nullptr) return core::InvalidArgument("Daemon::Create: null bus");
@@ -100,17 +106,18 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
       recovered_snapshot = JournalPosition{.last_message_sequence = r.snapshot_sequence,
                                            .journal_offset = r.snapshot_journal_offset};
     }
-    core::Result<std::unique_ptr<Journal>> opened =
-        Journal::Open(params.data_dir,
-                      {.writer = {.sync_policy = params.journal.sync,
-                                  .interval_ms = params.journal.sync_interval_ms},
-                       .segment_bytes = params.journal.segment_bytes},
-                      std::move(r.segments), r.last_sequence);
+    core::Result<std::unique_ptr<Journal>> opened = Journal::Open(
+        params.data_dir, JournalOptionsOf(params), std::move(r.segments), r.last_sequence);
     if (!opened.ok()) return opened.status();
     journal = std::move(opened).value();
   }
   std::unique_ptr<Daemon> daemon(new Daemon(params, bus, std::move(estimator), std::move(journal)));
-  SLAMD_RETURN_IF_ERROR(daemon->StartReplication());
+  bool superseded = false;
+  SLAMD_RETURN_IF_ERROR(daemon->StartReplication(&superseded));
+  if (superseded) {  // a standby: the recovered state was moved aside
+    pending.clear();
+    recovered_snapshot.reset();
+  }
   if (!pending.empty()) {
     // Accepted and journaled before the restart but never processed: first, as one update.
     // Their senders never heard back: their rejections go out now.
@@ -511,7 +518,7 @@ void Daemon::Start() {
     core::NameThisThread("slamd-intake");
     IntakeLoop();
   });
-  if (lease_ && lease_->held()) StartLeaseThread();
+  if (lease_ && lease_->held()) StartLeaseThread();  // renewed while it catches up, too
   log_->info("slamd running: prefix '{}', queue {}, refine {}", params_.channel_prefix,
              params_.queue.depth, params_.refine.enabled ? "on" : "off");
 }

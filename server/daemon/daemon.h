@@ -110,7 +110,15 @@ class Daemon {
 
   // Replication (daemon_replication.cc). When params.replication.servers is set: the replicated
   // journal, or with a lease (lease_ttl_ms) either that (lease taken) or the standby's follower.
-  core::Status StartReplication();
+  // A standby whose data directory held a journal moves it aside first (*superseded: the
+  // recovered state is gone; the stream is the truth).
+  core::Status StartReplication(bool* superseded);
+  // Moves the journal and snapshots of data_dir into data_dir/superseded-<µs>/ and starts over
+  // empty (journal, estimator).
+  core::Status SupersedeLocalState();
+  // Becomes a standby: follows the stream from its start (superseding a non-empty data
+  // directory).
+  core::Status Follow(bool* superseded);
   // Commits the replica (true without one). A failure holds intake and the estimates until a
   // later commit succeeds.
   bool CommitReplica();
@@ -247,6 +255,9 @@ class Daemon {
   std::thread intake_thread_, estimator_thread_;
   bool stopped_ = false;
 };
+
+// The journal's options from the config.
+JournalOptions JournalOptionsOf(const ServerParams& params);
 
 // Microseconds on the steady clock (latency accounting) and since the Unix epoch (utime fields).
 std::int64_t SteadyMicros();

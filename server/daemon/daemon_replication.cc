@@ -6,6 +6,7 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+#include <filesystem>
 #include <thread>
 
 #include "core/base/thread_name.h"
@@ -27,7 +28,7 @@ StreamJournalOptions StreamOptions(const ServerParams::Replication& r) {
 
 }  // namespace
 
-core::Status Daemon::StartReplication() {
+core::Status Daemon::StartReplication(bool* superseded) {
   const ServerParams::Replication& r = params_.replication;
   if (r.servers.empty()) return core::Status::Ok();
   if (!journal_) {
@@ -49,26 +50,16 @@ core::Status Daemon::StartReplication() {
     lease_ = std::move(lease).value();
     core::Result<bool> taken = lease_->TryAcquire();
     if (!taken.ok()) return taken.status();
-    if (!taken.value()) {
-      if (journal_->last_sequence() > 0) {
-        return core::FailedPrecondition(
-            "replication: another slamd leads (lease " + r.lease_bucket + ") and data_dir '" +
-            params_.data_dir + "' holds a journal: a standby starts from an empty data directory");
-      }
-      core::Result<std::unique_ptr<StreamReader>> follower =
-          StreamReader::Open(StreamOptions(r), 1);
-      if (!follower.ok()) return follower.status();
-      follower_ = std::move(follower).value();
-      replay_ = std::make_unique<JournalReplay>(estimator_.get(), 0);
-      standby_ = true;
-      const core::Result<std::string> holder = lease_->Holder();
-      log_->info("replication: standby, following stream {} (the lease is held by '{}')", r.stream,
-                 holder.ok() ? holder.value() : "?");
-      return core::Status::Ok();
-    }
+    if (!taken.value()) return Follow(superseded);
   }
   core::Result<std::unique_ptr<StreamJournal>> started =
       server::StartReplication(params_.data_dir, StreamOptions(r), journal_.get());
+  if (lease_ && started.status().code() == core::StatusCode::kFailedPrecondition) {
+    // Holding the lease but behind the stream (another slamd wrote it last): follow it to its
+    // end first, then take over (StandbyStep, at once: the lease is held).
+    log_->warn("replication: {}", started.status().message());
+    return Follow(superseded);
+  }
   if (!started.ok()) {
     return core::Status(started.status().code(), "replication: " + started.status().message());
   }
@@ -79,6 +70,58 @@ core::Status Daemon::StartReplication() {
       "(journal offset {}, accepted message {})",
       lease_ ? "leader, " : "", r.stream, r.replicas, r.servers, end.sequence, end.journal_end,
       end.last_message);
+  return core::Status::Ok();
+}
+
+core::Status Daemon::Follow(bool* superseded) {
+  const ServerParams::Replication& r = params_.replication;
+  if (journal_->last_sequence() > 0) {
+    SLAMD_RETURN_IF_ERROR(SupersedeLocalState());
+    *superseded = true;
+  }
+  core::Result<std::unique_ptr<StreamReader>> follower = StreamReader::Open(StreamOptions(r), 1);
+  if (!follower.ok()) return follower.status();
+  follower_ = std::move(follower).value();
+  replay_ = std::make_unique<JournalReplay>(estimator_.get(), 0);
+  standby_ = true;
+  const core::Result<std::string> holder = lease_->Holder();
+  log_->info("replication: standby, following stream {} (the lease is held by '{}')", r.stream,
+             holder.ok() ? holder.value() : "?");
+  return core::Status::Ok();
+}
+
+core::Status Daemon::SupersedeLocalState() {
+  namespace fs = std::filesystem;
+  const std::int64_t messages = journal_->last_sequence();
+  journal_.reset();
+  const fs::path dir = fs::path(params_.data_dir) / ("superseded-" + std::to_string(WallMicros()));
+  std::error_code ec;
+  fs::create_directory(dir, ec);
+  if (!ec) fs::permissions(dir, fs::perms::owner_all, ec);
+  for (const fs::directory_entry& e : fs::directory_iterator(params_.data_dir, ec)) {
+    const std::string name = e.path().filename().string();
+    const bool state =
+        e.is_regular_file() && (name.rfind("journal", 0) == 0 || name.rfind("snapshot-", 0) == 0 ||
+                                name.rfind(".snapshot-", 0) == 0);
+    if (state) fs::rename(e.path(), dir / name, ec);
+    if (ec) break;
+  }
+  if (ec) {
+    return core::IoError("replication: cannot move the state of " + params_.data_dir + " to " +
+                         dir.string() + ": " + ec.message());
+  }
+  core::Result<std::unique_ptr<Journal>> opened =
+      Journal::Open(params_.data_dir, JournalOptionsOf(params_), {}, 0);
+  if (!opened.ok()) return opened.status();
+  journal_ = std::move(opened).value();
+  core::Result<std::unique_ptr<Estimator>> made =
+      Estimator::Create(params_.estimator, params_.isam2);
+  if (!made.ok()) return made.status();
+  estimator_ = std::move(made).value();
+  log_->warn(
+      "replication: another slamd leads: this data directory's state ({} messages) is "
+      "moved to {}; following the stream from its start",
+      messages, dir.string());
   return core::Status::Ok();
 }
 

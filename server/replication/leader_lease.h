@@ -6,9 +6,11 @@
 // The lease says who should lead; the replicated journal's expected-last-sequence check
 // (stream_journal.h) is what stops a deposed leader from writing.
 //
-// Thread safety: all calls from one thread (the daemon's slamd-lease thread or a test).
+// Thread safety: calls from one thread at a time (the daemon's estimator thread until it leads,
+// then its slamd-lease thread); held() and TryAcquire() of a held lease from any thread.
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <memory>
@@ -53,6 +55,7 @@ class LeaderLease {
   // The current holder's id ("" when none), read from the bucket.
   core::Result<std::string> Holder();
 
+  // Also read by other threads (the daemon's estimator thread while slamd-lease renews).
   bool held() const { return held_; }
   const LeaderLeaseOptions& options() const { return options_; }
 
@@ -63,7 +66,7 @@ class LeaderLease {
   const LeaderLeaseOptions options_;
   std::unique_ptr<NatsClient> client_;
   kvStore* kv_ = nullptr;
-  bool held_ = false;
+  std::atomic<bool> held_{false};
   std::uint64_t revision_ = 0;
   Clock::time_point renewed_;  // last successful write
 };
