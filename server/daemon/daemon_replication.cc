@@ -83,6 +83,8 @@ core::Status Daemon::Follow(bool* superseded) {
   if (!follower.ok()) return follower.status();
   follower_ = std::move(follower).value();
   replay_ = std::make_unique<JournalReplay>(estimator_.get(), 0);
+  // Rebuilds started in the replay catch up as the stream's swap records say (as in recovery).
+  estimator_->SetReplaying(true);
   standby_ = true;
   const core::Result<std::string> holder = lease_->Holder();
   log_->info("replication: standby, following stream {} (the lease is held by '{}')", r.stream,
@@ -222,6 +224,7 @@ void Daemon::TakeOver() {
   follower_.reset();
   std::vector<Inbound> pending = replay_->TakePending();
   replay_.reset();
+  estimator_->SetReplaying(false);
   processed_sequence_ = journal_->last_sequence();
   // The old leader's accepted, unprocessed messages first, as one update (as after a restart).
   if (!pending.empty()) {

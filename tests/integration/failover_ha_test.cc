@@ -20,8 +20,10 @@
 #include <array>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <random>
 #include <set>
 #include <string>
@@ -48,6 +50,16 @@ constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=2097
 constexpr const char* kRobot = "manhattan";
 constexpr int kSteps = 700;
 constexpr int kKills = 3;
+
+// The benchmark (scripts/bench-failover) runs the kill test with other settings:
+//   SLAMD_FAILOVER_RATE   messages per second, sent without waiting (0: lock-step, the default)
+//   SLAMD_FAILOVER_STEPS  steps of manhattan streamed (default 700)
+//   SLAMD_FAILOVER_KILLS  leader kills, at least 2 s of stream apart at a rate (default 3)
+//   SLAMD_FAILOVER_SEED   where the kills fall (default 20261205)
+int EnvInt(const char* name, int fallback) {
+  const char* v = std::getenv(name);
+  return v != nullptr && *v != '\0' ? std::atoi(v) : fallback;
+}
 
 constexpr const char* kConfig =
     "refine { enabled: true budget_s: 0.002 }\n"
@@ -77,7 +89,54 @@ int ExitWithin(pid_t pid, double timeout_s) {
   return testing::ExitCode(status);
 }
 
+// Streams every step's messages to the pair and the reference at `rate` messages per second
+// without waiting (robots do not wait), kills the leader (SIGKILL) once the steps of `kill_at`
+// are sent and restarts it on its data directory at once; prints each failover (kill to the
+// first estimate after it).
+void StreamAtRate(Client& client, Server& pair, Server& reference,
+                  const std::vector<StepMessages>& messages, int rate, const std::set<int>& kill_at,
+                  const std::function<int()>& leader_index, std::array<Server, 2>& procs,
+                  const std::string& config) {
+  const auto period = std::chrono::nanoseconds(1000000000 / rate);
+  auto next = std::chrono::steady_clock::now();
+  std::int64_t failed = 0;  // a kill whose failover is not measured yet
+  std::vector<double> failover_s;
+  for (int k = 0; k < static_cast<int>(messages.size()); ++k) {
+    for (const testing::WireMessage& m : messages[k]) {
+      std::this_thread::sleep_until(next);
+      next += period;
+      client.Send(pair, {m});
+      client.Send(reference, {m});
+    }
+    client.Poll();
+    if (failed > 0 && pair.estimate_received_us > failed) {
+      failover_s.push_back((pair.estimate_received_us - failed) * 1e-6);
+      failed = 0;
+    }
+    if (kill_at.count(k)) {
+      ASSERT_EQ(failed, 0) << "the previous failover is not over at step " << k;
+      const int l = leader_index();
+      ASSERT_GE(l, 0) << "no process holds the lease at step " << k;
+      failed = testing::WallUs();
+      ASSERT_NO_FATAL_FAILURE(testing::Kill(&procs[l], SIGKILL));
+      client.Poll();  // what the dead leader sent: estimates from now on are the new one's
+      pair.estimate_received_us = 0;
+      ASSERT_NO_FATAL_FAILURE(testing::Launch(config, client, &procs[l]));
+    }
+  }
+  if (failed > 0) {
+    ASSERT_TRUE(client.PumpUntil([&] { return pair.estimate_received_us > failed; }, 30.0));
+    failover_s.push_back((pair.estimate_received_us - failed) * 1e-6);
+  }
+  for (double f : failover_s) {
+    std::printf("[ failover ] at %d msg/s: first estimate from the new leader after %.3f s\n", rate,
+                f);
+  }
+}
+
 void RunFailover(Fault fault, int faults, const char* tag) {
+  const int rate = EnvInt("SLAMD_FAILOVER_RATE", 0);
+  const int n = EnvInt("SLAMD_FAILOVER_STEPS", kSteps);
   ASSERT_TRUE(testing::OnlyLoopback()) << testing::kNotInNetns;
   if (!testing::HaveNatsServer()) GTEST_SKIP() << "nats-server is not installed";
   const std::string path = testing::SharedDatasetPath("manhattan.g2o");
@@ -86,7 +145,7 @@ void RunFailover(Fault fault, int faults, const char* tag) {
       core::MakeIncrementalSteps(core::ReadDataset(path).value());
   int expected_factors = 0;
   const std::vector<StepMessages> messages =
-      testing::MakeWireSteps(steps, kSteps, kRobot, 1e-3, &expected_factors);
+      testing::MakeWireSteps(steps, n, kRobot, 1e-3, &expected_factors);
 
   testing::TempDir tmp(tag);
   testing::NatsCluster nats(tmp.str() + "/nats", 3);
@@ -151,17 +210,27 @@ void RunFailover(Fault fault, int faults, const char* tag) {
     }
   };
 
-  std::mt19937 rng(20261205);
+  std::mt19937 rng(static_cast<unsigned>(EnvInt("SLAMD_FAILOVER_SEED", 20261205)));
+  // Far enough apart for a takeover in between (2 s of stream at a rate).
+  const int apart = rate > 0 ? 2 * rate * n / expected_factors : 80;
   std::set<int> fault_at;
-  while (static_cast<int>(fault_at.size()) < faults) {
-    const int k = 100 + static_cast<int>(rng() % static_cast<unsigned>(kSteps - 200));
+  for (int tries = 0; static_cast<int>(fault_at.size()) < faults && tries < 100000; ++tries) {
+    const int k = 100 + static_cast<int>(rng() % static_cast<unsigned>(n - 200));
     if (std::all_of(fault_at.begin(), fault_at.end(),
-                    [&](int j) { return std::abs(j - k) > 80; })) {
+                    [&](int j) { return std::abs(j - k) > apart; })) {
       fault_at.insert(k);
     }
   }
+  ASSERT_EQ(static_cast<int>(fault_at.size()), faults) << "too many faults for the steps";
+  if (rate > 0) {
+    ASSERT_EQ(fault, Fault::kKill);
+    ASSERT_NO_FATAL_FAILURE(StreamAtRate(
+        client, pair, reference, messages, rate, fault_at, [&] { return leader_index(); }, procs,
+        pair_config));
+    supervise();
+  }
   std::vector<double> failover_s;
-  for (int k = 0; k < kSteps; ++k) {
+  for (int k = 0; k < n && rate == 0; ++k) {
     const std::uint64_t pose = core::KeyIndex(steps[k].pose);
     ASSERT_GT(testing::SendUntilEstimated(client, &reference, messages[k], pose, 30.0, 0.5), 0)
         << k;
@@ -178,6 +247,8 @@ void RunFailover(Fault fault, int faults, const char* tag) {
       } else {
         ASSERT_EQ(::kill(old.pid, SIGSTOP), 0);
       }
+      client.Poll();  // what the failed leader sent: estimates from now on are the new one's
+      pair.estimate_received_us = 0;
       ASSERT_TRUE(client.PumpUntil([&] { return pair.estimate_received_us > failed; }, 30.0))
           << "no estimate after the leader failed at step " << k;
       failover_s.push_back((pair.estimate_received_us - failed) * 1e-6);
@@ -217,7 +288,7 @@ void RunFailover(Fault fault, int faults, const char* tag) {
 }
 
 TEST(FailoverHaTest, StandbyTakesOverFromAKilledLeaderAndLosesNothing) {
-  RunFailover(Fault::kKill, kKills, "ha_failover_kill");
+  RunFailover(Fault::kKill, EnvInt("SLAMD_FAILOVER_KILLS", kKills), "ha_failover_kill");
 }
 
 TEST(FailoverHaTest, AFrozenLeaderComesBackDeposedAndWritesNothing) {

@@ -156,6 +156,12 @@ class Client {
     }
     return true;
   }
+  // Handles what has arrived, without waiting.
+  void Poll() {
+    for (core::Result<int> r = bus_->HandleOnce(0); r.ok() && r.value() > 0;
+         r = bus_->HandleOnce(0)) {
+    }
+  }
   void Drain(int ms) {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(ms);
     while (std::chrono::steady_clock::now() < deadline) (void)bus_->HandleOnce(5);
