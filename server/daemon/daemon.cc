@@ -189,12 +189,11 @@ void Daemon::OnInbound(std::string_view channel, const Msg& msg) {
     Inbound in{std::move(checked).value(), SteadyMicros()};
     constexpr bool kJournaled = Spec::kRole != MessageRole::kQuery;
     if (standby_) {  // the leader answers; kept in case this slamd takes over
-      if (kJournaled) {
-        std::vector<std::uint8_t> bytes(static_cast<size_t>(msg.getEncodedSize()));
-        msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
-        Hear(channel, type, std::move(bytes));
-      }
-      return;
+      if (!kJournaled) return;
+      std::vector<std::uint8_t> bytes(static_cast<size_t>(msg.getEncodedSize()));
+      msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+      if (Hear(channel, type, std::move(bytes))) return;
+      // It took over meanwhile: this message goes the leader's way.
     }
     if (kJournaled && !WaitForReplication(params_.queue.block_timeout_s)) {
       PublishReject({RejectReason::kReplicationUnavailable,
@@ -518,7 +517,7 @@ void Daemon::Start() {
     core::NameThisThread("slamd-intake");
     IntakeLoop();
   });
-  if (lease_ && lease_->held()) StartLeaseThread();  // renewed while it catches up, too
+
   log_->info("slamd running: prefix '{}', queue {}, refine {}", params_.channel_prefix,
              params_.queue.depth, params_.refine.enabled ? "on" : "off");
 }

@@ -125,7 +125,8 @@ class Daemon {
   // Intake's wait while replication is held: true once it is not, false after timeout_s.
   bool WaitForReplication(double timeout_s) const;
   // Standby: keeps a message heard from a robot (replication.standby_keep_s).
-  void Hear(std::string_view channel, std::string_view type, std::vector<std::uint8_t> bytes);
+  // False when this slamd is no longer a standby (it took over meanwhile): nothing kept.
+  bool Hear(std::string_view channel, std::string_view type, std::vector<std::uint8_t> bytes);
   // Standby (estimator thread): applies what the stream brought, copies it into the local
   // journal, and takes over once the lease is free.
   void StandbyStep();

@@ -51,6 +51,7 @@ core::Status Daemon::StartReplication(bool* superseded) {
     core::Result<bool> taken = lease_->TryAcquire();
     if (!taken.ok()) return taken.status();
     if (!taken.value()) return Follow(superseded);
+    StartLeaseThread();  // now: creating the stream may take longer than the lease lasts
   }
   core::Result<std::unique_ptr<StreamJournal>> started =
       server::StartReplication(params_.data_dir, StreamOptions(r), journal_.get());
@@ -160,13 +161,15 @@ bool Daemon::WaitForReplication(double timeout_s) const {
   return true;
 }
 
-void Daemon::Hear(std::string_view channel, std::string_view type,
+bool Daemon::Hear(std::string_view channel, std::string_view type,
                   std::vector<std::uint8_t> bytes) {
   const std::int64_t now = SteadyMicros();
   const auto keep_us = static_cast<std::int64_t>(params_.replication.standby_keep_s * 1e6);
   std::lock_guard lock(heard_mutex_);
+  if (!standby_) return false;  // TakeOver took heard_ under this lock
   while (!heard_.empty() && heard_.front().steady_us < now - keep_us) heard_.pop_front();
   heard_.push_back({std::string(channel), std::string(type), std::move(bytes), now});
+  return true;
 }
 
 bool Daemon::ApplyFollowed(const journal::JournalRecord& record) {

@@ -95,8 +95,8 @@ int ExitWithin(pid_t pid, double timeout_s) {
 // first estimate after it).
 void StreamAtRate(Client& client, Server& pair, Server& reference,
                   const std::vector<StepMessages>& messages, int rate, const std::set<int>& kill_at,
-                  const std::function<int()>& leader_index, std::array<Server, 2>& procs,
-                  const std::string& config) {
+                  const std::function<int()>& leader_index, const std::function<void()>& supervise,
+                  std::array<Server, 2>& procs, const std::string& config) {
   const auto period = std::chrono::nanoseconds(1000000000 / rate);
   auto next = std::chrono::steady_clock::now();
   std::int64_t failed = 0;  // a kill whose failover is not measured yet
@@ -109,6 +109,7 @@ void StreamAtRate(Client& client, Server& pair, Server& reference,
       client.Send(reference, {m});
     }
     client.Poll();
+    supervise();
     if (failed > 0 && pair.estimate_received_us > failed) {
       failover_s.push_back((pair.estimate_received_us - failed) * 1e-6);
       failed = 0;
@@ -174,6 +175,7 @@ void RunFailover(Fault fault, int faults, const char* tag) {
   client.Attach(&reference);
   ASSERT_NO_FATAL_FAILURE(testing::Start(ref_config, client, &reference));
   std::array<Server, 2> procs{process("pair0"), process("pair1")};
+  const testing::KillOnExit cleanup({&reference, &procs[0], &procs[1]});
   const std::int64_t t0 = testing::WallUs();
   ASSERT_NO_FATAL_FAILURE(testing::Launch(pair_config, client, &procs[0]));
   ASSERT_TRUE(client.PumpUntil([&] { return pair.status_utime > t0; }, 30.0)) << procs[0].log;
@@ -225,8 +227,8 @@ void RunFailover(Fault fault, int faults, const char* tag) {
   if (rate > 0) {
     ASSERT_EQ(fault, Fault::kKill);
     ASSERT_NO_FATAL_FAILURE(StreamAtRate(
-        client, pair, reference, messages, rate, fault_at, [&] { return leader_index(); }, procs,
-        pair_config));
+        client, pair, reference, messages, rate, fault_at, [&] { return leader_index(); },
+        supervise, procs, pair_config));
     supervise();
   }
   std::vector<double> failover_s;

@@ -74,6 +74,7 @@ TEST(ReplicationHaTest, ReplicatedJournalRidesOutNatsFailuresAndLosesNothing) {
   std::filesystem::create_directories(s.data_dir);
   Client client(kUrl, kRobot);
   client.Attach(&s);
+  const testing::KillOnExit cleanup({&s});
   ASSERT_NO_FATAL_FAILURE(testing::Start(config, client, &s));
 
   auto stream_steps = [&](int from, int to) {

@@ -8,6 +8,7 @@
 //    Drain, Barrier (a query through a server's queue: its reply means everything sent before
 //    it was processed).
 //  * Launch, Start (waits for the first status_t), WaitForLog, Kill (SIGTERM must exit 0),
+//    KillOnExit (no process outlives a failed test),
 //    SendUntilEstimated (a robot's lock-step with re-sends), WallUs, ConfigParams.
 #pragma once
 
@@ -184,6 +185,26 @@ class Client {
   std::string url_, barrier_robot_;
   std::unique_ptr<LcmBus> bus_;
   std::int64_t request_id_ = 0;
+};
+
+// Kills (SIGKILL) the servers' processes still running when it goes out of scope: a test that
+// fails half-way leaves none behind.
+class KillOnExit {
+ public:
+  explicit KillOnExit(std::vector<Server*> servers) : servers_(std::move(servers)) {}
+  ~KillOnExit() {
+    for (Server* s : servers_) {
+      if (s->pid <= 0) continue;
+      ::kill(s->pid, SIGKILL);
+      ::waitpid(s->pid, nullptr, 0);
+      s->pid = -1;
+    }
+  }
+  KillOnExit(const KillOnExit&) = delete;
+  KillOnExit& operator=(const KillOnExit&) = delete;
+
+ private:
+  std::vector<Server*> servers_;
 };
 
 // Sends `step` to s until the estimate of `pose` comes, re-sending it every resend_s without
