@@ -136,6 +136,7 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
         SteadyMicros());
   }
   SLAMD_RETURN_IF_ERROR(daemon->Subscribe());
+  daemon->hearing_since_us_ = SteadyMicros();
   return daemon;
 }
 

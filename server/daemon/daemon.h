@@ -217,6 +217,7 @@ class Daemon {
   };
   std::mutex heard_mutex_;
   std::deque<Heard> heard_;
+  std::int64_t hearing_since_us_ = 0;  // subscribed to the robots' channels [µs, steady clock]
   std::atomic<bool> stop_lease_{false};
   std::thread lease_thread_;
   IngestQueue queue_;

@@ -197,6 +197,12 @@ void Daemon::StandbyStep() {
   const core::Status committed = journal_->Commit();
   if (!committed.ok()) NoteJournalError(committed);
   if (deposed_) return;
+  // What the old leader accepted and never got into the stream exists only in what standbys
+  // heard: one that has not heard the robots for two lease lengths leaves the lease to one that
+  // has (unless it holds the lease already, or no one else takes it).
+  const bool heard_enough =
+      SteadyMicros() - hearing_since_us_ >= std::int64_t{2000} * params_.replication.lease_ttl_ms;
+  if (!lease_->held() && !heard_enough) return;
   core::Result<bool> taken = lease_->TryAcquire();
   if (taken.ok() && taken.value()) TakeOver();
 }
