@@ -69,7 +69,7 @@ TEST(ReplicationHaTest, ReplicatedJournalRidesOutNatsFailuresAndLosesNothing) {
   ASSERT_TRUE(nats.WaitForJetStream(30.0));
   const std::string config = tmp.str() + "/slamd.textproto";
   std::ofstream(config) << kConfig << "replication { servers: \"" << nats.Urls()
-                        << "\" ack_timeout_ms: 300 }\n";
+                        << "\" ack_timeout_ms: 1000 }\n";
   Server s{.prefix = "R_", .data_dir = tmp.str() + "/data", .log = tmp.str() + "/slamd.log"};
   std::filesystem::create_directories(s.data_dir);
   Client client(kUrl, kRobot);
