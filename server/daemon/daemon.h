@@ -51,6 +51,8 @@
 #include <span>
 #include <string>
 #include <thread>
+#include <unordered_set>
+#include <utility>
 #include <vector>
 
 #include "server/config/server_params.h"
@@ -218,6 +220,10 @@ class Daemon {
   std::mutex heard_mutex_;
   std::deque<Heard> heard_;
   std::int64_t hearing_since_us_ = 0;  // subscribed to the robots' channels [µs, steady clock]
+  // The messages the followed stream brought (channel, NUL, LCM bytes) for as long as heard ones
+  // are kept (estimator thread), so a takeover journals only what the stream lacks.
+  std::unordered_multiset<std::string> streamed_;
+  std::deque<std::pair<std::int64_t, std::string>> streamed_order_;  // (steady µs, key)
   std::atomic<bool> stop_lease_{false};
   std::thread lease_thread_;
   IngestQueue queue_;

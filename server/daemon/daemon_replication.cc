@@ -177,6 +177,17 @@ bool Daemon::ApplyFollowed(const journal::JournalRecord& record) {
                             std::to_string(follower_->position().sequence);
   core::Status s = replay_->Apply(record, where, false);
   if (s.ok()) s = journal_->AppendCopy(record);
+  if (s.ok() && record.has_message()) {  // remembered as long as what intake hears
+    const std::int64_t now = SteadyMicros();
+    const auto keep_us = static_cast<std::int64_t>(params_.replication.standby_keep_s * 1e6);
+    while (!streamed_order_.empty() && streamed_order_.front().first < now - keep_us) {
+      streamed_.erase(streamed_.find(streamed_order_.front().second));
+      streamed_order_.pop_front();
+    }
+    std::string key = record.message().channel() + '\0' + record.message().lcm_payload();
+    streamed_.insert(key);
+    streamed_order_.emplace_back(now, std::move(key));
+  }
   if (!s.ok()) {
     log_->critical("replication: standby cannot follow: {}", s.ToString());
     deposed_ = true;
@@ -204,7 +215,11 @@ void Daemon::StandbyStep() {
       SteadyMicros() - hearing_since_us_ >= std::int64_t{2000} * params_.replication.lease_ttl_ms;
   if (!lease_->held() && !heard_enough) return;
   core::Result<bool> taken = lease_->TryAcquire();
-  if (taken.ok() && taken.value()) TakeOver();
+  if (!taken.ok() || !taken.value()) return;
+  StartLeaseThread();  // renewed from now on: taking over may take longer than a lease lasts
+  TakeOver();
+  streamed_.clear();
+  streamed_order_.clear();
 }
 
 void Daemon::TakeOver() {
@@ -246,8 +261,10 @@ void Daemon::TakeOver() {
     heard.swap(heard_);
     standby_ = false;  // intake queues from now on
   }
-  // What the robots sent while this slamd followed: what the old leader got into the stream is
-  // held already (ignored by identity), the rest is new. In chunks the queue has room for.
+  const size_t heard_count = heard.size();
+  // What the robots sent while this slamd followed and the stream did not bring (had the stream
+  // brought it, it was applied; a re-sent copy would be recognised as held). In chunks the
+  // queue has room for.
   const int chunk = std::max(1, queue_.capacity() / 2);
   size_t journaled = 0;
   while (!heard.empty()) {
@@ -255,6 +272,9 @@ void Daemon::TakeOver() {
       std::lock_guard lock(intake_mutex_);
       for (int n = 0; n < chunk && !heard.empty(); ++n, heard.pop_front()) {
         const Heard& h = heard.front();
+        std::string key = h.channel + '\0';
+        key.append(h.bytes.begin(), h.bytes.end());
+        if (streamed_.count(key) != 0) continue;  // the stream had it: applied already
         core::Result<Inbound> in = DecodeInbound(h.type, h.bytes);
         if (!in.ok()) continue;  // it was valid when heard
         const core::Result<std::int64_t> seq =
@@ -272,14 +292,14 @@ void Daemon::TakeOver() {
     }
     StepEstimator(0.0);
   }
-  StartLeaseThread();
   published_sequence_ = 0;  // every robot's estimate, now
   PublishEstimates(*ShareSnapshot(), SteadyMicros());
   log_->warn(
       "replication: took over as leader in {:.3f} s: stream at message {}, {} updates "
-      "replayed, {} old-leader messages still to process, {} heard messages journaled",
+      "replayed, {} old-leader messages still to process, {} of {} heard messages journaled "
+      "(the others were in the stream)",
       (SteadyMicros() - t0) * 1e-6, stream_end, estimator_->snapshot()->update_sequence,
-      pending.size(), journaled);
+      pending.size(), journaled, heard_count);
 }
 
 void Daemon::StartLeaseThread() {
