@@ -27,6 +27,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -278,7 +279,13 @@ TEST(ServerCrashNetnsTest, TornJournalTailAfterKillDuringBurst) {
 
   TempDir tmp("crash_torn");
   const std::string config = tmp.str() + "/slamd.textproto";
-  std::ofstream(config) << kConfig;
+  // One segment: the cut must land in the newest (a tear in an older one is corruption, and a
+  // burst journaled past 64 KiB starts a second).
+  std::string one_segment = kConfig;
+  const size_t at = one_segment.find("segment_bytes: 65536");
+  ASSERT_NE(at, std::string::npos);
+  one_segment.replace(at, std::strlen("segment_bytes: 65536"), "segment_bytes: 67108864");
+  std::ofstream(config) << one_segment;
   Server c{.prefix = "C_", .data_dir = tmp.str() + "/c", .log = tmp.str() + "/c.log"};
   fs::create_directories(c.data_dir);
   Client client(kUrl, kRobot);
