@@ -12,6 +12,8 @@ namespace {
 constexpr const char* kSourceHeader = "Slamd-Source";
 constexpr const char* kJournalEndHeader = "Slamd-Journal-End";
 constexpr const char* kLastMessageHeader = "Slamd-Last-Message";
+// Acknowledged batches kept to send again should the stream lose them [bytes].
+constexpr std::int64_t kRetainBytes = std::int64_t{64} << 20;
 constexpr std::int64_t kDuplicateWindowNs = std::int64_t{120} * 1000 * 1000 * 1000;
 
 // 16 hex digits, different for every writer (pid and a random device).
@@ -46,6 +48,7 @@ core::Result<std::pair<StreamPosition, std::string>> ReadNewest(jsCtx* js,
   natsMsg* m = nullptr;
   jsErrCode jerr = static_cast<jsErrCode>(0);
   const natsStatus s = js_GetLastMsg(&m, js, o.stream.c_str(), o.subject.c_str(), &jo, &jerr);
+  if (s == NATS_NOT_FOUND) return std::pair<StreamPosition, std::string>{};  // empty
   if (s != NATS_OK) {
     return NatsStatus(("cannot read the last message of stream " + o.stream).c_str(), s, jerr);
   }
@@ -220,17 +223,45 @@ core::Status StreamJournal::Reconcile() {
   if (!newest.ok()) return newest.status();
   const std::int64_t seq = newest.value().first.sequence;
   const std::string& msg_id = newest.value().second;
-  const auto it = std::find_if(pending_.begin(), pending_.end(),
-                               [&](const Batch& b) { return b.id == msg_id; });
-  if (it == pending_.end()) {
+  const auto by_id = [&](const Batch& b) { return b.id == msg_id; };
+  const auto it = std::find_if(pending_.begin(), pending_.end(), by_id);
+  if (it != pending_.end()) {  // an earlier attempt landed: it and those before it are stored
+    batches_published_ += it - pending_.begin();
+    for (auto b = pending_.begin(); b != it; ++b) Retain(std::move(*b));
+    Stored(*it, seq);
+    Retain(std::move(*it));
+    pending_.erase(pending_.begin(), it + 1);
+    return core::Status::Ok();
+  }
+  // The stream ends before batches it acknowledged (servers killed before their stores reached
+  // the disk can elect a leader without them): those are sent again, under new ids.
+  const auto acked = std::find_if(acked_.begin(), acked_.end(), by_id);
+  const bool all_lost = seq == 0 && retained_all_;
+  if (acked == acked_.end() && !all_lost) {
     return core::FailedPrecondition("stream " + options_.stream + " was appended to by another " +
                                     "writer (message " + std::to_string(seq) + ", id '" + msg_id +
                                     "'): this slamd may no longer write it");
   }
-  batches_published_ += it - pending_.begin();
-  Stored(*it, seq);
-  pending_.erase(pending_.begin(), it + 1);
+  const auto lost = all_lost ? acked_.begin() : acked + 1;
+  lost_batches_ += acked_.end() - lost;
+  for (auto b = std::make_reverse_iterator(acked_.end()); b != std::make_reverse_iterator(lost);
+       ++b) {
+    b->id += "-again" + std::to_string(lost_batches_);
+    pending_.push_front(std::move(*b));
+  }
+  acked_.erase(lost, acked_.end());
+  end_.sequence = seq;
   return core::Status::Ok();
+}
+
+void StreamJournal::Retain(Batch batch) {
+  acked_bytes_ += static_cast<std::int64_t>(batch.bytes.size());
+  acked_.push_back(std::move(batch));
+  while (acked_bytes_ > kRetainBytes && acked_.size() > 1) {
+    acked_bytes_ -= static_cast<std::int64_t>(acked_.front().bytes.size());
+    acked_.pop_front();
+    retained_all_ = false;
+  }
 }
 
 core::Status StreamJournal::Commit() {
@@ -239,13 +270,19 @@ core::Status StreamJournal::Commit() {
     std::lock_guard stage(stage_mutex_);
     CutBatchesLocked();
   }
+  int reconciles = 0;
   while (!pending_.empty()) {
     core::Status error;
     switch (Publish(pending_.front(), &error)) {
       case Sent::kStored:
+        Retain(std::move(pending_.front()));
         pending_.pop_front();
         break;
       case Sent::kMoved:
+        if (++reconciles > 8) {
+          return core::Unavailable("stream " + options_.stream +
+                                   " keeps refusing appends after its last sequence moved");
+        }
         SLAMD_RETURN_IF_ERROR(Reconcile());
         break;
       case Sent::kFailed:
@@ -268,6 +305,10 @@ std::int64_t StreamJournal::pending_bytes() const {
   std::lock_guard lock(commit_mutex_);
   for (const Batch& b : pending_) n += static_cast<std::int64_t>(b.bytes.size());
   return n;
+}
+std::int64_t StreamJournal::lost_batches() const {
+  std::lock_guard lock(commit_mutex_);
+  return lost_batches_;
 }
 std::int64_t StreamJournal::batches_published() const {
   std::lock_guard lock(commit_mutex_);

@@ -18,8 +18,11 @@
 // returns Unavailable; the next Commit sends it again (same id). When the stream refuses a batch
 // because its last sequence moved, the newest stream message is read: if it is one of this
 // writer's pending batches (an earlier attempt landed after its acknowledgement was lost), that
-// batch and those before it are done; otherwise another writer appended and Commit returns
-// FailedPrecondition (this process must stop writing: it is no longer the leader).
+// batch and those before it are done; if it is a batch acknowledged earlier, the stream lost the
+// ones after it (NATS acknowledges before its servers sync to disk: a majority killed at once
+// can come back without them) and they are sent again from memory (the newest 64 MiB are kept;
+// a restart sends the rest from the local journal); otherwise another writer appended and Commit
+// returns FailedPrecondition (this process must stop writing: it is no longer the leader).
 //
 // Thread safety: Stage() from any thread (the journal calls it under its lock); Commit() and the
 // accessors from any thread (one commit at a time; accessors wait for it).
@@ -77,6 +80,7 @@ class StreamJournal final : public JournalReplica {
   StreamPosition stream_end() const;
   std::int64_t pending_bytes() const;      // staged or sent and not acknowledged [bytes]
   std::int64_t batches_published() const;  // acknowledged since Open
+  std::int64_t lost_batches() const;       // acknowledged, then lost by the stream, sent again
   const std::string& writer_id() const { return writer_id_; }
   const StreamJournalOptions& options() const { return options_; }
 
@@ -102,6 +106,8 @@ class StreamJournal final : public JournalReplica {
   // After kMoved: drops the pending batches the stream already holds, or FailedPrecondition.
   core::Status Reconcile();
   void Stored(const Batch& batch, std::int64_t sequence);
+  // Keeps an acknowledged batch (the newest 64 MiB of them) for Reconcile.
+  void Retain(Batch batch);
 
   const StreamJournalOptions options_;
   const std::unique_ptr<NatsClient> client_;
@@ -117,6 +123,10 @@ class StreamJournal final : public JournalReplica {
   std::int64_t next_batch_ = 1;
   StreamPosition end_;
   std::int64_t batches_published_ = 0;
+  std::deque<Batch> acked_;  // the newest acknowledged batches, oldest first
+  std::int64_t acked_bytes_ = 0;
+  bool retained_all_ = true;  // acked_ holds every batch this writer stored
+  std::int64_t lost_batches_ = 0;
 };
 
 }  // namespace slamd::server
