@@ -5,7 +5,7 @@
 //   slamd --print-default-config
 // Exit codes: 0 clean stop, 2 bad flags or config, 1 runtime failure (e.g. LCM cannot start),
 // 3 deposed: a replicated pair's leader lost its lease or found another writer on the stream,
-// or a standby could not follow it (restart it on an empty data directory to follow again).
+// or a standby could not follow it (restarted as is, it follows the stream again).
 #include <spdlog/async.h>
 #include <spdlog/sinks/rotating_file_sink.h>
 #include <spdlog/sinks/stdout_color_sinks.h>

@@ -308,6 +308,7 @@ int Daemon::StepEstimator(double timeout_s) {
   }
   if (n > 0) last_input_us_ = SteadyMicros();
   std::shared_ptr<const EstimateSnapshot> snap;
+  bool journaled_refinement = false;
   if (!batch.empty()) {
     for (const Inbound& in : batch) {
       processed_sequence_ = std::max(processed_sequence_, in.journal_sequence);
@@ -315,12 +316,9 @@ int Daemon::StepEstimator(double timeout_s) {
     // The newest poses go out as soon as they are solved (and journaled); the rest of the map's
     // back-substitution after them, before anything else reads the solver.
     ProcessResult r = estimator_->Process(batch, /*finish_later=*/true);
-    if (JournalUpdate(batch)) {
-      PublishEstimatesAndLatencies(r.applied_received_us);
-    } else {  // published once the stream has them
-      unreplicated_received_us_.insert(unreplicated_received_us_.end(),
-                                       r.applied_received_us.begin(), r.applied_received_us.end());
-    }
+    unpublished_received_us_.insert(unpublished_received_us_.end(), r.applied_received_us.begin(),
+                                    r.applied_received_us.end());
+    if (JournalUpdate(batch)) PublishUnpublished();  // else once the replicated journal has it
     if (!r.already_held_robots.empty() && !replication_held_) {
       AcknowledgeAlreadyHeld(*ShareSnapshot(), r.already_held_robots, SteadyMicros());
     }
@@ -343,12 +341,14 @@ int Daemon::StepEstimator(double timeout_s) {
     if (journal_ && r.rounds > 0) {
       const core::Status s = journal_->AppendRefinement(r.rounds);
       if (!s.ok()) NoteJournalError(s);
-      CommitReplica();
+      journaled_refinement = true;
     }
   }
-  if (replication_held_ && CommitReplica()) {
-    PublishEstimatesAndLatencies(unreplicated_received_us_);
-    unreplicated_received_us_.clear();
+  // No update committed the replica in this step: the refinement's record, or a retry while
+  // held (whose success releases the held estimates).
+  const bool was_held = replication_held_;
+  if (batch.empty() && (journaled_refinement || was_held) && CommitReplica() && was_held) {
+    PublishUnpublished();
   }
   if (journal_ && params_.journal.sync == SyncPolicy::kInterval) {
     const core::Status s = journal_->Commit();
@@ -432,6 +432,11 @@ void Daemon::PublishRejection(const Rejection& rej) {
   NoteReject(MessageTypeName(rej.message), rej.verdict);
   const core::Status s = server::Publish(*bus_, channels_.Reject(), out);
   if (!s.ok()) log_->warn("cannot publish reject_t: {}", s.ToString());
+}
+
+void Daemon::PublishUnpublished() {
+  PublishEstimatesAndLatencies(unpublished_received_us_);
+  unpublished_received_us_.clear();
 }
 
 bool Daemon::JournalUpdate(const std::vector<Inbound>& batch) {
@@ -518,7 +523,6 @@ void Daemon::Start() {
     core::NameThisThread("slamd-intake");
     IntakeLoop();
   });
-
   log_->info("slamd running: prefix '{}', queue {}, refine {}", params_.channel_prefix,
              params_.queue.depth, params_.refine.enabled ? "on" : "off");
 }

@@ -97,10 +97,10 @@ class Daemon {
   int StepEstimator(double timeout_s);
 
   std::shared_ptr<const EstimateSnapshot> snapshot() const;
-  // This slamd lost the lease while leading (a replicated pair): it holds intake and publishes
-  // nothing; main() stops it.
+  // This slamd of a replicated pair may no longer act: it lost the lease or found another
+  // writer on the stream while leading, or could not follow the stream as a standby. It holds
+  // intake and publishes nothing; main() stops it.
   bool deposed() const { return deposed_; }
-  bool standby() const { return standby_; }
   // The estimator, for tests that drive the daemon by hand (no threads running).
   const Estimator& estimator_for_tests() const { return *estimator_; }
   const Journal* journal_for_tests() const { return journal_.get(); }  // null without data_dir
@@ -145,6 +145,9 @@ class Daemon {
   void ApplyPoseWindow();
   // The estimator's latest snapshot, made the one queries and snapshot() see.
   std::shared_ptr<const EstimateSnapshot> ShareSnapshot();
+  // The estimates, and the ingest-to-publish latencies of unpublished_received_us_ (then
+  // cleared).
+  void PublishUnpublished();
   // Journals what the estimator did (no-op without a journal); false while the replicated
   // journal does not have it (its estimates must wait).
   bool JournalUpdate(const std::vector<Inbound>& batch);
@@ -203,8 +206,9 @@ class Daemon {
   // The replica's last commit failed: intake rejects, estimates wait (estimator thread writes).
   std::atomic<bool> replication_held_{false};
   std::atomic<std::int64_t> replication_holds_{0};
-  // Receipt times of applied messages whose estimates wait for the replica [µs, steady clock].
-  std::vector<std::int64_t> unreplicated_received_us_;
+  // Receipt times of applied messages whose estimates have not gone out (they wait for the
+  // replicated journal) [µs, steady clock].
+  std::vector<std::int64_t> unpublished_received_us_;
   // A replicated pair: the lease (null without one); while standby_, the followed stream and its
   // replay (estimator thread) and what intake heard (heard_mutex_).
   std::unique_ptr<LeaderLease> lease_;

@@ -218,8 +218,6 @@ void Daemon::StandbyStep() {
   if (!taken.ok() || !taken.value()) return;
   StartLeaseThread();  // renewed from now on: taking over may take longer than a lease lasts
   TakeOver();
-  streamed_.clear();
-  streamed_order_.clear();
 }
 
 void Daemon::TakeOver() {
@@ -292,6 +290,8 @@ void Daemon::TakeOver() {
     }
     StepEstimator(0.0);
   }
+  streamed_.clear();  // a standby's
+  streamed_order_.clear();
   published_sequence_ = 0;  // every robot's estimate, now
   PublishEstimates(*ShareSnapshot(), SteadyMicros());
   log_->warn(

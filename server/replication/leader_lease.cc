@@ -2,31 +2,24 @@
 
 #include <nats/nats.h>
 
+#include "core/base/param_check.h"
+
 namespace slamd::server {
 
 core::Status LeaderLeaseOptions::Validate() const {
   SLAMD_RETURN_IF_ERROR(nats.Validate());
-  const auto name_ok = [](const std::string& s) {
-    return !s.empty() && s.find_first_not_of(
-                             "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
-                             "0123456789_-") == std::string::npos;
-  };
-  if (!name_ok(bucket)) {
+  if (!IsNatsName(bucket)) {
     return core::InvalidArgument("LeaderLeaseOptions::bucket = '" + bucket +
                                  "'; violates [A-Za-z0-9_-]+");
   }
-  if (!name_ok(key)) {
+  if (!IsNatsName(key)) {
     return core::InvalidArgument("LeaderLeaseOptions::key = '" + key +
                                  "'; violates [A-Za-z0-9_-]+");
   }
-  if (ttl_ms < 100 || ttl_ms > 60000) {
-    return core::InvalidArgument("LeaderLeaseOptions::ttl_ms = " + std::to_string(ttl_ms) +
-                                 "; violates 100..60000");
-  }
-  if (replicas < 1 || replicas > 5) {
-    return core::InvalidArgument("LeaderLeaseOptions::replicas = " + std::to_string(replicas) +
-                                 "; violates 1..5");
-  }
+  SLAMD_PARAM_CHECK(LeaderLeaseOptions, ttl_ms, >=, 100);
+  SLAMD_PARAM_CHECK(LeaderLeaseOptions, ttl_ms, <=, 60000);
+  SLAMD_PARAM_CHECK(LeaderLeaseOptions, replicas, >=, 1);
+  SLAMD_PARAM_CHECK(LeaderLeaseOptions, replicas, <=, 5);
   if (holder.empty()) return core::InvalidArgument("LeaderLeaseOptions::holder: empty");
   return core::Status::Ok();
 }

@@ -57,7 +57,6 @@ class LeaderLease {
 
   // Also read by other threads (the daemon's estimator thread while slamd-lease renews).
   bool held() const { return held_; }
-  const LeaderLeaseOptions& options() const { return options_; }
 
  private:
   LeaderLease(const LeaderLeaseOptions& options, std::unique_ptr<NatsClient> client, kvStore* kv)

@@ -2,8 +2,12 @@
 
 #include <nats/nats.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cstring>
 #include <sstream>
+
+#include "core/base/param_check.h"
 
 namespace slamd::server {
 namespace {
@@ -23,15 +27,15 @@ core::Status NatsOptions::Validate() const {
       return core::InvalidArgument("NatsOptions::servers: '" + s + "' is not a nats:// URL");
     }
   }
-  if (connect_timeout_ms < 1) {
-    return core::InvalidArgument("NatsOptions::connect_timeout_ms = " +
-                                 std::to_string(connect_timeout_ms) + "; violates >= 1");
-  }
-  if (reconnect_wait_ms < 1) {
-    return core::InvalidArgument("NatsOptions::reconnect_wait_ms = " +
-                                 std::to_string(reconnect_wait_ms) + "; violates >= 1");
-  }
+  SLAMD_PARAM_CHECK(NatsOptions, connect_timeout_ms, >=, 1);
+  SLAMD_PARAM_CHECK(NatsOptions, reconnect_wait_ms, >=, 1);
   return core::Status::Ok();
+}
+
+bool IsNatsName(const std::string& name) {
+  return !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
+  });
 }
 
 std::vector<std::string> SplitServers(const std::string& comma_separated) {
@@ -93,7 +97,7 @@ core::Result<std::unique_ptr<NatsClient>> NatsClient::Connect(const NatsOptions&
     natsConnection_Destroy(nc);
     return NatsStatus("cannot open JetStream", s);
   }
-  return std::unique_ptr<NatsClient>(new NatsClient(options, nc, js));
+  return std::unique_ptr<NatsClient>(new NatsClient(nc, js));
 }
 
 NatsClient::~NatsClient() {
@@ -101,11 +105,5 @@ NatsClient::~NatsClient() {
   natsConnection_Close(nc_);
   natsConnection_Destroy(nc_);
 }
-
-bool NatsClient::connected() const {
-  return natsConnection_Status(nc_) == NATS_CONN_STATUS_CONNECTED;
-}
-
-std::string NatsClient::servers() const { return JoinServers(options_.servers); }
 
 }  // namespace slamd::server

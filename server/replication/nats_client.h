@@ -32,6 +32,9 @@ struct NatsOptions {
   core::Status Validate() const;  // "NatsOptions::servers: empty", ...
 };
 
+// Whether `name` may name a stream, a key-value bucket or a key: [A-Za-z0-9_-]+.
+bool IsNatsName(const std::string& name);
+
 // "nats://a:4222,nats://b:4222" -> its entries (empty ones dropped).
 std::vector<std::string> SplitServers(const std::string& comma_separated);
 
@@ -49,15 +52,10 @@ class NatsClient {
   NatsClient(const NatsClient&) = delete;
   NatsClient& operator=(const NatsClient&) = delete;
 
-  natsConnection* connection() const { return nc_; }
   jsCtx* jetstream() const { return js_; }
-  bool connected() const;       // not reconnecting, not closed
-  std::string servers() const;  // as given, comma-separated (for messages)
 
  private:
-  NatsClient(const NatsOptions& options, natsConnection* nc, jsCtx* js)
-      : options_(options), nc_(nc), js_(js) {}
-  const NatsOptions options_;
+  NatsClient(natsConnection* nc, jsCtx* js) : nc_(nc), js_(js) {}
   natsConnection* nc_ = nullptr;
   jsCtx* js_ = nullptr;
 };

@@ -53,6 +53,15 @@ core::Status StageFrom(const std::string& data_dir, std::int64_t from, StreamJou
   return core::Status::Ok();
 }
 
+// The stream journal that appends data_dir's journal (its id as the source).
+core::Result<std::unique_ptr<StreamJournal>> OpenFor(const std::string& data_dir,
+                                                     StreamJournalOptions options) {
+  core::Result<std::string> id = DataDirectoryId(data_dir);
+  if (!id.ok()) return id.status();
+  options.source = id.value();
+  return StreamJournal::Open(options);
+}
+
 }  // namespace
 
 core::Result<std::string> DataDirectoryId(const std::string& data_dir) {
@@ -89,19 +98,17 @@ core::Result<std::string> DataDirectoryId(const std::string& data_dir) {
 core::Result<std::unique_ptr<StreamJournal>> StartReplication(const std::string& data_dir,
                                                               StreamJournalOptions options,
                                                               Journal* journal) {
-  core::Result<std::string> id = DataDirectoryId(data_dir);
-  if (!id.ok()) return id.status();
-  options.source = id.value();
-  core::Result<std::unique_ptr<StreamJournal>> opened = StreamJournal::Open(options);
+  core::Result<std::unique_ptr<StreamJournal>> opened = OpenFor(data_dir, options);
   if (!opened.ok()) return opened.status();
   std::unique_ptr<StreamJournal> stream = std::move(opened).value();
   const StreamPosition end = stream->stream_end();
+  const std::string& source = stream->source();
   std::int64_t from = 0;
   if (end.sequence > 0) {
-    if (end.source != options.source) {
+    if (end.source != source) {
       return core::FailedPrecondition(
           "stream " + options.stream + " was last written from another data directory (id '" +
-          end.source + "', this one is '" + options.source +
+          end.source + "', this one is '" + source +
           "'): this slamd is behind the stream and can only follow it as a standby");
     }
     if (end.journal_end > journal->offset()) {
@@ -121,10 +128,7 @@ core::Result<std::unique_ptr<StreamJournal>> TakeOverReplication(const std::stri
                                                                  StreamJournalOptions options,
                                                                  Journal* journal,
                                                                  std::int64_t consumed) {
-  core::Result<std::string> id = DataDirectoryId(data_dir);
-  if (!id.ok()) return id.status();
-  options.source = id.value();
-  core::Result<std::unique_ptr<StreamJournal>> opened = StreamJournal::Open(options);
+  core::Result<std::unique_ptr<StreamJournal>> opened = OpenFor(data_dir, options);
   if (!opened.ok()) return opened.status();
   const std::int64_t end = opened.value()->stream_end().sequence;
   if (end != consumed) {

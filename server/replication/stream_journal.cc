@@ -6,6 +6,8 @@
 #include <charconv>
 #include <random>
 
+#include "core/base/param_check.h"
+
 namespace slamd::server {
 namespace {
 
@@ -59,24 +61,11 @@ core::Result<std::pair<StreamPosition, std::string>> ReadNewest(jsCtx* js,
   return out;
 }
 
-bool ValidStreamName(const std::string& name) {
-  return !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
-    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
-  });
-}
-
-core::Status CheckRange(const char* field, std::int64_t v, std::int64_t lo, std::int64_t hi) {
-  if (v >= lo && v <= hi) return core::Status::Ok();
-  return core::InvalidArgument(std::string("StreamJournalOptions::") + field + " = " +
-                               std::to_string(v) + "; violates " +
-                               (v < lo ? ">= " + std::to_string(lo) : "<= " + std::to_string(hi)));
-}
-
 }  // namespace
 
 core::Status StreamJournalOptions::Validate() const {
   SLAMD_RETURN_IF_ERROR(nats.Validate());
-  if (!ValidStreamName(stream)) {
+  if (!IsNatsName(stream)) {
     return core::InvalidArgument("StreamJournalOptions::stream = '" + stream +
                                  "'; violates [A-Za-z0-9_-]+");
   }
@@ -84,9 +73,12 @@ core::Status StreamJournalOptions::Validate() const {
     return core::InvalidArgument("StreamJournalOptions::subject = '" + subject +
                                  "'; violates: a subject without spaces or wildcards");
   }
-  SLAMD_RETURN_IF_ERROR(CheckRange("replicas", replicas, 1, 5));
-  SLAMD_RETURN_IF_ERROR(CheckRange("ack_timeout_ms", ack_timeout_ms, 1, 60000));
-  SLAMD_RETURN_IF_ERROR(CheckRange("max_batch_bytes", max_batch_bytes, 4096, 1000000));
+  SLAMD_PARAM_CHECK(StreamJournalOptions, replicas, >=, 1);
+  SLAMD_PARAM_CHECK(StreamJournalOptions, replicas, <=, 5);
+  SLAMD_PARAM_CHECK(StreamJournalOptions, ack_timeout_ms, >=, 1);
+  SLAMD_PARAM_CHECK(StreamJournalOptions, ack_timeout_ms, <=, 60000);
+  SLAMD_PARAM_CHECK(StreamJournalOptions, max_batch_bytes, >=, 4096);
+  SLAMD_PARAM_CHECK(StreamJournalOptions, max_batch_bytes, <=, 1000000);
   if (source.empty()) return core::InvalidArgument("StreamJournalOptions::source: empty");
   return core::Status::Ok();
 }
@@ -180,15 +172,23 @@ void StreamJournal::CutBatchesLocked() {
   marks_.clear();
 }
 
-void StreamJournal::Stored(const Batch& batch, std::int64_t sequence) {
+void StreamJournal::Stored(Batch batch, std::int64_t sequence) {
   end_ = {.sequence = std::max(end_.sequence, sequence),
           .source = options_.source,
           .journal_end = batch.end.journal_end,
           .last_message = batch.end.last_message};
   ++batches_published_;
+  acked_bytes_ += static_cast<std::int64_t>(batch.bytes.size());
+  acked_.push_back(std::move(batch));
+  while (acked_bytes_ > kRetainBytes && acked_.size() > 1) {
+    acked_bytes_ -= static_cast<std::int64_t>(acked_.front().bytes.size());
+    acked_.pop_front();
+    retained_all_ = false;
+  }
 }
 
-StreamJournal::Sent StreamJournal::Publish(const Batch& batch, core::Status* error) {
+StreamJournal::Sent StreamJournal::Publish(const Batch& batch, std::int64_t* sequence,
+                                           core::Status* error) {
   natsMsg* m = nullptr;
   const std::string expected = std::to_string(end_.sequence);
   const std::string journal_end = std::to_string(batch.end.journal_end);
@@ -208,7 +208,7 @@ StreamJournal::Sent StreamJournal::Publish(const Batch& batch, core::Status* err
   if (s == NATS_OK) s = js_PublishMsg(&ack, client_->jetstream(), m, &po, &jerr);
   natsMsg_Destroy(m);
   if (s == NATS_OK) {
-    Stored(batch, static_cast<std::int64_t>(ack->Sequence));
+    *sequence = static_cast<std::int64_t>(ack->Sequence);
     jsPubAck_Destroy(ack);
     return Sent::kStored;
   }
@@ -226,11 +226,9 @@ core::Status StreamJournal::Reconcile() {
   const auto by_id = [&](const Batch& b) { return b.id == msg_id; };
   const auto it = std::find_if(pending_.begin(), pending_.end(), by_id);
   if (it != pending_.end()) {  // an earlier attempt landed: it and those before it are stored
-    batches_published_ += it - pending_.begin();
-    for (auto b = pending_.begin(); b != it; ++b) Retain(std::move(*b));
-    Stored(*it, seq);
-    Retain(std::move(*it));
-    pending_.erase(pending_.begin(), it + 1);
+    const auto stored = it + 1;
+    for (auto b = pending_.begin(); b != stored; ++b) Stored(std::move(*b), b == it ? seq : 0);
+    pending_.erase(pending_.begin(), stored);
     return core::Status::Ok();
   }
   // The stream ends before batches it acknowledged (servers killed before their stores reached
@@ -254,16 +252,6 @@ core::Status StreamJournal::Reconcile() {
   return core::Status::Ok();
 }
 
-void StreamJournal::Retain(Batch batch) {
-  acked_bytes_ += static_cast<std::int64_t>(batch.bytes.size());
-  acked_.push_back(std::move(batch));
-  while (acked_bytes_ > kRetainBytes && acked_.size() > 1) {
-    acked_bytes_ -= static_cast<std::int64_t>(acked_.front().bytes.size());
-    acked_.pop_front();
-    retained_all_ = false;
-  }
-}
-
 core::Status StreamJournal::Commit() {
   std::lock_guard lock(commit_mutex_);
   {
@@ -273,9 +261,10 @@ core::Status StreamJournal::Commit() {
   int reconciles = 0;
   while (!pending_.empty()) {
     core::Status error;
-    switch (Publish(pending_.front(), &error)) {
+    std::int64_t sequence = 0;
+    switch (Publish(pending_.front(), &sequence, &error)) {
       case Sent::kStored:
-        Retain(std::move(pending_.front()));
+        Stored(std::move(pending_.front()), sequence);
         pending_.pop_front();
         break;
       case Sent::kMoved:
@@ -305,10 +294,6 @@ std::int64_t StreamJournal::pending_bytes() const {
   std::lock_guard lock(commit_mutex_);
   for (const Batch& b : pending_) n += static_cast<std::int64_t>(b.bytes.size());
   return n;
-}
-std::int64_t StreamJournal::lost_batches() const {
-  std::lock_guard lock(commit_mutex_);
-  return lost_batches_;
 }
 std::int64_t StreamJournal::batches_published() const {
   std::lock_guard lock(commit_mutex_);

@@ -80,9 +80,7 @@ class StreamJournal final : public JournalReplica {
   StreamPosition stream_end() const;
   std::int64_t pending_bytes() const;      // staged or sent and not acknowledged [bytes]
   std::int64_t batches_published() const;  // acknowledged since Open
-  std::int64_t lost_batches() const;       // acknowledged, then lost by the stream, sent again
-  const std::string& writer_id() const { return writer_id_; }
-  const StreamJournalOptions& options() const { return options_; }
+  const std::string& source() const { return options_.source; }  // Slamd-Source of its batches
 
  private:
   struct Batch {
@@ -101,13 +99,13 @@ class StreamJournal final : public JournalReplica {
                 StreamPosition end);
   // Moves what is staged into pending_ batches; both mutexes held.
   void CutBatchesLocked();
-  // Publishes `batch`; on kFailed *error says why.
-  Sent Publish(const Batch& batch, core::Status* error);
+  // Publishes `batch`: kStored with its stream *sequence, kMoved, or kFailed with *error.
+  Sent Publish(const Batch& batch, std::int64_t* sequence, core::Status* error);
   // After kMoved: drops the pending batches the stream already holds, or FailedPrecondition.
   core::Status Reconcile();
-  void Stored(const Batch& batch, std::int64_t sequence);
-  // Keeps an acknowledged batch (the newest 64 MiB of them) for Reconcile.
-  void Retain(Batch batch);
+  // An acknowledged batch (at `sequence`; 0 when unknown: an earlier one of a reconciled run):
+  // the stream's end moves past it, and it is kept (the newest 64 MiB) for Reconcile.
+  void Stored(Batch batch, std::int64_t sequence);
 
   const StreamJournalOptions options_;
   const std::unique_ptr<NatsClient> client_;
@@ -126,7 +124,7 @@ class StreamJournal final : public JournalReplica {
   std::deque<Batch> acked_;  // the newest acknowledged batches, oldest first
   std::int64_t acked_bytes_ = 0;
   bool retained_all_ = true;  // acked_ holds every batch this writer stored
-  std::int64_t lost_batches_ = 0;
+  std::int64_t lost_batches_ = 0;  // acknowledged, lost by the stream, sent again (new ids)
 };
 
 }  // namespace slamd::server

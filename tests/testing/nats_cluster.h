@@ -3,6 +3,7 @@
 // a directory of the test's own. Only inside a private network namespace (OnlyLoopback()), so
 // ports and traffic never meet anything else. Kill(i) (SIGKILL), Stop(i) (SIGTERM), Start(i)
 // (again, on the same store). Tests skip when nats-server is not installed (HaveNatsServer).
+// SharedNatsClusterTest: a fixture whose suite shares one cluster.
 #pragma once
 
 #include <arpa/inet.h>
@@ -17,6 +18,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
@@ -182,6 +184,41 @@ class NatsCluster {
 
   std::string dir_;
   std::vector<pid_t> pids_;
+};
+
+// A fixture whose suite shares one cluster of three (starting one takes seconds): started once
+// JetStream answers, stopped with the suite; each test is skipped outside a private network
+// namespace or without nats-server, and finds every server running (a test that stopped some
+// and failed half-way leaves them to be restarted). test_name() names a test's own stream or
+// bucket.
+class SharedNatsClusterTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    if (!OnlyLoopback() || !HaveNatsServer()) return;
+    dir_ = ::testing::TempDir() + "/nats_cluster_XXXXXX";
+    ASSERT_NE(::mkdtemp(dir_.data()), nullptr);
+    cluster_ = std::make_unique<NatsCluster>(dir_ + "/nats", 3);
+    cluster_->StartAll();
+    ASSERT_TRUE(cluster_->WaitForJetStream(30.0));
+  }
+  static void TearDownTestSuite() {
+    cluster_.reset();
+    if (!dir_.empty()) std::filesystem::remove_all(dir_);
+  }
+  void SetUp() override {
+    if (!OnlyLoopback()) GTEST_SKIP() << kNotInNetns;
+    if (!HaveNatsServer()) GTEST_SKIP() << "nats-server is not installed";
+    ASSERT_NE(cluster_, nullptr);
+    for (int i = 0; i < cluster_->size(); ++i) {
+      if (!cluster_->running(i)) cluster_->Start(i);
+    }
+  }
+  static std::string test_name() {
+    return ::testing::UnitTest::GetInstance()->current_test_info()->name();
+  }
+
+  static inline std::string dir_;
+  static inline std::unique_ptr<NatsCluster> cluster_;
 };
 
 }  // namespace slamd::testing

@@ -18,38 +18,17 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// One cluster for both tests (starting one takes seconds); each test has its own bucket.
-class LeaderLeaseTest : public ::testing::Test {
+// Each test has its own bucket on the suite's cluster.
+class LeaderLeaseTest : public testing::SharedNatsClusterTest {
  protected:
-  static void SetUpTestSuite() {
-    if (!testing::OnlyLoopback() || !testing::HaveNatsServer()) return;
-    dir_ = ::testing::TempDir() + "/leader_lease_XXXXXX";
-    ASSERT_NE(::mkdtemp(dir_.data()), nullptr);
-    cluster_ = std::make_unique<testing::NatsCluster>(dir_ + "/nats", 3);
-    cluster_->StartAll();
-    ASSERT_TRUE(cluster_->WaitForJetStream(30.0));
-  }
-  static void TearDownTestSuite() {
-    cluster_.reset();
-    if (!dir_.empty()) std::filesystem::remove_all(dir_);
-  }
-  void SetUp() override {
-    if (!testing::OnlyLoopback()) GTEST_SKIP() << testing::kNotInNetns;
-    if (!testing::HaveNatsServer()) GTEST_SKIP() << "nats-server is not installed";
-    ASSERT_NE(cluster_, nullptr);
-  }
   std::unique_ptr<LeaderLease> Open(const std::string& holder) {
-    auto lease = LeaderLease::Open(
-        {.nats = {.servers = cluster_->UrlList()},
-         .bucket = ::testing::UnitTest::GetInstance()->current_test_info()->name(),
-         .ttl_ms = 1000,
-         .holder = holder});
+    auto lease = LeaderLease::Open({.nats = {.servers = cluster_->UrlList()},
+                                    .bucket = test_name(),
+                                    .ttl_ms = 1000,
+                                    .holder = holder});
     EXPECT_TRUE(lease.ok()) << lease.status().ToString();
     return lease.ok() ? std::move(lease).value() : nullptr;
   }
-
-  static inline std::string dir_;
-  static inline std::unique_ptr<testing::NatsCluster> cluster_;
 };
 
 TEST_F(LeaderLeaseTest, OneHolderUntilItStopsRenewing) {

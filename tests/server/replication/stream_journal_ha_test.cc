@@ -45,33 +45,13 @@ std::string Frame(const journal::JournalRecord& r) {
   return frame;
 }
 
-// One cluster for all the tests (starting one takes seconds); each test has its own stream.
-class StreamJournalTest : public ::testing::Test {
+// Each test has its own stream on the suite's cluster.
+class StreamJournalTest : public testing::SharedNatsClusterTest {
  protected:
-  static void SetUpTestSuite() {
-    if (!testing::OnlyLoopback() || !testing::HaveNatsServer()) return;
-    dir_ = ::testing::TempDir() + "/stream_journal_XXXXXX";
-    ASSERT_NE(::mkdtemp(dir_.data()), nullptr);
-    cluster_ = std::make_unique<NatsCluster>(dir_ + "/nats", 3);
-    cluster_->StartAll();
-  }
-  static void TearDownTestSuite() {
-    cluster_.reset();
-    if (!dir_.empty()) std::filesystem::remove_all(dir_);
-  }
-  void SetUp() override {
-    if (!testing::OnlyLoopback()) GTEST_SKIP() << testing::kNotInNetns;
-    if (!testing::HaveNatsServer()) GTEST_SKIP() << "nats-server is not installed";
-    ASSERT_NE(cluster_, nullptr);
-    for (int i = 0; i < cluster_->size(); ++i) {  // a test that stopped servers failed half-way
-      if (!cluster_->running(i)) cluster_->Start(i);
-    }
-    name_ = ::testing::UnitTest::GetInstance()->current_test_info()->name();
-  }
   StreamJournalOptions Options(const std::string& source = "0123456789abcdef") const {
     return {.nats = {.servers = cluster_->UrlList()},
-            .stream = name_,
-            .subject = "test." + name_,
+            .stream = test_name(),
+            .subject = "test." + test_name(),
             .ack_timeout_ms = 2000,
             .max_batch_bytes = 4096,
             .source = source};
@@ -89,9 +69,6 @@ class StreamJournalTest : public ::testing::Test {
       std::this_thread::sleep_for(std::chrono::milliseconds(200));
     }
   }
-  static inline std::string dir_;
-  static inline std::unique_ptr<NatsCluster> cluster_;
-  std::string name_;
 };
 
 TEST_F(StreamJournalTest, RecordsComeBackInOrderAcrossBatchesAndLongRecords) {
@@ -189,7 +166,7 @@ TEST_F(StreamJournalTest, ASecondWriterIsRefused) {
 }
 
 TEST_F(StreamJournalTest, StartReplicationSendsWhatTheStreamLacks) {
-  const std::string data_dir = dir_ + "/" + name_ + "_data";
+  const std::string data_dir = dir_ + "/" + test_name() + "_data";
   std::filesystem::create_directories(data_dir);
   auto open_journal = [&] {
     auto recovered = ReadJournal(data_dir);
@@ -237,7 +214,7 @@ TEST_F(StreamJournalTest, StartReplicationSendsWhatTheStreamLacks) {
   EXPECT_EQ(got.size(), 12u);
 
   // Another data directory is behind this stream: refused.
-  const std::string other_dir = dir_ + "/" + name_ + "_other";
+  const std::string other_dir = dir_ + "/" + test_name() + "_other";
   std::filesystem::create_directories(other_dir);
   std::unique_ptr<Journal> other = Journal::Open(other_dir, {}, {}, 0).value();
   auto refused = StartReplication(other_dir, options, other.get());
