@@ -106,19 +106,30 @@ class NatsCluster {
   void StartAll() {
     for (int i = 0; i < size(); ++i) Start(i);
   }
-  // Waits (up to timeout_s) until the cluster answers JetStream requests (its meta leader
-  // elected): true when it does.
+  // Waits (up to timeout_s) until the cluster can place a stream on all its servers (its meta
+  // leader elected and every peer known: answering JetStream requests comes earlier, and a
+  // replicated stream or bucket made then fails with "no suitable peers for placement"): true
+  // when it can. Tried with a probe stream, deleted again.
   bool WaitForJetStream(double timeout_s) const {
     const auto deadline = std::chrono::steady_clock::now() +
                           std::chrono::milliseconds(static_cast<int>(timeout_s * 1e3));
     while (std::chrono::steady_clock::now() < deadline) {
       auto client = server::NatsClient::Connect({.servers = UrlList()});
       if (client.ok()) {
-        jsAccountInfo* info = nullptr;
+        jsStreamConfig cfg;
+        jsStreamConfig_Init(&cfg);
+        const char* subjects[] = {"test.ready_probe"};
+        cfg.Name = "READY_PROBE";
+        cfg.Subjects = subjects;
+        cfg.SubjectsLen = 1;
+        cfg.Storage = js_MemoryStorage;
+        cfg.Replicas = size();
+        jsStreamInfo* si = nullptr;
         jsErrCode jerr = static_cast<jsErrCode>(0);
-        if (js_GetAccountInfo(&info, client.value()->jetstream(), nullptr, &jerr) == NATS_OK) {
-          jsAccountInfo_Destroy(info);
-          return true;
+        jsCtx* js = client.value()->jetstream();
+        if (js_AddStream(&si, js, &cfg, nullptr, &jerr) == NATS_OK) {
+          jsStreamInfo_Destroy(si);
+          return js_DeleteStream(js, "READY_PROBE", nullptr, &jerr) == NATS_OK;
         }
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(200));
