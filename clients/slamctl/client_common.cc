@@ -83,6 +83,14 @@ std::string FormatStatus(const slamd::status_t& s) {
                   static_cast<long long>(s.replication_holds));
     out += buf;
   }
+  if (s.shard_summaries_sent > 0 || s.shard_not_owned > 0) {
+    std::snprintf(buf, sizeof(buf),
+                  "shards: %lld summaries sent (%lld bytes)  %lld messages for other shards\n",
+                  static_cast<long long>(s.shard_summaries_sent),
+                  static_cast<long long>(s.shard_summary_bytes),
+                  static_cast<long long>(s.shard_not_owned));
+    out += buf;
+  }
   for (int code = 0;
        code < s.num_rejects_by_reason && code < static_cast<int>(s.rejects_by_reason.size());
        ++code) {
@@ -133,6 +141,9 @@ JsonWriter StatusJson(const slamd::status_t& s) {
       .Add("replication_holds", static_cast<long long>(s.replication_holds))
       .Add("replicated_batches", static_cast<long long>(s.replicated_batches))
       .Add("replication_pending_bytes", static_cast<long long>(s.replication_pending_bytes))
+      .Add("shard_not_owned", static_cast<long long>(s.shard_not_owned))
+      .Add("shard_summaries_sent", static_cast<long long>(s.shard_summaries_sent))
+      .Add("shard_summary_bytes", static_cast<long long>(s.shard_summary_bytes))
       .Add("removed_variables", static_cast<long long>(s.removed_variables))
       .Add("merged_poses", static_cast<long long>(s.merged_poses))
       .Add("rss_bytes", static_cast<long long>(s.rss_bytes))

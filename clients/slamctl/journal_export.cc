@@ -271,6 +271,8 @@ class Exporter {
   // g2o has no cameras: counted in the notes (the messages are in the LCM log).
   void AddMeasurement(const server::CameraInfo&) { Skip("camera_info_t messages"); }
   void AddMeasurement(const server::FrameObservations&) { Skip("frame_observations_t messages"); }
+  // A neighbouring map shard's summary is no measurement of the robots.
+  void AddMeasurement(const server::ShardSummaryMessage&) { Skip("shard_summary_t messages"); }
 
   // Vertex values: priors first, then breadth-first along the pose-pose edges, then the lowest
   // unknown pose at the identity (a new component), landmarks from their first observation.

@@ -80,8 +80,12 @@ Eigen::VectorXd LinearContainerFactor::Evaluate(std::span<const Variable* const>
   Eigen::VectorXd e = b_;
   for (std::size_t k = 0; k < x0_.size(); ++k) {
     const int d = offsets_[k + 1] - offsets_[k];
-    e.noalias() += A_.middleCols(offsets_[k], d) * LocalCoordinates(x0_[k], *x[k]);
-    if (H) (*H)[k] = A_.middleCols(offsets_[k], d);
+    const Eigen::VectorXd delta = LocalCoordinates(x0_[k], *x[k]);
+    e.noalias() += A_.middleCols(offsets_[k], d) * delta;
+    if (!H) continue;
+    // ∂δ/∂ε for x ⊕ ε is J⁻¹, J = ∂Local(x, x₀ ⊕ (δ + ε))/∂ε (the identity at x₀).
+    const TangentMatrix J = EstimateTangentJacobian(TypeOf(x0_[k]), delta.data());
+    (*H)[k] = A_.middleCols(offsets_[k], d) * J.inverse();
   }
   return e;
 }

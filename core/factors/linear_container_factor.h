@@ -4,9 +4,12 @@
 // for Factor-Graph SLAM", T-RO 2014), or any linearised factor kept as it is.
 //
 // At other values it is re-linearised by the first-order rule (as GTSAM's LinearContainerFactor):
-// e(x) = A·(x₀ ⊖ x) + b, with x₀ ⊖ x the stacked LocalCoordinates(x₀_k, x_k), and Jacobians A_k
-// unchanged. A and b are already whitened: the noise model is the unit one and there is no
-// robust kernel. Encoded as b then A (column-major); its keys' x₀ are its carried values.
+// e(x) = A·(x₀ ⊖ x) + b, with x₀ ⊖ x the stacked LocalCoordinates(x₀_k, x_k); its Jacobians are
+// those of that error, A_k·J_k⁻¹ (J_k the chart's derivative at x_k, the identity at x₀), not A_k
+// as GTSAM keeps them: far from x₀ (a map shard's summary on poses another shard placed
+// differently) the kept A_k is not the error's slope, and Gauss-Newton climbed. A and b are already
+// whitened: the noise model is the unit one and there is no robust kernel. Encoded as b then A
+// (column-major); its keys' x₀ are its carried values.
 #pragma once
 
 #include "core/factors/factor.h"

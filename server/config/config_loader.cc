@@ -129,6 +129,15 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   if (rep.has_lease_ttl_ms()) p->replication.lease_ttl_ms = rep.lease_ttl_ms();
   if (rep.has_lease_bucket()) p->replication.lease_bucket = rep.lease_bucket();
   if (rep.has_standby_keep_s()) p->replication.standby_keep_s = rep.standby_keep_s();
+  const proto::ShardsConfig& sh = config.shards();
+  if (sh.has_self()) p->estimator.shards.self = sh.self();
+  for (const proto::ShardsConfig::Shard& shard : sh.shard()) {
+    p->estimator.shards.shards.push_back(
+        {.name = shard.name(), .robots = {shard.robots().begin(), shard.robots().end()}});
+  }
+  if (sh.has_servers()) p->shards.servers = sh.servers();
+  if (sh.has_subject()) p->shards.subject = sh.subject();
+  if (sh.has_summary_every_ms()) p->shards.summary_every_ms = sh.summary_every_ms();
   const proto::EstimatorConfig& e = config.estimator();
   if (e.has_new_robot_anchor()) {
     p->estimator.new_robot_anchor = static_cast<AnchorPolicy>(e.new_robot_anchor());
@@ -378,6 +387,15 @@ std::string DefaultConfigText() {
       << "  lease_bucket: " << Quote(d.replication.lease_bucket) << "\n"
       << "  standby_keep_s: " << Num(d.replication.standby_keep_s)
       << "  # a standby journals what it heard this long before it took over [s]\n"
+      << "}\n\n"
+      << "shards {  # map shards: this slamd owns some robots, neighbours exchange summaries\n"
+      << "  self: \"\"  # this slamd's shard; \"\" = not sharded\n"
+      << "  # shard { name: \"east\" robots: \"robot0\" robots: \"robot1\" }  # every shard, "
+         "this one too\n"
+      << "  servers: " << Quote(d.shards.servers) << "  # NATS URLs; \"\" = the LCM bus\n"
+      << "  subject: " << Quote(d.shards.subject) << "  # summaries for shard s on <subject>.<s>\n"
+      << "  summary_every_ms: " << d.shards.summary_every_ms
+      << "  # each neighbour's summary at most this often [ms]\n"
       << "}\n";
   return out.str();
 }

@@ -67,6 +67,8 @@ core::Status ServerParams::Validate() const {
   }
   SLAMD_CONFIG_CHECK(replication.standby_keep_s, >=, 0.1);
   SLAMD_CONFIG_CHECK(replication.standby_keep_s, <=, 600.0);
+  SLAMD_CONFIG_CHECK(shards.summary_every_ms, >=, 10);
+  SLAMD_CONFIG_CHECK(shards.summary_every_ms, <=, 600000);
   SLAMD_CONFIG_CHECK(journal.sync_interval_ms, >=, 1);
   SLAMD_CONFIG_CHECK(journal.sync_interval_ms, <=, 60000);
   SLAMD_CONFIG_CHECK(journal.snapshot_every_updates, >=, 0);

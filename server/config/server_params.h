@@ -117,6 +117,17 @@ struct ServerParams {
   };
   Replication replication = {};
 
+  // Map shards (docs/SCALING.md): which robots this slamd owns is estimator.shards; every
+  // summary_every_ms it sends each neighbouring shard its summary on the poses they share (when
+  // the estimate changed), over NATS (servers; subject <subject>.<shard>) or, without servers,
+  // on the bus (channel <prefix>SHARD_SUMMARY).
+  struct Shards {
+    std::string servers;                   // NATS URLs, comma-separated; "" = the LCM bus
+    std::string subject = "slamd.shards";  // NATS subject prefix, [A-Za-z0-9_-] parts
+    int summary_every_ms = 1000;           // 10..600000
+  };
+  Shards shards = {};
+
   // The solver (core/isam/isam2_params.h); validated by Isam2Params::Validate.
   core::Isam2Params isam2 = {};
 

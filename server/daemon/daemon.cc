@@ -136,6 +136,7 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
         SteadyMicros());
   }
   SLAMD_RETURN_IF_ERROR(daemon->Subscribe());
+  SLAMD_RETURN_IF_ERROR(daemon->StartShards());
   daemon->hearing_since_us_ = SteadyMicros();
   return daemon;
 }
@@ -178,6 +179,10 @@ template <typename Msg>
 void Daemon::OnInbound(std::string_view channel, const Msg& msg) {
   using Spec = SpecOfLcm<Msg>;
   ++received_;
+  if (!ForThisShard<Spec>(params_.estimator.shards, msg)) {  // another shard's robot
+    ++not_owned_;
+    return;
+  }
   const char* type = Spec::kType;
   auto checked = Convert(msg, Limits{});
   Verdict verdict;
@@ -362,6 +367,7 @@ int Daemon::StepEstimator(double timeout_s) {
   for (const QueryRequest& q : queries) AnswerAndPublish(q, snap->update_sequence);
   if (!replication_held_) MaybePublishMaps(*snap);
   MaybePublishStatus(*snap);
+  if (!replication_held_) MaybeSendSummaries();
   // After this step's estimates went out: bringing a rebuilt solver up to date takes an update.
   if (estimator_->RebuildReady()) SwapRebuild();
   return n;
@@ -533,6 +539,7 @@ void Daemon::Stop() {
   stop_intake_ = true;
   if (intake_thread_.joinable()) intake_thread_.join();
   subscriptions_.clear();
+  shard_nats_.reset();  // no more summaries from NATS
   {  // driven by hand, a caller's own bus.HandleOnce may have left messages held
     std::lock_guard lock(intake_mutex_);
     QueueHeldLocked();

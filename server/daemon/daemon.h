@@ -159,6 +159,13 @@ class Daemon {
   void NoteReject(std::string_view type, const Verdict& verdict);
   void MaybeSnapshot();
 
+  // Map shards (daemon_shards.cc): subscribes to <shards.subject>.<self> on NATS (without
+  // servers, summaries come on the bus like any message); every shards.summary_every_ms, sends
+  // each neighbour its summary when the estimate changed.
+  core::Status StartShards();
+  void MaybeSendSummaries();
+  void SendSummary(const ShardSummaryMessage& summary);
+
   core::Status Subscribe();
   template <typename Msg>
   core::Status SubscribeInbound(const std::string& channel);
@@ -230,6 +237,10 @@ class Daemon {
   std::deque<std::pair<std::int64_t, std::string>> streamed_order_;  // (steady µs, key)
   std::atomic<bool> stop_lease_{false};
   std::thread lease_thread_;
+  // Map shards: the NATS connection of the summaries (null: the bus), when they last went out
+  // (steady µs) and of which update.
+  std::unique_ptr<NatsClient> shard_nats_;
+  std::int64_t last_summaries_us_ = 0, last_summaries_sequence_ = -1;
   IngestQueue queue_;
   // Journal append + queue push, so journal order = queue order; and intake_held_.
   std::mutex intake_mutex_;
@@ -241,6 +252,8 @@ class Daemon {
   // Intake counters (intake thread writes, status reads).
   std::atomic<std::int64_t> received_{0}, queued_{0}, intake_rejected_{0}, decode_errors_{0};
   std::atomic<std::int64_t> journal_errors_{0};
+  // Messages for robots another shard owns (dropped), summaries sent and their bytes.
+  std::atomic<std::int64_t> not_owned_{0}, summaries_sent_{0}, summary_bytes_sent_{0};
   std::mutex reject_log_mutex_;
   std::int64_t rejects_unlogged_ = 0, reject_logged_us_ = 0;
   std::array<std::atomic<std::int64_t>, kNumRejectReasonCodes> intake_rejects_by_reason_{};

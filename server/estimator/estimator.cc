@@ -26,7 +26,8 @@ MeasurementPolicy Policy(const EstimatorParams& params) {
                                   .min_parallax_deg = params.landmark_min_parallax_deg,
                                   .max_reprojection_px = params.landmark_max_reprojection_px,
                                   .min_disparity_px = params.landmark_min_disparity_px},
-      .max_landmark_error_px = params.max_landmark_error_px};
+      .max_landmark_error_px = params.max_landmark_error_px,
+      .shards = params.shards};
   const auto kind = core::RobustKernel::ParseKind(params.loop_closure_kernel).value();
   if (kind != core::RobustKernel::Kind::kNone) {
     policy.loop_closure_kernel =
@@ -216,6 +217,25 @@ Outcome Estimator::AddMeasured(core::FactorPtr factor, Key first, const char* wh
   return Outcome::kApplied;
 }
 
+Outcome Estimator::AddReplacing(core::FactorPtr factor, Key first, Staged* s) {
+  SLAMD_CHECK(s->pending_id.has_value()) << "AddReplacing without FirstTime";
+  const MeasurementId id = *s->pending_id;
+  s->pending_id.reset();
+  s->pending_existing = nullptr;
+  for (auto& [position, staged_id, staged_first] : s->ids) {
+    if (staged_id != id) continue;
+    s->factors.Replace(position, std::move(factor));  // a newer one in the same batch
+    staged_first = first;
+    return Outcome::kApplied;
+  }
+  if (const auto it = applied_.find(id); it != applied_.end() && solver_index_[it->second] >= 0) {
+    s->reduced.replaced.push_back(it->second);
+  }
+  s->ids.emplace_back(s->factors.size(), id, first);
+  s->factors.Add(std::move(factor));
+  return Outcome::kApplied;
+}
+
 RobotState& Estimator::Robot(std::uint8_t id, Staged* s) {
   for (const auto& [saved, state] : s->robots_before) {
     if (saved == id) return robots_[id];
@@ -271,6 +291,9 @@ class Estimator::Builder final : public GraphBuilder {
   void FirstTime(const MeasurementId& id) override { e_.FirstTime(id, &s_); }
   Outcome AddMeasured(core::FactorPtr factor, Key first, const char* what, Verdict* v) override {
     return e_.AddMeasured(std::move(factor), first, what, &s_, v);
+  }
+  Outcome AddReplacing(core::FactorPtr factor, Key first) override {
+    return e_.AddReplacing(std::move(factor), first, &s_);
   }
   void Touch(std::uint8_t robot) override { e_.Touch(robot, in_, &s_); }
   CameraTable& cameras() override { return e_.cameras_; }

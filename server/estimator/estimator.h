@@ -111,7 +111,6 @@ class Estimator {
                                                           const EstimatorState& state);
   // Everything needed to Restore this estimator; O(variables + factors), no solver work.
   EstimatorState ExportState() const;
-
   // Applies `batch` (see the file comment) with one Isam2::Update; publishes a new snapshot.
   // With `finish_later`, the update's back-substitution stops once every robot's newest pose
   // is solved (Isam2UpdateOptions::solve_first; a robot's newest pose is what estimate_t
@@ -125,12 +124,10 @@ class Estimator {
   // Background relinearisation (file comment): in flight / done and waiting for FinishRebuild.
   bool Rebuilding() const { return rebuild_ != nullptr; }
   bool RebuildReady() const { return rebuild_ && rebuild_->Ready(); }
-  // Waits for the rebuild in flight, brings it up to date and swaps it in; a new snapshot.
-  // false when no rebuild was in flight. When the rebuild failed, the live solver stays (and the
-  // next update relinearises in the update) and the status says why. `replay_rounds`: in a
-  // replay, the catch-up rounds the journal recorded for this swap (logged updates per round),
-  // run here since the helper ran none (SetReplaying); ignored when they name more updates than
-  // were logged (a record of another rebuild: see FinishRebuild).
+  // Waits for the rebuild in flight, brings it up to date and swaps it in (a new snapshot); false
+  // when none was in flight. A failed rebuild leaves the live solver (the next update
+  // relinearises) and the status says why. `replay_rounds`: a replay's journaled catch-up rounds
+  // of this swap, run here (SetReplaying); ignored when they name more updates than were logged.
   core::Result<bool> FinishRebuild(std::span<const int> replay_rounds = {});
   // The catch-up rounds of the last swap (logged updates per round), for the journal.
   const std::vector<int>& last_swap_rounds() const { return last_swap_rounds_; }
@@ -147,6 +144,12 @@ class Estimator {
   // in flight, the swap discards what it did: the daemon refines only when none is.)
   core::Isam2::RefineResult Refine(double budget_s,
                                    int max_rounds = std::numeric_limits<int>::max());
+
+  // Map shards (estimator_shards.cc): the summary for shard `neighbour` on the poses of every
+  // factor naming that shard's robots, less its own last summary (separator_summary.h); nullopt
+  // when they share nothing yet.
+  core::Result<std::optional<ShardSummaryMessage>> ShardSummary(const std::string& neighbour,
+                                                                std::int64_t utime);
 
   std::shared_ptr<const EstimateSnapshot> snapshot() const { return snapshot_; }  // never null
 
@@ -202,14 +205,11 @@ class Estimator {
   Outcome Apply(const Inbound& in, Staged* staged, Verdict* verdict);
   bool Known(core::Key key, const Staged& s) const;
   core::Variable Estimate(core::Key key, const Staged& s) const;
-  // Marks the measurement's identity seen for this batch, noting the factor it already has when
-  // it was applied or staged before (AddMeasured then compares).
+  // GraphBuilder's FirstTime, AddMeasured and AddReplacing (message_spec.h) on batch `s`.
   void FirstTime(const MeasurementId& id, Staged* s);
-  // Adds the factor of the message FirstTime() just admitted, remembering its identity:
-  // kApplied; or, when that identity has a factor already, kAlreadyHeld for the same
-  // measurement and kRejected (kDuplicate, `what` names the message type) for another.
   Outcome AddMeasured(core::FactorPtr factor, core::Key first, const char* what, Staged* s,
                       Verdict* v);
+  Outcome AddReplacing(core::FactorPtr factor, core::Key first, Staged* s);
   RobotState& Robot(std::uint8_t id, Staged* s);  // remembers its old state for rollback
   void ApplyBatch(std::vector<Inbound> batch, ProcessResult* result);
   void Remove(const Inbound& in, ProcessResult* result);

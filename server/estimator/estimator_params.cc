@@ -105,6 +105,7 @@ core::Status EstimatorParams::Validate() const {
                                  std::to_string(loop_closure_kernel_parameter) +
                                  "; must be positive and finite");
   }
+  SLAMD_RETURN_IF_ERROR(shards.Validate());
   return core::Status::Ok();
 }
 

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "core/base/status.h"
+#include "server/ingest/shard_map.h"
 
 // Returns InvalidArgument naming a config path ("estimator.anchor_sigma = 0; violates > 0") when
 // `path op bound` does not hold (core's SLAMD_PARAM_CHECK names "Struct::field"; the config
@@ -141,6 +142,10 @@ struct EstimatorParams {
   std::vector<RobotReduced> robot_reduced = {};
   // The reduced graph that applies to `robot`.
   const ReducedGraph& ReducedOf(const std::string& robot) const;
+
+  // Map shards (docs/SCALING.md): the robots this slamd owns; the daemon sets it from the
+  // config's shards section. Unsharded by default.
+  ShardMap shards = {};
 
   core::Status Validate() const;
 };

@@ -112,7 +112,8 @@ struct ReducedGraphState {
 
 // What one batch changes (committed with its update): a new pose its factor has yet to place
 // (node or alias), the aliases it adds or changes (nullopt: made a node), the measurements it
-// merged, and the composed factors (applied numbers) it replaces by fused ones.
+// merged, and the factors (applied numbers) it replaces: composed ones by fused ones, and a
+// shard's summary by its next one (GraphBuilder::AddReplacing).
 struct ReducedGraphStage {
   std::optional<std::pair<core::Key, core::Variable>> pending_pose;
   std::map<core::Key, std::optional<PoseAlias>> aliases;

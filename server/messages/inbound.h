@@ -20,6 +20,7 @@
 #include "server/messages/prior.h"
 #include "server/messages/query.h"
 #include "server/messages/remove_factor.h"
+#include "server/messages/shard_summary.h"
 
 namespace slamd::server {
 
@@ -33,8 +34,9 @@ struct SpecList {
   }
 };
 
-using InboundSpecs = SpecList<OdometrySpec, LandmarkObservationSpec, LoopClosureSpec, PriorSpec,
-                              RemoveFactorSpec, QuerySpec, CameraInfoSpec, FrameObservationsSpec>;
+using InboundSpecs =
+    SpecList<OdometrySpec, LandmarkObservationSpec, LoopClosureSpec, PriorSpec, RemoveFactorSpec,
+             QuerySpec, CameraInfoSpec, FrameObservationsSpec, ShardSummarySpec>;
 
 namespace internal {
 // The first spec S of the list with Member<S> = T.
@@ -81,6 +83,21 @@ decltype(auto) VisitSpec(const Inbound& in, F&& f) {
         return f(std::type_identity<SpecOf<decltype(m)>>{}, m);
       },
       in.measurement);
+}
+
+// Whether a sharded slamd takes a message (LCM class or value of spec S): a summary addressed
+// to its shard (S::Shard), or a message whose robot (S::ShardRobot, else S::Robot: robot_a of a
+// loop closure) it owns. Unsharded, every message.
+template <typename S, typename M>
+bool ForThisShard(const ShardMap& shards, const M& m) {
+  if (!shards.sharded()) return true;
+  if constexpr (requires { S::Shard(m); }) {
+    return S::Shard(m) == shards.self;
+  } else if constexpr (requires { S::ShardRobot(m); }) {
+    return shards.Owns(S::ShardRobot(m));
+  } else {
+    return shards.Owns(S::Robot(m));
+  }
 }
 
 // The spec's kType ("odometry_t", ...), Robot (robot_a for loop closures and removals, the

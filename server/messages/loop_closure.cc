@@ -107,12 +107,13 @@ Outcome LoopClosureSpec::Apply(const Value& m, GraphBuilder& g, Verdict* v) {
     }
     return Outcome::kRejected;
   }
-  // Exactly one side known: it may connect (and anchor) a robot with no pose yet.
+  // Exactly one side known: it may connect (and anchor) a robot with no pose yet, or name a
+  // pose of a robot another shard owns (kept here as a shared pose, placed by this closure).
   if (known_a != known_b) {
     const std::string& robot = known_a ? m.robot_b : m.robot_a;
     const std::optional<std::uint8_t> id = known_a ? idb : ida;
     const std::uint64_t index = known_a ? m.pose_b : m.pose_a;
-    if (id && g.Anchored(*id)) {
+    if (id && g.Anchored(*id) && g.policy().shards.Owns(robot)) {
       *v = {RejectReason::kUnknownPose, std::string("loop_closure_t.") +
                                             (known_a ? "pose_b: " : "pose_a: ") +
                                             PoseName(robot, index) + " is not in the graph"};
@@ -138,8 +139,16 @@ Outcome LoopClosureSpec::Apply(const Value& m, GraphBuilder& g, Verdict* v) {
   const core::Key kb = core::MakeKey('x', m.pose_b, *b);
   g.FirstTime({kIdentity, std::min(ka, kb), std::max(ka, kb), 0});
   core::FactorPtr factor = Factor(m, ka, kb, g.policy().loop_closure_kernel);
-  if (!known_b) g.AddPose(*b, m.pose_b, *factor->Predict(0, g.Estimate(ka)));
-  if (!known_a) g.AddPose(*a, m.pose_a, *factor->Predict(1, g.Estimate(kb)));
+  const auto add = [&](const std::string& robot, std::uint8_t id, std::uint64_t index,
+                       const core::Variable& value) {
+    if (g.policy().shards.Owns(robot)) {
+      g.AddPose(id, index, value);
+    } else {
+      g.AddVariable(core::MakeKey('x', index, id), value);
+    }
+  };
+  if (!known_b) add(m.robot_b, *b, m.pose_b, *factor->Predict(0, g.Estimate(ka)));
+  if (!known_a) add(m.robot_a, *a, m.pose_a, *factor->Predict(1, g.Estimate(kb)));
   const Outcome outcome = g.AddMeasured(std::move(factor), ka, kType, v);
   if (outcome == Outcome::kApplied) g.Touch(*a);
   return outcome;

@@ -4,7 +4,9 @@
 // Applied: a BetweenFactor from (robot_a, pose_a) to (robot_b, pose_b), with the message's
 // kernel or the configured default (EstimatorParams::loop_closure_kernel). When exactly one side
 // is known and the other robot has no pose yet, it connects (and anchors) that robot: the
-// unknown pose is placed from the known one. Identity: the two keys, smaller first.
+// unknown pose is placed from the known one. In a map shard, an unknown pose of a robot another
+// shard owns is placed the same way and kept as a shared pose (no robot state: it is not
+// published). Identity: the two keys, smaller first.
 #pragma once
 
 #include <cstdint>

@@ -31,6 +31,7 @@
 #include "core/sfm/landmark_initialization.h"
 #include "core/variables/variable.h"
 #include "server/ingest/measurements.h"
+#include "server/ingest/shard_map.h"
 #include "server/ingest/validation.h"
 
 namespace slamd::server {
@@ -59,6 +60,8 @@ struct MeasurementPolicy {
   // A feature of a landmark in the graph whose pixel is farther than this from the landmark's
   // projection at the current estimate is rejected as a wrong match [px].
   double max_landmark_error_px = 50.0;
+  // Map shards: which robots are this slamd's (server/ingest/shard_map.h).
+  ShardMap shards;
 };
 
 class CameraTable;     // server/messages/camera_info.h
@@ -94,6 +97,10 @@ class GraphBuilder {
   virtual void FirstTime(const MeasurementId& id) = 0;
   virtual Outcome AddMeasured(core::FactorPtr factor, core::Key first, const char* what,
                               Verdict* verdict) = 0;
+  // Stages the factor of the message FirstTime() just admitted in place of the factor that
+  // identity has (removed in the same update; none: added): kApplied. For messages that
+  // supersede the previous one of their identity (a shard's summary).
+  virtual Outcome AddReplacing(core::FactorPtr factor, core::Key first) = 0;
   // Records this message as the robot's latest (its utime and receipt time in estimate_t).
   virtual void Touch(std::uint8_t robot) = 0;
   // The cameras (camera_info_t) and the observations of landmarks not determined yet

@@ -41,6 +41,12 @@ struct QuerySpec {
   static const std::string& Robot(const M& m) {
     return m.client;
   }
+  // Whose shard answers (ShardMap): the robot of its first key, else map_robot ("" and "*"
+  // belong to no robot: the first shard answers).
+  template <typename M>
+  static const std::string& ShardRobot(const M& m) {
+    return m.keys.empty() ? m.map_robot : m.keys.front().robot;
+  }
 };
 
 }  // namespace slamd::server

@@ -100,7 +100,46 @@ core::Result<std::unique_ptr<NatsClient>> NatsClient::Connect(const NatsOptions&
   return std::unique_ptr<NatsClient>(new NatsClient(nc, js));
 }
 
+struct NatsClient::Subscription {
+  MessageCallback on_message;
+  natsSubscription* sub = nullptr;
+};
+
+NatsClient::NatsClient(natsConnection* nc, jsCtx* js) : nc_(nc), js_(js) {}
+
+core::Status NatsClient::Publish(const std::string& subject, std::span<const std::uint8_t> bytes) {
+  const std::int64_t max = natsConnection_GetMaxPayload(nc_);
+  if (static_cast<std::int64_t>(bytes.size()) > max) {
+    return core::InvalidArgument(
+        "NATS publish on " + subject + ": " + std::to_string(bytes.size()) +
+        " bytes, more than the server's max_payload of " + std::to_string(max));
+  }
+  return NatsStatus(
+      ("NATS publish on " + subject).c_str(),
+      natsConnection_Publish(nc_, subject.c_str(), bytes.data(), static_cast<int>(bytes.size())));
+}
+
+core::Status NatsClient::Subscribe(const std::string& subject, MessageCallback on_message) {
+  auto holder = std::make_unique<Subscription>();
+  holder->on_message = std::move(on_message);
+  const auto deliver = [](natsConnection*, natsSubscription*, natsMsg* msg, void* closure) {
+    const auto* data = reinterpret_cast<const std::uint8_t*>(natsMsg_GetData(msg));
+    static_cast<Subscription*>(closure)->on_message(
+        std::span(data, static_cast<std::size_t>(natsMsg_GetDataLength(msg))));
+    natsMsg_Destroy(msg);
+  };
+  SLAMD_RETURN_IF_ERROR(NatsStatus(
+      ("NATS subscribe to " + subject).c_str(),
+      natsConnection_Subscribe(&holder->sub, nc_, subject.c_str(), deliver, holder.get())));
+  subscriptions_.push_back(std::move(holder));
+  return core::Status::Ok();
+}
+
 NatsClient::~NatsClient() {
+  for (const auto& s : subscriptions_) {
+    natsSubscription_Unsubscribe(s->sub);
+    natsSubscription_Destroy(s->sub);
+  }
   jsCtx_Destroy(js_);
   natsConnection_Close(nc_);
   natsConnection_Destroy(nc_);

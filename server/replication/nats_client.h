@@ -8,7 +8,10 @@
 // Unavailable (the caller retries), JetStream API errors keep their code in the message.
 #pragma once
 
+#include <cstdint>
+#include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -16,6 +19,7 @@
 
 typedef struct __natsConnection natsConnection;
 typedef struct __jsCtx jsCtx;
+typedef struct __natsSubscription natsSubscription;
 
 namespace slamd::server {
 
@@ -54,10 +58,20 @@ class NatsClient {
 
   jsCtx* jetstream() const { return js_; }
 
+  // Core NATS, at most once (map shards' summaries): publishes `bytes` on `subject`;
+  // InvalidArgument when they exceed the server's max_payload.
+  core::Status Publish(const std::string& subject, std::span<const std::uint8_t> bytes);
+  // Calls `on_message` on libnats' delivery thread for every message on `subject` until this
+  // client is destroyed.
+  using MessageCallback = std::function<void(std::span<const std::uint8_t> payload)>;
+  core::Status Subscribe(const std::string& subject, MessageCallback on_message);
+
  private:
-  NatsClient(natsConnection* nc, jsCtx* js) : nc_(nc), js_(js) {}
+  NatsClient(natsConnection* nc, jsCtx* js);
   natsConnection* nc_ = nullptr;
   jsCtx* js_ = nullptr;
+  struct Subscription;
+  std::vector<std::unique_ptr<Subscription>> subscriptions_;
 };
 
 }  // namespace slamd::server

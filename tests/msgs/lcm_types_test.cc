@@ -203,7 +203,7 @@ TEST(LcmFiles, FollowTheHouseRules) {
       }
     }
   }
-  EXPECT_EQ(files, 16);
+  EXPECT_EQ(files, 17);
 }
 
 // --- Generated code ---

@@ -247,7 +247,7 @@ TEST(SeparatorSummary, TwoShardsReachTheCentralOptimumAndMarginals) {
   const World w = MakeWorld(2, 30, {{0, 5, 1, 7}, {0, 20, 1, 18}, {1, 28, 0, 29}});
   const auto central = Central(w);
   std::vector<Shard> shards = MakeShards(w);
-  for (int round = 0; round < 6; ++round) {
+  for (int round = 0; round < 10; ++round) {
     Send(shards, 0, 1);
     Send(shards, 1, 0);
   }
@@ -259,7 +259,7 @@ TEST(SeparatorSummary, AChainOfThreeShardsPassesInformationThrough) {
   const World w = MakeWorld(3, 25, {{0, 4, 1, 6}, {1, 20, 0, 22}, {2, 10, 1, 12}, {1, 24, 2, 23}});
   const auto central = Central(w);
   std::vector<Shard> shards = MakeShards(w);
-  for (int round = 0; round < 8; ++round) {
+  for (int round = 0; round < 12; ++round) {
     Send(shards, 0, 1);
     Send(shards, 2, 1);
     Send(shards, 1, 0);

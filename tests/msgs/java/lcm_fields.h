@@ -28,6 +28,7 @@
 #include "slamd/query_t.hpp"
 #include "slamd/reject_t.hpp"
 #include "slamd/remove_factor_t.hpp"
+#include "slamd/shard_summary_t.hpp"
 #include "slamd/status_t.hpp"
 #include "slamd/variable_t.hpp"
 
@@ -132,6 +133,10 @@ inline void Put(Fields& f, const std::string& path, const slamd::reject_t& m) {
 inline void Put(Fields& f, const std::string& path, const slamd::remove_factor_t& m) {
   PUT(utime), PUT(target), PUT(robot_a), PUT(index_a), PUT(robot_b), PUT(index_b), PUT(kind);
 }
+inline void Put(Fields& f, const std::string& path, const slamd::shard_summary_t& m) {
+  PUT(utime), PUT(from_shard), PUT(to_shard), PUT(dimension), PUT(num_poses), PUT(poses);
+  PUT(num_values), PUT(values), PUT(rows), PUT(b), PUT(num_a), PUT(a);
+}
 inline void Put(Fields& f, const std::string& path, const slamd::status_t& m) {
   PUT(utime), PUT(update_sequence), PUT(rebuilds), PUT(num_robots), PUT(num_variables);
   PUT(num_factors), PUT(messages_received), PUT(messages_accepted), PUT(messages_rejected);
@@ -143,7 +148,8 @@ inline void Put(Fields& f, const std::string& path, const slamd::status_t& m) {
   PUT(update_latency_max_us), PUT(publish_latency_p50_us), PUT(publish_latency_p99_us);
   PUT(journal_records), PUT(journal_bytes), PUT(journal_disk_bytes), PUT(journal_segments);
   PUT_BOOL(replication_held), PUT(replication_holds), PUT(replicated_batches),
-      PUT(replication_pending_bytes);
+      PUT(replication_pending_bytes), PUT(shard_not_owned), PUT(shard_summaries_sent),
+      PUT(shard_summary_bytes);
   PUT(chi2), PUT(residual_dimension), PUT_BOOL(settled);
 }
 
@@ -186,6 +192,7 @@ inline std::vector<TypeInfo> AllTypes() {
           Type<slamd::query_t>("query_t"),
           Type<slamd::reject_t>("reject_t"),
           Type<slamd::remove_factor_t>("remove_factor_t"),
+          Type<slamd::shard_summary_t>("shard_summary_t"),
           Type<slamd::status_t>("status_t"),
           Type<slamd::variable_t>("variable_t", false)};
 }

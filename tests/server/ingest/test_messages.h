@@ -14,6 +14,7 @@
 #include "slamd/prior_t.hpp"
 #include "slamd/query_t.hpp"
 #include "slamd/remove_factor_t.hpp"
+#include "slamd/shard_summary_t.hpp"
 
 namespace slamd::server::testing {
 
@@ -202,6 +203,27 @@ inline slamd::frame_observations_t FrameMessage(int kind = 1, bool covariance = 
   m.num_covariance = static_cast<int>(m.covariance.size());
   m.robust_kernel = "huber";
   m.robust_parameter = 1.345;
+  return m;
+}
+
+// A summary from shard "east" to "west" on two 2D poses (alpha:4, bravo:3): an upper-triangular
+// 4 x 6 A (rows < columns, as when some directions carry nothing).
+inline slamd::shard_summary_t ShardSummary() {
+  slamd::shard_summary_t m;
+  m.utime = 1700000000000009;
+  m.from_shard = "east";
+  m.to_shard = "west";
+  m.dimension = 2;
+  m.poses = {Key("alpha", 1, 4), Key("bravo", 1, 3)};
+  m.num_poses = 2;
+  m.values = {1.0, 2.0, 0.5, -1.0, 0.25, -3.0};
+  m.num_values = 6;
+  m.rows = 4;
+  m.b = {0.1, -0.2, 0.0, 0.3};
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 6; ++c) m.a.push_back(c >= r ? 1.0 + r + 0.5 * c : 0.0);
+  }
+  m.num_a = 24;
   return m;
 }
 

@@ -56,10 +56,16 @@ TEST(InboundSpecs, NamesRobotsAndRolesComeFromTheSpecs) {
 }
 
 TEST(InboundCodec, EveryTypeRoundTripsThroughItsSpec) {
-  std::vector<Inbound> examples = {
-      FromLcm(t::Odometry2()), FromLcm(t::Odometry3()),          FromLcm(t::LoopClosure3()),
-      FromLcm(t::Query()),     FromLcm(t::RemoveFactor(3)),      FromLcm(t::Landmark(1)),
-      FromLcm(t::Prior(2)),    FromLcm(t::CameraInfoMessage(4)), FromLcm(t::FrameMessage(2, true))};
+  std::vector<Inbound> examples = {FromLcm(t::Odometry2()),
+                                   FromLcm(t::Odometry3()),
+                                   FromLcm(t::LoopClosure3()),
+                                   FromLcm(t::Query()),
+                                   FromLcm(t::RemoveFactor(3)),
+                                   FromLcm(t::Landmark(1)),
+                                   FromLcm(t::Prior(2)),
+                                   FromLcm(t::CameraInfoMessage(4)),
+                                   FromLcm(t::FrameMessage(2, true)),
+                                   FromLcm(t::ShardSummary())};
   std::set<std::string> types;
   for (const Inbound& in : examples) {
     std::string type;

@@ -24,7 +24,7 @@ TEST(ChannelNames, DefaultPrefix) {
   EXPECT_EQ(c.Inbound<QuerySpec>(), "SLAMD_QUERY");
   EXPECT_EQ(c.QueryReply(), "SLAMD_QUERY_REPLY");
   const auto all = All(c);
-  EXPECT_EQ(all.size(), 13u);
+  EXPECT_EQ(all.size(), 14u);
   EXPECT_EQ(std::set<std::string>(all.begin(), all.end()).size(), all.size());
 }
 

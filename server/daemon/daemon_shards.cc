@@ -1,0 +1,75 @@
+// Map shards (docs/SCALING.md): the daemon's side. Which messages a shard takes is decided at
+// intake (ForThisShard); the estimator keeps the shared poses and applies neighbours' summaries
+// (shard_summary_t, journaled like any message); here summaries come in from NATS and go out.
+#include <spdlog/spdlog.h>
+
+#include "server/daemon/daemon.h"
+#include "server/transport/typed_subscribe.h"
+
+namespace slamd::server {
+
+core::Status Daemon::StartShards() {
+  const ShardMap& shards = params_.estimator.shards;
+  if (!shards.sharded() || params_.shards.servers.empty()) return core::Status::Ok();
+  core::Result<std::unique_ptr<NatsClient>> client =
+      NatsClient::Connect({.servers = SplitServers(params_.shards.servers)});
+  if (!client.ok()) return client.status();
+  shard_nats_ = std::move(client).value();
+  const std::string subject = params_.shards.subject + "." + shards.self;
+  SLAMD_RETURN_IF_ERROR(
+      shard_nats_->Subscribe(subject, [this, subject](std::span<const std::uint8_t> bytes) {
+        slamd::shard_summary_t msg;
+        const core::Status decoded = internal::DecodeAs(bytes, &msg);
+        const std::string channel = "nats:" + subject;
+        if (!decoded.ok()) {
+          OnDecodeError(channel, decoded);
+          return;
+        }
+        OnInbound(channel, msg);
+        std::lock_guard lock(intake_mutex_);  // no PumpIntake burst to wait for
+        QueueHeldLocked();
+      }));
+  log_->info("shard '{}': summaries on NATS {} ({})", shards.self, subject, params_.shards.servers);
+  return core::Status::Ok();
+}
+
+void Daemon::MaybeSendSummaries() {
+  const ShardMap& shards = params_.estimator.shards;
+  if (!shards.sharded()) return;
+  const std::int64_t now = SteadyMicros();
+  const std::int64_t sequence = estimator_->snapshot()->update_sequence;
+  if (sequence == last_summaries_sequence_ ||
+      now - last_summaries_us_ < params_.shards.summary_every_ms * std::int64_t{1000}) {
+    return;
+  }
+  last_summaries_us_ = now;
+  last_summaries_sequence_ = sequence;
+  for (const std::string& neighbour : shards.Neighbours()) {
+    core::Result<std::optional<ShardSummaryMessage>> summary =
+        estimator_->ShardSummary(neighbour, WallMicros());
+    if (!summary.ok()) {
+      log_->warn("shard summary for '{}': {}", neighbour, summary.status().ToString());
+    } else if (summary->has_value()) {
+      SendSummary(**summary);
+    }
+  }
+}
+
+void Daemon::SendSummary(const ShardSummaryMessage& summary) {
+  slamd::shard_summary_t msg;
+  ToLcm(summary, &msg);
+  std::vector<std::uint8_t> bytes(static_cast<size_t>(msg.getEncodedSize()));
+  msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  const core::Status s =
+      shard_nats_ ? shard_nats_->Publish(params_.shards.subject + "." + summary.to_shard, bytes)
+                  : bus_->Publish(channels_.Inbound<ShardSummarySpec>(), bytes);
+  if (!s.ok()) {
+    log_->warn("shard summary for '{}' ({} poses, {} bytes): {}", summary.to_shard,
+               summary.poses.size(), bytes.size(), s.ToString());
+    return;
+  }
+  ++summaries_sent_;
+  summary_bytes_sent_ += static_cast<std::int64_t>(bytes.size());
+}
+
+}  // namespace slamd::server

@@ -1,0 +1,188 @@
+// Map shards at the estimator (docs/SCALING.md): shards that own some robots each and exchange
+// summaries (Estimator::ShardSummary, applied as shard_summary_t) reach the estimate and the
+// marginals of one estimator that has every message; a summary replaces the one before it, waits
+// for a pose of its own shard that has not arrived, and is refused by another shard.
+#include <gtest/gtest.h>
+
+#include <map>
+#include <random>
+
+#include "server/estimator/estimator.h"
+#include "server/messages/inbound.h"
+#include "tests/server/estimator/estimator_test_messages.h"
+
+namespace slamd::server::shards_test {
+
+using core::Pose2;
+using estimator_test::Loop;
+using estimator_test::Odo;
+using estimator_test::PoseOf;
+using estimator_test::Prior;
+
+constexpr int kPoses = 20;
+
+// Robots r0.. drive parallel lines 3 m apart; inter-robot closures, each pair of robots `pairs`,
+// at a few poses. Measurements carry noise, so the closures pull.
+std::vector<Inbound> World(int robots, const std::vector<std::pair<int, int>>& pairs) {
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> n(0.0, 0.05);
+  const auto noisy = [&](const Pose2& z) {
+    return z.Retract(core::Vector3(n(rng), n(rng), n(rng)));
+  };
+  const auto truth = [](int r, int i) { return Pose2(1.0 * i, 3.0 * r, 0.0); };
+  std::vector<Inbound> out;
+  for (int r = 0; r < robots; ++r) {
+    const std::string name = "r" + std::to_string(r);
+    out.push_back(Prior(name, 0, truth(r, 0)));
+    for (int i = 0; i + 1 < kPoses; ++i) {
+      out.push_back(Odo(name, i, i + 1, noisy(truth(r, i).Between(truth(r, i + 1)))));
+    }
+  }
+  for (const auto& [a, b] : pairs) {
+    for (const int i : {4, 11, 18}) {
+      const int j = a < b ? i + 1 : i - 1;  // b->a closures name other poses than a->b ones
+      out.push_back(Loop("r" + std::to_string(a), i, "r" + std::to_string(b), j,
+                         noisy(truth(a, i).Between(truth(b, j)))));
+    }
+  }
+  return out;
+}
+
+std::unique_ptr<Estimator> Make(const ShardMap& shards = {}) {
+  core::Isam2Params isam2;
+  isam2.refine_threshold = 1e-10;  // settled well below the tolerances checked
+  return Estimator::Create({.chi2_interval_s = 0.0, .shards = shards}, isam2).value();
+}
+
+ShardMap Shards(const std::string& self, int n) {
+  ShardMap m{.self = self};
+  for (int s = 0; s < n; ++s)
+    m.shards.push_back({"S" + std::to_string(s), {"r" + std::to_string(s)}});
+  return m;
+}
+
+// What a shard takes of `messages` (the daemon's intake filter).
+std::vector<Inbound> ForShard(const ShardMap& shards, const std::vector<Inbound>& messages) {
+  std::vector<Inbound> out;
+  for (const Inbound& in : messages) {
+    const bool take = VisitSpec(in, [&](auto spec, const auto& m) {
+      return ForThisShard<typename decltype(spec)::type>(shards, m);
+    });
+    if (take) out.push_back(in);
+  }
+  return out;
+}
+
+void Settle(Estimator& e, const std::string& what) {
+  const auto r = e.Refine(10.0, 100);
+  EXPECT_TRUE(r.status.ok()) << what << ": " << r.status.ToString();
+}
+
+// One round: every shard sends each neighbour its summary, which the neighbour applies.
+void Exchange(std::vector<std::unique_ptr<Estimator>>& shards) {
+  for (std::size_t s = 0; s < shards.size(); ++s) {
+    for (std::size_t t = 0; t < shards.size(); ++t) {
+      if (s == t) continue;
+      const auto summary = shards[s]->ShardSummary("S" + std::to_string(t), 0);
+      ASSERT_TRUE(summary.ok()) << summary.status().ToString();
+      if (!summary->has_value()) continue;
+      const ProcessResult r = shards[t]->Process({Inbound{**summary, 0}});
+      ASSERT_TRUE(r.status.ok()) << r.status.ToString();
+      ASSERT_TRUE(r.rejections.empty()) << r.rejections[0].verdict.message;
+      Settle(*shards[t], "shard " + std::to_string(t) + " after a summary");
+    }
+  }
+}
+
+// Each shard's own robot against the central estimator: poses and marginals.
+void ExpectCentral(std::vector<std::unique_ptr<Estimator>>& shards, Estimator& central,
+                   double tol) {
+  for (std::size_t s = 0; s < shards.size(); ++s) {
+    const std::string robot = "r" + std::to_string(s);
+    for (int i = 0; i < kPoses; ++i) {
+      estimator_test::ExpectNear(PoseOf(*shards[s], robot, i), PoseOf(central, robot, i), tol);
+      Eigen::MatrixXd c, cc;
+      const core::Key ks = *shards[s]->KeyOf({robot, KeyKind::kPose, std::uint64_t(i)});
+      const core::Key kc = *central.KeyOf({robot, KeyKind::kPose, std::uint64_t(i)});
+      ASSERT_TRUE(shards[s]->Marginal(ks, &c).ok());
+      ASSERT_TRUE(central.Marginal(kc, &cc).ok());
+      EXPECT_LT((c - cc).cwiseAbs().maxCoeff(), tol * cc.cwiseAbs().maxCoeff())
+          << robot << " " << i;
+    }
+  }
+}
+
+void RunShards(int n, const std::vector<std::pair<int, int>>& pairs, int rounds) {
+  const std::vector<Inbound> world = World(n, pairs);
+  auto central = Make();
+  ASSERT_TRUE(central->Process(world).status.ok());
+  Settle(*central, "central");
+  std::vector<std::unique_ptr<Estimator>> shards;
+  for (int s = 0; s < n; ++s) {
+    const ShardMap map = Shards("S" + std::to_string(s), n);
+    shards.push_back(Make(map));
+    const ProcessResult r = shards.back()->Process(ForShard(map, world));
+    ASSERT_TRUE(r.status.ok());
+    ASSERT_TRUE(r.rejections.empty()) << r.rejections[0].verdict.message;
+    Settle(*shards.back(), "shard " + std::to_string(s));
+  }
+  for (int k = 0; k < rounds; ++k) Exchange(shards);
+  ExpectCentral(shards, *central, 1e-6);
+}
+
+TEST(Shards, TwoShardsEqualOneEstimator) { RunShards(2, {{0, 1}, {1, 0}}, 10); }
+
+TEST(Shards, AChainOfThreeShardsEqualsOneEstimator) { RunShards(3, {{0, 1}, {2, 1}}, 12); }
+
+TEST(Shards, ShardsTakeTheirRobotsAndTheirClosures) {
+  const ShardMap a = Shards("S0", 2), b = Shards("S1", 2);
+  const std::vector<Inbound> world = World(2, {{0, 1}});
+  const std::vector<Inbound> for_a = ForShard(a, world), for_b = ForShard(b, world);
+  EXPECT_EQ(for_a.size() + for_b.size(), world.size());
+  EXPECT_EQ(for_a.size(), kPoses + 3u);  // r0's prior and odometry, and its closures to r1
+  // A robot no shard lists is the first shard's.
+  EXPECT_EQ(a.OwnerOf("stranger"), "S0");
+  EXPECT_TRUE(a.Owns("stranger"));
+  EXPECT_FALSE(b.Owns("stranger"));
+  // r1's poses in S0: shared poses, placed by the closures, not a robot S0 publishes.
+  auto e = Make(a);
+  ASSERT_TRUE(e->Process(for_a).status.ok());
+  EXPECT_TRUE(e->KeyOf({"r1", KeyKind::kPose, 5}).has_value());
+  EXPECT_FALSE(e->KeyOf({"r1", KeyKind::kPose, 4}).has_value());
+  EXPECT_EQ(e->snapshot()->robots.size(), 1u);
+}
+
+TEST(Shards, ASummaryReplacesTheLastWaitsForItsPosesAndGoesToItsShard) {
+  const std::vector<Inbound> world = World(2, {{0, 1}});
+  auto s0 = Make(Shards("S0", 2));
+  auto s1 = Make(Shards("S1", 2));
+  ASSERT_TRUE(s0->Process(ForShard(Shards("S0", 2), world)).status.ok());
+  const auto summary = s0->ShardSummary("S1", 0);
+  ASSERT_TRUE(summary.ok() && summary->has_value());
+  EXPECT_EQ((*summary)->poses.size(), 6u);  // both ends of 3 closures
+  // S1 has none of r1's poses yet: held until they come.
+  ProcessResult r = s1->Process({Inbound{**summary, 0}});
+  EXPECT_TRUE(r.rejections.empty());
+  EXPECT_EQ(s1->held_messages(), 1);
+  r = s1->Process(ForShard(Shards("S1", 2), world));
+  ASSERT_TRUE(r.status.ok());
+  EXPECT_EQ(s1->held_messages(), 0);
+  const std::int64_t factors = s1->snapshot()->num_factors;
+  EXPECT_EQ(factors, kPoses + 1);  // its prior, odometry, and the summary
+  // The next summary replaces it.
+  r = s1->Process({Inbound{**summary, 0}});
+  EXPECT_TRUE(r.rejections.empty());
+  EXPECT_EQ(r.applied, 1);
+  EXPECT_EQ(s1->snapshot()->num_factors, factors);
+  // Another shard refuses it; a summary between shards with nothing shared is none.
+  auto other = Make(Shards("S0", 2));
+  r = other->Process({Inbound{**summary, 0}});
+  ASSERT_EQ(r.rejections.size(), 1u);
+  EXPECT_NE(r.rejections[0].verdict.message.find("not this slamd's shard"), std::string::npos);
+  const auto none = Make(Shards("S0", 2))->ShardSummary("S1", 0);
+  ASSERT_TRUE(none.ok());
+  EXPECT_FALSE(none->has_value());
+  EXPECT_FALSE(s0->ShardSummary("S0", 0).ok());  // not a neighbour
+}
+
+}  // namespace slamd::server::shards_test
