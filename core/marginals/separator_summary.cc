@@ -20,6 +20,11 @@ Result<FactorPtr> SeparatorSummary(const KeyVector& keys, const std::vector<Vari
     return InvalidArgument("SeparatorSummaryParams.rank_tolerance = " +
                            std::to_string(params.rank_tolerance) + "; must be in (0, 1)");
   }
+  if (params.kept_keys == 0 || params.kept_keys > static_cast<int>(keys.size())) {
+    return InvalidArgument(
+        "SeparatorSummaryParams.kept_keys = " + std::to_string(params.kept_keys) +
+        "; must be -1 or in [1, " + std::to_string(keys.size()) + "]");
+  }
   if (keys.empty() || at.size() != keys.size()) {
     return InvalidArgument("separator summary: " + std::to_string(keys.size()) + " keys and " +
                            std::to_string(at.size()) + " values");
@@ -67,6 +72,19 @@ Result<FactorPtr> SeparatorSummary(const KeyVector& keys, const std::vector<Vari
     }
   }
   information = 0.5 * (information + information.transpose()).eval();
+  const int kept = params.kept_keys < 0 ? static_cast<int>(keys.size()) : params.kept_keys;
+  if (kept < static_cast<int>(keys.size())) {
+    const int m = column[keys[kept]];  // the kept keys' columns come first
+    const double left = information.rightCols(n - m).cwiseAbs().maxCoeff();
+    if (left > 1e-6 * information.cwiseAbs().maxCoeff()) {
+      return FailedPrecondition("separator summary: " + KeyToString(keys[kept]) +
+                                " and the keys after it still carry information (" +
+                                std::to_string(left) + ") once the excluded factors are out");
+    }
+    information = information.topLeftCorner(m, m).eval();
+    g = g.head(m).eval();
+    n = m;
+  }
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(information);
   const Eigen::VectorXd& lambda = eig.eigenvalues();  // ascending
   const double floor = params.rank_tolerance * std::max(lambda(n - 1), 0.0);
@@ -78,7 +96,9 @@ Result<FactorPtr> SeparatorSummary(const KeyVector& keys, const std::vector<Vari
   const Eigen::ArrayXd root = lambda.tail(rank).array().sqrt();
   Eigen::MatrixXd A = root.matrix().asDiagonal() * V.transpose();
   Eigen::VectorXd b = (V.transpose() * g).array() / root;
-  return LinearContainerFactor::Create(keys, at, std::move(A), std::move(b));
+  return LinearContainerFactor::Create(KeyVector(keys.begin(), keys.begin() + kept),
+                                       std::vector<Variable>(at.begin(), at.begin() + kept),
+                                       std::move(A), std::move(b));
 }
 
 Result<FactorPtr> SeparatorSummary(const Isam2& solver, Isam2Marginals& marginals,

@@ -572,6 +572,11 @@ void Daemon::Stop() {
   ReleaseLease();
   const std::shared_ptr<const EstimateSnapshot> snap = snapshot();
   if (!standby_) PublishStatus(*snap);
+  if (params_.estimator.shards.sharded()) {
+    log_->info("shard '{}': {} summaries sent ({} bytes), {} messages for other shards",
+               params_.estimator.shards.self, summaries_sent_.load(), summary_bytes_sent_.load(),
+               not_owned_.load());
+  }
   log_->info("slamd stopped after {} updates; {} messages received", snap->counters.updates,
              received_.load());
   log_->flush();

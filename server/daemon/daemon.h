@@ -161,7 +161,7 @@ class Daemon {
 
   // Map shards (daemon_shards.cc): subscribes to <shards.subject>.<self> on NATS (without
   // servers, summaries come on the bus like any message); every shards.summary_every_ms, sends
-  // each neighbour its summary when the estimate changed.
+  // every other shard its summary when it changed.
   core::Status StartShards();
   void MaybeSendSummaries();
   void SendSummary(const ShardSummaryMessage& summary);
@@ -241,6 +241,7 @@ class Daemon {
   // (steady µs) and of which update.
   std::unique_ptr<NatsClient> shard_nats_;
   std::int64_t last_summaries_us_ = 0, last_summaries_sequence_ = -1;
+  ShardSummaryMessage last_summary_sent_;
   IngestQueue queue_;
   // Journal append + queue push, so journal order = queue order; and intake_held_.
   std::mutex intake_mutex_;

@@ -7,6 +7,29 @@
 #include "server/transport/typed_subscribe.h"
 
 namespace slamd::server {
+namespace {
+
+// Whether `next` says more than `last` did: other poses, a pose moved by more than
+// `pose_tolerance` (m or rad), or its information or gradient (AᵀA, Aᵀb: A itself is defined up
+// to the signs of its rows) changed by more than 1e-3 of its largest entry. Settled shards then
+// stop sending.
+bool SummaryChanged(const ShardSummaryMessage& last, const ShardSummaryMessage& next,
+                    double pose_tolerance) {
+  if (last.poses != next.poses || last.x0.size() != next.x0.size()) return true;
+  for (std::size_t i = 0; i < next.x0.size(); ++i) {
+    if (last.x0[i].index() != next.x0[i].index() ||
+        core::LocalCoordinates(last.x0[i], next.x0[i]).cwiseAbs().maxCoeff() > pose_tolerance) {
+      return true;
+    }
+  }
+  const auto differs = [](const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+    return (a - b).cwiseAbs().maxCoeff() > 1e-3 * std::max(1.0, b.cwiseAbs().maxCoeff());
+  };
+  return differs(last.A.transpose() * last.A, next.A.transpose() * next.A) ||
+         differs(last.A.transpose() * last.b, next.A.transpose() * next.b);
+}
+
+}  // namespace
 
 core::Status Daemon::StartShards() {
   const ShardMap& shards = params_.estimator.shards;
@@ -44,15 +67,22 @@ void Daemon::MaybeSendSummaries() {
   }
   last_summaries_us_ = now;
   last_summaries_sequence_ = sequence;
-  for (const std::string& neighbour : shards.Neighbours()) {
-    core::Result<std::optional<ShardSummaryMessage>> summary =
-        estimator_->ShardSummary(neighbour, WallMicros());
-    if (!summary.ok()) {
-      log_->warn("shard summary for '{}': {}", neighbour, summary.status().ToString());
-    } else if (summary->has_value()) {
-      SendSummary(**summary);
-    }
+  core::Result<std::optional<ShardSummaryMessage>> summary = estimator_->ShardSummary(WallMicros());
+  if (!summary.ok()) {
+    log_->warn("shard summary: {}", summary.status().ToString());
+    return;
   }
+  // Estimates are solved to the wildfire threshold: closer than that is no news.
+  if (!summary->has_value() ||
+      !SummaryChanged(last_summary_sent_, **summary, params_.isam2.wildfire_threshold)) {
+    return;
+  }
+  ShardSummaryMessage& m = **summary;
+  for (const std::string& neighbour : shards.Neighbours()) {
+    m.to_shard = neighbour;
+    SendSummary(m);
+  }
+  last_summary_sent_ = std::move(m);
 }
 
 void Daemon::SendSummary(const ShardSummaryMessage& summary) {

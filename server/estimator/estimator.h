@@ -145,11 +145,10 @@ class Estimator {
   core::Isam2::RefineResult Refine(double budget_s,
                                    int max_rounds = std::numeric_limits<int>::max());
 
-  // Map shards (estimator_shards.cc): the summary for shard `neighbour` on the poses of every
-  // factor naming that shard's robots, less its own last summary (separator_summary.h); nullopt
-  // when they share nothing yet.
-  core::Result<std::optional<ShardSummaryMessage>> ShardSummary(const std::string& neighbour,
-                                                                std::int64_t utime);
+  // Map shards (estimator_shards.cc): what this shard's own factors say about its boundary (the
+  // poses it shares with any shard), the summaries it received taken out (separator_summary.h),
+  // for every other shard (to_shard left empty); nullopt when it shares nothing yet.
+  core::Result<std::optional<ShardSummaryMessage>> ShardSummary(std::int64_t utime);
 
   std::shared_ptr<const EstimateSnapshot> snapshot() const { return snapshot_; }  // never null
 

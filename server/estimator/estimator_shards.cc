@@ -1,4 +1,4 @@
-// Estimator::ShardSummary: the message a map shard sends a neighbour (docs/SCALING.md).
+// Estimator::ShardSummary: the message a map shard sends every other shard (docs/SCALING.md).
 #include <algorithm>
 #include <array>
 #include <set>
@@ -9,45 +9,57 @@
 
 namespace slamd::server {
 
-core::Result<std::optional<ShardSummaryMessage>> Estimator::ShardSummary(
-    const std::string& neighbour, std::int64_t utime) {
+core::Result<std::optional<ShardSummaryMessage>> Estimator::ShardSummary(std::int64_t utime) {
   const ShardMap& shards = params_.shards;
-  if (!shards.sharded() || neighbour == shards.self) {
-    return core::InvalidArgument("shard summary for '" + neighbour + "': not a neighbour of '" +
-                                 shards.self + "'");
-  }
+  if (!shards.sharded()) return core::FailedPrecondition("shard summary: not a shard");
   FinishUpdate();  // the estimate of every variable
-  // Which registered robots the neighbour owns.
-  std::array<bool, 256> theirs{};
-  for (std::uint8_t id : registry_.ids())
-    theirs[id] = shards.OwnerOf(registry_.Name(id)) == neighbour;
-  // Both ends of every factor on one of their poses (their summary included, so that what it is
-  // taken out of has its keys).
-  std::set<core::Key> shared;
-  for (const core::FactorPtr& f : isam_->factor_slots()) {
-    if (!f) continue;
-    const bool touches = std::any_of(f->keys().begin(), f->keys().end(), [&](core::Key k) {
-      return core::KeySymbol(k) == 'x' && theirs[core::KeyRobot(k)];
-    });
-    if (!touches) continue;
+  std::array<bool, 256> foreign{};
+  for (std::uint8_t id : registry_.ids()) foreign[id] = !shards.Owns(registry_.Name(id));
+  const auto is_foreign = [&](core::Key k) {
+    return core::KeySymbol(k) == 'x' && foreign[core::KeyRobot(k)];
+  };
+  // The summaries received (excluded: each shard's own factors are counted once, by it).
+  std::vector<core::FactorPtr> received;
+  std::set<int> received_slots;
+  for (auto it = applied_.lower_bound({ShardSummarySpec::kIdentity, 0, 0, 0});
+       it != applied_.end() && std::get<0>(it->first) == ShardSummarySpec::kIdentity; ++it) {
+    const int slot = solver_index_[it->second];
+    if (slot < 0) continue;
+    received.push_back(isam_->factor_slots()[slot]);
+    received_slots.insert(slot);
+  }
+  // The boundary: both ends of its own factors on another shard's poses, and its own poses in
+  // what the others sent. Then the keys only the received summaries name.
+  std::set<core::Key> boundary, beyond;
+  const auto& slots = isam_->factor_slots();
+  for (std::size_t i = 0; i < slots.size(); ++i) {
+    const core::FactorPtr& f = slots[i];
+    if (!f || received_slots.contains(static_cast<int>(i))) continue;
+    if (std::none_of(f->keys().begin(), f->keys().end(), is_foreign)) continue;
     for (core::Key k : f->keys()) {
-      if (core::KeySymbol(k) == 'x') shared.insert(k);
+      if (core::KeySymbol(k) == 'x') boundary.insert(k);
     }
   }
-  if (shared.empty()) return std::optional<ShardSummaryMessage>();
-  std::vector<core::FactorPtr> excluded;
-  const auto it = applied_.find({ShardSummarySpec::kIdentity, ShardIdentity(neighbour), 0, 0});
-  if (it != applied_.end() && solver_index_[it->second] >= 0) {
-    excluded.push_back(isam_->factor_slots()[solver_index_[it->second]]);
+  for (const core::FactorPtr& f : received) {
+    for (core::Key k : f->keys()) {
+      if (!is_foreign(k)) boundary.insert(k);
+    }
   }
-  const core::KeyVector keys(shared.begin(), shared.end());
-  core::Result<core::FactorPtr> summary =
-      core::SeparatorSummary(*isam_, *marginals_, keys, excluded);
+  if (boundary.empty()) return std::optional<ShardSummaryMessage>();
+  for (const core::FactorPtr& f : received) {
+    for (core::Key k : f->keys()) {
+      if (!boundary.contains(k)) beyond.insert(k);
+    }
+  }
+  core::KeyVector keys(boundary.begin(), boundary.end());
+  keys.insert(keys.end(), beyond.begin(), beyond.end());
+  core::Result<core::FactorPtr> summary = core::SeparatorSummary(
+      *isam_, *marginals_, keys, received, {.kept_keys = static_cast<int>(boundary.size())});
   if (!summary.ok()) return summary.status();
   if (!*summary) return std::optional<ShardSummaryMessage>();
   const auto& c = static_cast<const core::LinearContainerFactor&>(**summary);
-  ShardSummaryMessage m{.utime = utime, .from_shard = shards.self, .to_shard = neighbour};
-  for (core::Key k : keys) {
+  ShardSummaryMessage m{.utime = utime, .from_shard = shards.self};
+  for (core::Key k : c.keys()) {
     m.poses.emplace_back(registry_.Name(core::KeyRobot(k)), core::KeyIndex(k));
   }
   m.x0 = c.linearization_point();

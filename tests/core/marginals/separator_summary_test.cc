@@ -109,6 +109,7 @@ struct Shard {
   std::map<int, FactorPtr> received;
   std::map<int, int> received_index;
   std::map<int, KeyVector> shared;
+  KeyVector closure_keys;  // both ends of its own closures
 };
 
 std::vector<Shard> MakeShards(const World& w) {
@@ -122,6 +123,7 @@ std::vector<Shard> MakeShards(const World& w) {
       const Key ka = w.closures[c]->keys()[0], kb = w.closures[c]->keys()[1];
       if (ra != static_cast<int>(r)) continue;
       AddShared(&shards[r].shared[rb], {ka, kb});
+      AddShared(&shards[r].closure_keys, {ka, kb});
       g.Add(w.closures[c]);
       if (!v.Contains(kb)) {
         EXPECT_TRUE(v.Insert(kb, *w.closures[c]->Predict(0, v.Get(ka))).ok());
@@ -133,7 +135,10 @@ std::vector<Shard> MakeShards(const World& w) {
   return shards;
 }
 
-// Shard `from` sends `to` its summary on what they share; `to` replaces the one it had.
+void Apply(const FactorPtr& summary, int from, Shard* shard);
+
+// Shard `from` sends `to` its summary on what they share, less what `to` sent it (DDF-SAM 2.0);
+// `to` replaces the one it had.
 void Send(std::vector<Shard>& shards, int from, int to) {
   Shard& s = shards[from];
   Shard& t = shards[to];
@@ -144,9 +149,15 @@ void Send(std::vector<Shard>& shards, int from, int to) {
   const Result<FactorPtr> summary = SeparatorSummary(*s.isam, marginals, s.shared[to], excluded);
   ASSERT_TRUE(summary.ok()) << summary.status().ToString();
   ASSERT_NE(*summary, nullptr);
-  const auto& container = static_cast<const LinearContainerFactor&>(**summary);
+  Apply(*summary, from, &t);
+}
+
+// Shard t replaces what shard `from` sent it by `summary`.
+void Apply(const FactorPtr& summary, int from, Shard* shard) {
+  Shard& t = *shard;
+  const auto& container = static_cast<const LinearContainerFactor&>(*summary);
   FactorGraph g;
-  g.Add(*summary);
+  g.Add(summary);
   Values v;
   for (std::size_t i = 0; i < container.keys().size(); ++i) {
     const Key k = container.keys()[i];
@@ -159,9 +170,40 @@ void Send(std::vector<Shard>& shards, int from, int to) {
   const Isam2Result r = t.isam->Update(g, v, options);
   ASSERT_TRUE(r.status.ok()) << r.status.ToString();
   AddShared(&t.shared[from], container.keys());
-  t.received[from] = *summary;
+  t.received[from] = summary;
   t.received_index[from] = r.new_factor_indices[0];
   Settle(t.isam.get());
+}
+
+// Shard `from` sends every other shard the summary of its own factors on its boundary (the ends
+// of its closures and its poses in what others sent), every summary it received taken out.
+void Broadcast(std::vector<Shard>& shards, int from) {
+  Shard& s = shards[from];
+  KeyVector keys = s.closure_keys, beyond;
+  std::vector<FactorPtr> excluded;
+  for (const auto& [other, f] : s.received) {
+    excluded.push_back(f);
+    for (Key k : f->keys()) {
+      if (KeyRobot(k) == from + 1) AddShared(&keys, {k});
+    }
+  }
+  for (const FactorPtr& f : excluded) {
+    for (Key k : f->keys()) {
+      if (std::find(keys.begin(), keys.end(), k) == keys.end()) AddShared(&beyond, {k});
+    }
+  }
+  const int kept = static_cast<int>(keys.size());
+  if (kept == 0) return;
+  keys.insert(keys.end(), beyond.begin(), beyond.end());
+  Isam2Marginals marginals(s.isam.get());
+  const Result<FactorPtr> summary =
+      SeparatorSummary(*s.isam, marginals, keys, excluded, {.kept_keys = kept});
+  ASSERT_TRUE(summary.ok()) << summary.status().ToString();
+  ASSERT_NE(*summary, nullptr);
+  EXPECT_EQ((*summary)->keys().size(), static_cast<std::size_t>(kept));
+  for (std::size_t t = 0; t < shards.size(); ++t) {
+    if (static_cast<int>(t) != from) Apply(*summary, from, &shards[t]);
+  }
 }
 
 // Every shard's own poses (and the foreign ones it holds) against the central estimate, and its
@@ -266,6 +308,32 @@ TEST(SeparatorSummary, AChainOfThreeShardsPassesInformationThrough) {
     Send(shards, 1, 2);
   }
   ExpectCentral(shards, central.get(), 1e-6);
+}
+
+TEST(SeparatorSummary, OwnSummariesToEveryShardAreExactAroundACycle) {
+  // Three shards closing loops with each other: each one's own factors reach the others once.
+  const World w = MakeWorld(3, 20, {{0, 4, 1, 5}, {1, 12, 2, 11}, {2, 17, 0, 16}, {0, 9, 2, 8}});
+  const auto central = Central(w);
+  std::vector<Shard> shards = MakeShards(w);
+  for (int round = 0; round < 10; ++round) {
+    for (int s = 0; s < 3; ++s) Broadcast(shards, s);
+  }
+  ExpectCentral(shards, central.get(), 1e-6);
+}
+
+TEST(SeparatorSummary, KeepsOnlyKeysLeftWithNothingElse) {
+  const World w = MakeWorld(2, 6, {{0, 2, 1, 3}});
+  const auto central = Central(w);
+  Isam2Marginals marginals(central.get());
+  // The closure is the only factor on r1:x3 besides r1's chain: taking it out leaves information
+  // on r1:x3, so it cannot be dropped.
+  const KeyVector keys = {X(0, 2), X(1, 3)};
+  const FactorPtr closure = w.closures[0];
+  const Result<FactorPtr> bad =
+      SeparatorSummary(*central, marginals, keys, std::span(&closure, 1), {.kept_keys = 1});
+  EXPECT_EQ(bad.status().code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(SeparatorSummary(*central, marginals, keys, {}, {.kept_keys = 3}).status().code(),
+            StatusCode::kInvalidArgument);
 }
 
 }  // namespace separator_summary_test

@@ -71,6 +71,7 @@ ServerParams ShardParams(const std::string& self, const std::string& data_dir = 
   p.refine.enabled = true;
   p.refine.idle_s = 0.0;
   p.isam2.refine_threshold = 1e-9;
+  p.isam2.wildfire_threshold = 0.0;  // exact estimates: summaries go on until 1e-6
   p.data_dir = data_dir;
   p.shards.summary_every_ms = 10;
   if (!self.empty())

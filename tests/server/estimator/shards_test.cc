@@ -78,15 +78,17 @@ void Settle(Estimator& e, const std::string& what) {
   EXPECT_TRUE(r.status.ok()) << what << ": " << r.status.ToString();
 }
 
-// One round: every shard sends each neighbour its summary, which the neighbour applies.
+// One round: every shard sends every other its summary, which that one applies.
 void Exchange(std::vector<std::unique_ptr<Estimator>>& shards) {
   for (std::size_t s = 0; s < shards.size(); ++s) {
+    const auto summary = shards[s]->ShardSummary(0);
+    ASSERT_TRUE(summary.ok()) << summary.status().ToString();
+    if (!summary->has_value()) continue;
     for (std::size_t t = 0; t < shards.size(); ++t) {
       if (s == t) continue;
-      const auto summary = shards[s]->ShardSummary("S" + std::to_string(t), 0);
-      ASSERT_TRUE(summary.ok()) << summary.status().ToString();
-      if (!summary->has_value()) continue;
-      const ProcessResult r = shards[t]->Process({Inbound{**summary, 0}});
+      ShardSummaryMessage m = **summary;
+      m.to_shard = "S" + std::to_string(t);
+      const ProcessResult r = shards[t]->Process({Inbound{m, 0}});
       ASSERT_TRUE(r.status.ok()) << r.status.ToString();
       ASSERT_TRUE(r.rejections.empty()) << r.rejections[0].verdict.message;
       Settle(*shards[t], "shard " + std::to_string(t) + " after a summary");
@@ -134,6 +136,11 @@ TEST(Shards, TwoShardsEqualOneEstimator) { RunShards(2, {{0, 1}, {1, 0}}, 10); }
 
 TEST(Shards, AChainOfThreeShardsEqualsOneEstimator) { RunShards(3, {{0, 1}, {2, 1}}, 12); }
 
+// Every shard closes loops with every other: no shard's information is counted twice.
+TEST(Shards, FourShardsClosingLoopsWithEachOtherEqualOneEstimator) {
+  RunShards(4, {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {0, 2}, {3, 1}}, 12);
+}
+
 TEST(Shards, ShardsTakeTheirRobotsAndTheirClosures) {
   const ShardMap a = Shards("S0", 2), b = Shards("S1", 2);
   const std::vector<Inbound> world = World(2, {{0, 1}});
@@ -157,8 +164,9 @@ TEST(Shards, ASummaryReplacesTheLastWaitsForItsPosesAndGoesToItsShard) {
   auto s0 = Make(Shards("S0", 2));
   auto s1 = Make(Shards("S1", 2));
   ASSERT_TRUE(s0->Process(ForShard(Shards("S0", 2), world)).status.ok());
-  const auto summary = s0->ShardSummary("S1", 0);
+  auto summary = s0->ShardSummary(0);
   ASSERT_TRUE(summary.ok() && summary->has_value());
+  (*summary)->to_shard = "S1";
   EXPECT_EQ((*summary)->poses.size(), 6u);  // both ends of 3 closures
   // S1 has none of r1's poses yet: held until they come.
   ProcessResult r = s1->Process({Inbound{**summary, 0}});
@@ -179,10 +187,10 @@ TEST(Shards, ASummaryReplacesTheLastWaitsForItsPosesAndGoesToItsShard) {
   r = other->Process({Inbound{**summary, 0}});
   ASSERT_EQ(r.rejections.size(), 1u);
   EXPECT_NE(r.rejections[0].verdict.message.find("not this slamd's shard"), std::string::npos);
-  const auto none = Make(Shards("S0", 2))->ShardSummary("S1", 0);
+  const auto none = Make(Shards("S0", 2))->ShardSummary(0);
   ASSERT_TRUE(none.ok());
   EXPECT_FALSE(none->has_value());
-  EXPECT_FALSE(s0->ShardSummary("S0", 0).ok());  // not a neighbour
+  EXPECT_FALSE(Make()->ShardSummary(0).ok());  // not a shard
 }
 
 }  // namespace slamd::server::shards_test

@@ -1,0 +1,211 @@
+// Map shards through real processes: a NATS server and, inside this test's own network
+// namespace (scripts/netns-run; ctest labels ha and netns), a 4-robot world streamed over UDP LCM
+// to one unsharded slamd and to 2 and to 4 shards (robots split in order) that exchange
+// summaries over NATS. Every robot's poses from its shard end within 1 mm of the unsharded
+// slamd's, and the shards sent summaries.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <fstream>
+#include <map>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "server/messages/inbound.h"
+#include "server/transport/lcm_bus.h"
+#include "server/transport/typed_subscribe.h"
+#include "slamd/query_reply_t.hpp"
+#include "tests/testing/nats_cluster.h"
+#include "tests/testing/noise.h"
+#include "tests/testing/processes.h"
+#include "tests/testing/slamd_processes.h"
+
+namespace slamd::server {
+namespace {
+
+using core::Pose2;
+using testing::Client;
+using testing::Server;
+
+constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=2097152";
+constexpr int kRobots = 4;
+constexpr int kPoses = 40;
+
+// kRobots robots on parallel lines 3 m apart (a prior each on its true start, noisy odometry)
+// and closures between every pair of robots at a few poses: (suffix, bytes) in sending order.
+std::vector<std::pair<std::string, std::vector<std::uint8_t>>> World() {
+  std::mt19937_64 rng(9);
+  std::normal_distribution<double> n(0.0, 0.03);
+  const auto noisy = [&](const Pose2& z) {
+    return z.Retract(core::Vector3(n(rng), n(rng), n(rng)));
+  };
+  const auto truth = [](int r, int i) { return Pose2(1.0 * i, 3.0 * r, 0.0); };
+  const auto name = [](int r) { return "robot" + std::to_string(r); };
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> out;
+  const auto add = [&](const char* suffix, const auto& msg) {
+    std::vector<std::uint8_t> bytes(static_cast<size_t>(msg.getEncodedSize()));
+    msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    out.emplace_back(suffix, std::move(bytes));
+  };
+  for (int r = 0; r < kRobots; ++r) {
+    slamd::prior_t prior;
+    ToLcm(PriorMeasurement{1, name(r), 0, PriorKind::kPose2, truth(r, 0),
+                           ::slamd::testing::Noise(3, 0.01)},
+          &prior);
+    add("PRIOR", prior);
+  }
+  for (int i = 0; i + 1 < kPoses; ++i) {
+    for (int r = 0; r < kRobots; ++r) {
+      slamd::odometry_t odo;
+      ToLcm(OdometryMeasurement{2, name(r), std::uint64_t(i), std::uint64_t(i + 1),
+                                noisy(truth(r, i).Between(truth(r, i + 1))),
+                                ::slamd::testing::Noise(3, 0.05)},
+            &odo);
+      add("ODOMETRY", odo);
+    }
+    if (i % 9 != 8) continue;
+    for (int a = 0; a < kRobots; ++a) {
+      for (int b = 0; b < kRobots; ++b) {
+        if (a == b || (a + b + i / 9) % 2 == 0) continue;
+        const int j = a < b ? i - 1 : i;
+        slamd::loop_closure_t loop;
+        ToLcm(LoopClosureMeasurement{3,
+                                     name(a),
+                                     std::uint64_t(i + 1),
+                                     name(b),
+                                     std::uint64_t(j),
+                                     noisy(truth(a, i + 1).Between(truth(b, j))),
+                                     ::slamd::testing::Noise(3, 0.05),
+                                     {}},
+              &loop);
+        add("LOOP_CLOSURE", loop);
+      }
+    }
+  }
+  return out;
+}
+
+constexpr const char* kConfig =
+    "refine { enabled: true idle_s: 0 }\n"
+    "isam2 { wildfire_threshold: 0 refine_threshold: 1e-9 }\n"
+    "publish { status_rate_hz: 10 estimate_covariance: false }\n"
+    "journal { sync: NEVER }\n"
+    "log_level: \"info\"\n";
+
+// The config of shard `self` of `n` (robots split in order) exchanging over `nats`.
+std::string ShardConfig(int n, int self, const std::string& nats) {
+  std::string c = std::string(kConfig) + "shards {\n  self: \"S" + std::to_string(self) + "\"\n";
+  for (int s = 0; s < n; ++s) {
+    c += "  shard { name: \"S" + std::to_string(s) + "\"";
+    for (int r = s * kRobots / n; r < (s + 1) * kRobots / n; ++r) {
+      c += " robots: \"robot" + std::to_string(r) + "\"";
+    }
+    c += " }\n";
+  }
+  return c + "  servers: \"" + nats + "\"\n  summary_every_ms: 100\n}\n";
+}
+
+// Asks the slamd(s) on `prefix` for every pose of `robot` (its shard answers).
+class Asker {
+ public:
+  Asker() : bus_(LcmBus::Create(LcmBusParams{.url = kUrl}).value()) {}
+  std::vector<Pose2> Poses(const std::string& prefix, const std::string& robot) {
+    QueryRequest q{.utime = 0, .client = "shards_test", .request_id = ++id_};
+    for (int i = 0; i < kPoses; ++i) q.keys.push_back({robot, KeyKind::kPose, std::uint64_t(i)});
+    slamd::query_t msg;
+    ToLcm(q, &msg);
+    std::vector<Pose2> poses;
+    auto sub = Subscribe<slamd::query_reply_t>(
+        *bus_, prefix + "QUERY_REPLY",
+        [&](std::string_view, const slamd::query_reply_t& r) {
+          if (r.request_id != id_) return;
+          for (const slamd::variable_t& v : r.results) {
+            poses.push_back(v.found ? Pose2(v.values[0], v.values[1], v.values[2])
+                                    : Pose2(1e9, 1e9, 0));
+          }
+        },
+        nullptr);
+    EXPECT_TRUE(Publish(*bus_, prefix + "QUERY", msg).ok());
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (poses.empty() && std::chrono::steady_clock::now() < deadline) (void)bus_->HandleOnce(20);
+    return poses;
+  }
+
+ private:
+  std::unique_ptr<LcmBus> bus_;
+  std::int64_t id_ = 0;
+};
+
+// The largest distance between a robot's poses from the shards and from the central slamd.
+double Gap(Asker& asker) {
+  double gap = 0.0;
+  for (int r = 0; r < kRobots; ++r) {
+    const std::string robot = "robot" + std::to_string(r);
+    const std::vector<Pose2> shard = asker.Poses("SLAMD_", robot);
+    const std::vector<Pose2> central = asker.Poses("CENTRAL_", robot);
+    if (shard.size() != kPoses || central.size() != kPoses) return 1e9;
+    for (int i = 0; i < kPoses; ++i) {
+      gap = std::max(gap, (shard[i].translation() - central[i].translation()).norm());
+    }
+  }
+  return gap;
+}
+
+void RunShards(int n) {
+  ASSERT_TRUE(testing::OnlyLoopback()) << testing::kNotInNetns;
+  if (!testing::HaveNatsServer()) GTEST_SKIP() << "nats-server is not installed";
+  testing::TempDir tmp("ha_shards_" + std::to_string(n));
+  testing::NatsCluster nats(tmp.str() + "/nats", 1);
+  ASSERT_NO_FATAL_FAILURE(nats.StartAll());
+  Client client(kUrl, "robot0");
+  Server central{
+      .prefix = "CENTRAL_", .data_dir = tmp.str() + "/central", .log = tmp.str() + "/central.log"};
+  std::vector<Server> shards(n);
+  std::vector<Server*> all = {&central};
+  for (int s = 0; s < n; ++s) {
+    shards[s] = Server{.prefix = "SLAMD_",
+                       .data_dir = tmp.str() + "/s" + std::to_string(s),
+                       .log = tmp.str() + "/s" + std::to_string(s) + ".log"};
+    all.push_back(&shards[s]);
+  }
+  const testing::KillOnExit cleanup(all);
+  std::ofstream(tmp.str() + "/central.textproto") << kConfig;
+  ASSERT_NO_FATAL_FAILURE(testing::Launch(tmp.str() + "/central.textproto", client, &central));
+  for (int s = 0; s < n; ++s) {
+    const std::string config = tmp.str() + "/s" + std::to_string(s) + ".textproto";
+    std::ofstream(config) << ShardConfig(n, s, nats.Urls());
+    ASSERT_NO_FATAL_FAILURE(testing::Launch(config, client, &shards[s]));
+  }
+  client.Attach(&shards[0]);  // the shards' status_t (any of them)
+  for (Server* s : all)
+    ASSERT_TRUE(testing::WaitForLog(client, *s, "slamd running", 30.0)) << s->log;
+
+  testing::StepMessages step;
+  for (auto& [suffix, bytes] : World()) step.push_back({suffix, std::move(bytes), nullptr});
+  for (std::size_t k = 0; k < step.size(); k += 40) {  // in bursts a socket buffer takes
+    const testing::StepMessages burst(step.begin() + k,
+                                      step.begin() + std::min(step.size(), k + 40));
+    client.Send(central, burst);
+    client.Send(shards[0], burst);
+    client.Drain(5);
+  }
+  Asker asker;
+  double gap = 1e9;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (gap > 1e-3 && std::chrono::steady_clock::now() < deadline) {
+    client.Drain(300);
+    gap = Gap(asker);
+  }
+  EXPECT_LT(gap, 1e-3) << "shard logs in " << tmp.str();
+  client.Drain(300);
+  EXPECT_GT(shards[0].status.shard_summaries_sent, 0);
+  EXPECT_GT(shards[0].status.shard_not_owned, 0);
+  EXPECT_EQ(shards[0].other_rejects, 0);
+}
+
+TEST(ShardsHaTest, TwoShardsOverNatsEndAtOneServersEstimate) { RunShards(2); }
+TEST(ShardsHaTest, FourShardsOverNatsEndAtOneServersEstimate) { RunShards(4); }
+
+}  // namespace
+}  // namespace slamd::server
