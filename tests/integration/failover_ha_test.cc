@@ -9,7 +9,10 @@
 // supervisor restarts any process that exits deposed. Robots change nothing. At the end the pair's
 // data directory and the uninterrupted one recover to the same estimator (every factor once,
 // estimates within 1e-9 after convergence): nothing lost, nothing doubled. A leader frozen
-// (SIGSTOP) instead of killed, thawed after the takeover, finds itself deposed and exits 3.
+// (SIGSTOP) instead of killed, thawed after the takeover, finds itself deposed and exits 3; so
+// does a leader cut off from NATS by a network partition (each process reaches NATS through an
+// address of its own on a veth device, the leader's deleted with `ip addr`, then restored),
+// while the robots still reach it.
 // Failover times (fault to the first estimate from the new leader) are printed; the targets are
 // measured by scripts/bench-failover.
 #include <gtest/gtest.h>
@@ -68,10 +71,17 @@ constexpr const char* kConfig =
     "journal { sync: ALWAYS }\n"
     "log_level: \"info\"\n";
 
-// How the leader fails: killed, or frozen (SIGSTOP: what a leader cut off from NATS looks like
-// from outside: no lease renewals, no appends) and thawed after the standby took over, when it
-// must find itself deposed and exit 3 without writing the stream.
-enum class Fault { kKill, kFreeze };
+// How the leader fails: killed; frozen (SIGSTOP: no lease renewals, no appends) and thawed after
+// the standby took over; or partitioned from NATS (its address deleted: `ip link set down` does
+// not cut an address of the same machine) and reconnected after the takeover. Frozen or
+// partitioned, it must then find itself deposed and exit 3 without writing the stream.
+enum class Fault { kKill, kFreeze, kPartition };
+
+// The partition's device, and the address through which pair process i reaches NATS.
+constexpr const char* kPartitionDevice = "slamd_part";
+std::string PartitionAddress(int i) { return "10.77.0." + std::to_string(i + 1); }
+
+bool Ip(const std::string& args) { return std::system(("ip " + args).c_str()) == 0; }
 
 // Waits up to timeout_s for pid to exit; its exit code, or -1 (killed then) when it did not.
 int ExitWithin(pid_t pid, double timeout_s) {
@@ -152,9 +162,23 @@ void RunFailover(Fault fault, int faults, const char* tag) {
   testing::NatsCluster nats(tmp.str() + "/nats", 3);
   ASSERT_NO_FATAL_FAILURE(nats.StartAll());
   ASSERT_TRUE(nats.WaitForJetStream(30.0));
-  const std::string pair_config = tmp.str() + "/pair.textproto";
-  std::ofstream(pair_config) << kConfig << "replication { servers: \"" << nats.Urls()
-                             << "\" ack_timeout_ms: 500 lease_ttl_ms: 1000 }\n";
+  // Each process's config: its own address to NATS when it is to be partitioned.
+  std::array<std::string, 2> pair_configs;
+  if (fault == Fault::kPartition) {
+    const std::string d = kPartitionDevice;
+    ASSERT_TRUE(Ip("link add " + d + " type veth peer name " + d + "1") &&
+                Ip("link set " + d + " up") && Ip("link set " + d + "1 up") &&
+                Ip("addr add " + PartitionAddress(0) + "/32 dev " + d) &&
+                Ip("addr add " + PartitionAddress(1) + "/32 dev " + d));
+  }
+  for (int i = 0; i < 2; ++i) {
+    pair_configs[i] = tmp.str() + "/pair" + std::to_string(i) + ".textproto";
+    std::ofstream(pair_configs[i])
+        << kConfig << "replication { servers: \""
+        << (fault == Fault::kPartition ? nats.UrlsVia(PartitionAddress(i)) : nats.Urls())
+        << "\" ack_timeout_ms: 500 lease_ttl_ms: 1000 }\n";
+  }
+  const std::string& pair_config = pair_configs[0];
   const std::string ref_config = tmp.str() + "/reference.textproto";
   std::ofstream(ref_config) << kConfig;
 
@@ -179,7 +203,7 @@ void RunFailover(Fault fault, int faults, const char* tag) {
   const std::int64_t t0 = testing::WallUs();
   ASSERT_NO_FATAL_FAILURE(testing::Launch(pair_config, client, &procs[0]));
   ASSERT_TRUE(client.PumpUntil([&] { return pair.status_utime > t0; }, 30.0)) << procs[0].log;
-  ASSERT_NO_FATAL_FAILURE(testing::Launch(pair_config, client, &procs[1]));
+  ASSERT_NO_FATAL_FAILURE(testing::Launch(pair_configs[1], client, &procs[1]));
   ASSERT_TRUE(testing::WaitForLog(client, procs[1], "standby, following", 30.0)) << procs[1].log;
 
   // Which process leads: the lease's holder is a data directory's replication id.
@@ -207,7 +231,7 @@ void RunFailover(Fault fault, int faults, const char* tag) {
         EXPECT_EQ(testing::ExitCode(status), 3) << p.log;
         p.pid = -1;
         ++restarts;
-        testing::Launch(pair_config, client, &p);
+        testing::Launch(pair_configs[&p - procs.data()], client, &p);
       }
     }
   };
@@ -244,24 +268,31 @@ void RunFailover(Fault fault, int faults, const char* tag) {
       // The leader fails with this step sent: the standby heard it.
       client.Send(pair, messages[k]);
       const std::int64_t failed = testing::WallUs();
+      const std::string address = PartitionAddress(l) + "/32 dev " + kPartitionDevice;
       if (fault == Fault::kKill) {
         ASSERT_NO_FATAL_FAILURE(testing::Kill(&old, SIGKILL));
-      } else {
+      } else if (fault == Fault::kFreeze) {
         ASSERT_EQ(::kill(old.pid, SIGSTOP), 0);
+      } else {
+        ASSERT_TRUE(Ip("addr del " + address));
       }
       client.Poll();  // what the failed leader sent: estimates from now on are the new one's
       pair.estimate_received_us = 0;
       ASSERT_TRUE(client.PumpUntil([&] { return pair.estimate_received_us > failed; }, 30.0))
           << "no estimate after the leader failed at step " << k;
       failover_s.push_back((pair.estimate_received_us - failed) * 1e-6);
-      if (fault == Fault::kFreeze) {
-        ASSERT_EQ(::kill(old.pid, SIGCONT), 0);
-        EXPECT_EQ(ExitWithin(old.pid, 30.0), 3) << "the thawed leader (" << old.log << ")";
+      if (fault != Fault::kKill) {
+        if (fault == Fault::kFreeze) {
+          ASSERT_EQ(::kill(old.pid, SIGCONT), 0);
+        } else {
+          ASSERT_TRUE(Ip("addr add " + address));
+        }
+        EXPECT_EQ(ExitWithin(old.pid, 30.0), 3) << "the returning leader (" << old.log << ")";
         EXPECT_TRUE(testing::WaitForLog(client, old, "no longer the leader", 1.0)) << old.log;
         old.pid = -1;
       }
       // Restarted on its data directory, superseded by the stream: the new standby.
-      ASSERT_NO_FATAL_FAILURE(testing::Launch(pair_config, client, &old));
+      ASSERT_NO_FATAL_FAILURE(testing::Launch(pair_configs[l], client, &old));
       ASSERT_TRUE(testing::WaitForLog(client, old, "moved to", 30.0)) << old.log;
     }
     ASSERT_GT(testing::SendUntilEstimated(client, &pair, messages[k], pose, 30.0, 0.5), 0)
@@ -281,7 +312,10 @@ void RunFailover(Fault fault, int faults, const char* tag) {
   ASSERT_NO_FATAL_FAILURE(testing::Kill(&procs[1 - l], SIGTERM));
   ASSERT_NO_FATAL_FAILURE(testing::Kill(&procs[l], SIGTERM));
   ASSERT_NO_FATAL_FAILURE(testing::Kill(&reference, SIGTERM));
-  EXPECT_EQ(pair.other_rejects, 0);
+  // A partitioned leader refuses what it cannot replicate (the standby heard it, and the robot
+  // re-sends): nothing else is refused.
+  EXPECT_EQ(pair.other_rejects - pair.rejects[slamd::reject_t::REASON_REPLICATION_UNAVAILABLE], 0);
+  if (fault != Fault::kPartition) EXPECT_EQ(pair.other_rejects, 0);
 
   const ServerParams params = testing::ConfigParams(ref_config);
   const testing::Recovered pair_state = testing::RecoverAndConverge(leader.data_dir, params);
@@ -295,6 +329,10 @@ TEST(FailoverHaTest, StandbyTakesOverFromAKilledLeaderAndLosesNothing) {
 
 TEST(FailoverHaTest, AFrozenLeaderComesBackDeposedAndWritesNothing) {
   RunFailover(Fault::kFreeze, 1, "ha_failover_freeze");
+}
+
+TEST(FailoverHaTest, ALeaderPartitionedFromNatsComesBackDeposedAndLosesNothing) {
+  RunFailover(Fault::kPartition, 1, "ha_failover_partition");
 }
 
 }  // namespace

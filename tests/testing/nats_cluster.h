@@ -80,6 +80,14 @@ class NatsCluster {
     for (int i = 0; i < size(); ++i) all += (i ? "," : "") + Url(i);
     return all;
   }
+  // The same through another address of this machine (`host`).
+  std::string UrlsVia(const std::string& host) const {
+    std::string all;
+    for (int i = 0; i < size(); ++i) {
+      all += (i ? ",nats://" : "nats://") + host + ":" + std::to_string(kClientPort + i);
+    }
+    return all;
+  }
   std::vector<std::string> UrlList() const {
     std::vector<std::string> all;
     for (int i = 0; i < size(); ++i) all.push_back(Url(i));
@@ -166,7 +174,8 @@ class NatsCluster {
   std::string ConfigPath(int i) const { return dir_ + "/n" + std::to_string(i) + ".conf"; }
   void WriteConfig(int i) const {
     std::ofstream out(ConfigPath(i));
-    out << "server_name: n" << i << "\nlisten: 127.0.0.1:" << kClientPort + i
+    // Every address of the test's namespace (a test may reach it through a second one).
+    out << "server_name: n" << i << "\nlisten: 0.0.0.0:" << kClientPort + i
         << "\njetstream { store_dir: \"" << dir_ << "/store" << i << "\" }\n";
     if (size() == 1) return;
     out << "cluster {\n  name: slamd_test\n  listen: 127.0.0.1:" << kRoutePort + i
