@@ -4,6 +4,7 @@
 #include <string>
 
 #include "core/factors/robust_kernel.h"
+#include "server/replication/nats_client.h"
 
 namespace slamd::server {
 namespace {
@@ -67,6 +68,10 @@ core::Status ServerParams::Validate() const {
   }
   SLAMD_CONFIG_CHECK(replication.standby_keep_s, >=, 0.1);
   SLAMD_CONFIG_CHECK(replication.standby_keep_s, <=, 600.0);
+  if (!IsNatsSubject(shards.subject)) {
+    return core::InvalidArgument("shards.subject = \"" + shards.subject +
+                                 "\"; violates: [A-Za-z0-9_-]+ tokens joined by dots");
+  }
   SLAMD_CONFIG_CHECK(shards.summary_every_ms, >=, 10);
   SLAMD_CONFIG_CHECK(shards.summary_every_ms, <=, 600000);
   SLAMD_CONFIG_CHECK(journal.sync_interval_ms, >=, 1);

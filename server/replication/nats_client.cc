@@ -38,6 +38,16 @@ bool IsNatsName(const std::string& name) {
   });
 }
 
+bool IsNatsSubject(const std::string& subject) {
+  if (subject.empty()) return false;
+  std::stringstream in(subject);
+  std::string token;
+  while (std::getline(in, token, '.')) {
+    if (!IsNatsName(token)) return false;
+  }
+  return subject.back() != '.';
+}
+
 std::vector<std::string> SplitServers(const std::string& comma_separated) {
   std::vector<std::string> out;
   std::stringstream in(comma_separated);

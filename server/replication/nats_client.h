@@ -39,6 +39,9 @@ struct NatsOptions {
 // Whether `name` may name a stream, a key-value bucket or a key: [A-Za-z0-9_-]+.
 bool IsNatsName(const std::string& name);
 
+// Whether `subject` is a literal subject: IsNatsName tokens joined by dots (no wildcards).
+bool IsNatsSubject(const std::string& subject);
+
 // "nats://a:4222,nats://b:4222" -> its entries (empty ones dropped).
 std::vector<std::string> SplitServers(const std::string& comma_separated);
 

@@ -69,9 +69,9 @@ core::Status StreamJournalOptions::Validate() const {
     return core::InvalidArgument("StreamJournalOptions::stream = '" + stream +
                                  "'; violates [A-Za-z0-9_-]+");
   }
-  if (subject.empty() || subject.find_first_of(" *>") != std::string::npos) {
+  if (!IsNatsSubject(subject)) {
     return core::InvalidArgument("StreamJournalOptions::subject = '" + subject +
-                                 "'; violates: a subject without spaces or wildcards");
+                                 "'; violates: [A-Za-z0-9_-]+ tokens joined by dots");
   }
   SLAMD_PARAM_CHECK(StreamJournalOptions, replicas, >=, 1);
   SLAMD_PARAM_CHECK(StreamJournalOptions, replicas, <=, 5);

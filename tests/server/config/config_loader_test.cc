@@ -168,6 +168,35 @@ estimator {
       << q.status().message();
 }
 
+TEST(ConfigLoaderTest, Shards) {
+  const core::Result<ServerParams> p = ParseConfigText(R"(
+shards {
+  self: "east"
+  shard { name: "west" robots: "r0" robots: "r1" }
+  shard { name: "east" robots: "r2" }
+  servers: "nats://a:4222" subject: "fleet.shards" summary_every_ms: 250
+})");
+  ASSERT_TRUE(p.ok()) << p.status().ToString();
+  const ShardMap& m = p->estimator.shards;
+  EXPECT_EQ(m.self, "east");
+  ASSERT_EQ(m.shards.size(), 2u);
+  EXPECT_EQ(m.shards[0].robots, (std::vector<std::string>{"r0", "r1"}));
+  EXPECT_TRUE(m.Owns("r2"));
+  EXPECT_FALSE(m.Owns("r1"));
+  EXPECT_FALSE(m.Owns("r9"));  // unlisted: the first shard's
+  EXPECT_EQ(m.Neighbours(), std::vector<std::string>{"west"});
+  EXPECT_EQ(p->shards.servers, "nats://a:4222");
+  EXPECT_EQ(p->shards.subject, "fleet.shards");
+  EXPECT_EQ(p->shards.summary_every_ms, 250);
+  EXPECT_FALSE(ServerParams{}.estimator.shards.sharded());  // off by default
+  const core::Result<ServerParams> q =
+      ParseConfigText(R"(shards { self: "x" shard { name: "y" } })", "c");
+  ASSERT_FALSE(q.ok());
+  EXPECT_NE(q.status().message().find("shards.self = 'x': not one of shards.shard"),
+            std::string::npos)
+      << q.status().message();
+}
+
 TEST(ConfigLoaderTest, Replication) {
   const core::Result<ServerParams> p = ParseConfigText(R"(
 replication {

@@ -36,6 +36,29 @@ TEST(ServerParamsTest, EachViolationNamesItsField) {
        "estimator.rebuild_catch_up_rounds"},
       {[](ServerParams* p) { p->estimator.rebuild_catch_up_rounds = 65; },
        "estimator.rebuild_catch_up_rounds"},
+      {[](ServerParams* p) { p->shards.summary_every_ms = 5; }, "shards.summary_every_ms"},
+      {[](ServerParams* p) { p->shards.subject = "slamd.*"; }, "shards.subject"},
+      {[](ServerParams* p) { p->shards.subject = "slamd..x"; }, "shards.subject"},
+      {[](ServerParams* p) {
+         p->estimator.shards = {.self = "", .shards = {{"a", {}}}};
+       },
+       "shards.self"},
+      {[](ServerParams* p) {
+         p->estimator.shards = {.self = "c", .shards = {{"a", {}}}};
+       },
+       "shards.self"},
+      {[](ServerParams* p) {
+         p->estimator.shards = {.self = "a", .shards = {{"a", {}}, {"a", {}}}};
+       },
+       "shards.shard.name"},
+      {[](ServerParams* p) {
+         p->estimator.shards = {.self = "a b", .shards = {{"a b", {}}}};
+       },
+       "shards.shard.name"},
+      {[](ServerParams* p) {
+         p->estimator.shards = {.self = "a", .shards = {{"a", {"r"}}, {"b", {"r"}}}};
+       },
+       "shards.shard.robots"},
   };
   for (const Case& c : cases) {
     ServerParams p;

@@ -45,6 +45,13 @@ TEST(ReplicationOptions, ValidationNamesTheField) {
             std::string::npos);
 }
 
+TEST(ReplicationOptions, SubjectsAreLiteralTokensJoinedByDots) {
+  for (const char* good : {"slamd", "slamd.journal", "a-b.c_d.9"}) EXPECT_TRUE(IsNatsSubject(good));
+  for (const char* bad : {"", ".a", "a.", "a..b", "a.*", "a.>", "a b"}) {
+    EXPECT_FALSE(IsNatsSubject(bad)) << bad;
+  }
+}
+
 TEST(ReplicationOptions, NatsStatusMapsRetryableFailuresToUnavailable) {
   EXPECT_TRUE(NatsStatus("x", NATS_OK).ok());
   EXPECT_EQ(NatsStatus("x", NATS_TIMEOUT).code(), core::StatusCode::kUnavailable);
