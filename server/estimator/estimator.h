@@ -146,8 +146,8 @@ class Estimator {
                                    int max_rounds = std::numeric_limits<int>::max());
 
   // Map shards (estimator_shards.cc): what this shard's own factors say about its boundary (the
-  // poses it shares with any shard), the summaries it received taken out (separator_summary.h),
-  // for every other shard (to_shard left empty); nullopt when it shares nothing yet.
+  // poses it shares with any shard), less the summaries it received (separator_summary.h), for
+  // every other shard (to_shard empty); nullopt when it shares nothing yet.
   core::Result<std::optional<ShardSummaryMessage>> ShardSummary(std::int64_t utime);
 
   std::shared_ptr<const EstimateSnapshot> snapshot() const { return snapshot_; }  // never null
@@ -284,6 +284,7 @@ class Estimator {
   mutable ReducedGraphState reduced_;  // NearNode rebuilds its grid
   std::int64_t sequence_ = 0;
   std::int64_t window_sequence_ = 0;  // the update sequence the window last ran at
+  std::set<core::Key> shard_boundary_;  // ShardSummary's boundary so far (it never shrinks)
   std::int64_t num_factors_ = 0;
   std::int64_t residual_dimension_ = 0;
   bool settled_ = true;

@@ -29,8 +29,12 @@ core::Result<std::optional<ShardSummaryMessage>> Estimator::ShardSummary(std::in
     received_slots.insert(slot);
   }
   // The boundary: both ends of its own factors on another shard's poses, and its own poses in
-  // what the others sent. Then the keys only the received summaries name.
-  std::set<core::Key> boundary, beyond;
+  // what the others sent; and what it was before, still in the graph (a pose whose closure was
+  // retracted stays: the other shards may hold it only through this summary, and dropping it
+  // would leave it there with no factor). Then the keys only the received summaries name.
+  std::set<core::Key>& boundary = shard_boundary_;
+  std::erase_if(boundary, [&](core::Key k) { return !isam_->linearization_point().Contains(k); });
+  std::set<core::Key> beyond;
   const auto& slots = isam_->factor_slots();
   for (std::size_t i = 0; i < slots.size(); ++i) {
     const core::FactorPtr& f = slots[i];

@@ -114,7 +114,10 @@ void ExpectCentral(std::vector<std::unique_ptr<Estimator>>& shards, Estimator& c
   }
 }
 
-void RunShards(int n, const std::vector<std::pair<int, int>>& pairs, int rounds) {
+// `n` shards fed World(n, pairs) and `then` (after `rounds` exchanges), exchanging `rounds` more
+// times, against one estimator fed the same.
+void RunShards(int n, const std::vector<std::pair<int, int>>& pairs, int rounds,
+               const std::vector<Inbound>& then = {}) {
   const std::vector<Inbound> world = World(n, pairs);
   auto central = Make();
   ASSERT_TRUE(central->Process(world).status.ok());
@@ -129,12 +132,29 @@ void RunShards(int n, const std::vector<std::pair<int, int>>& pairs, int rounds)
     Settle(*shards.back(), "shard " + std::to_string(s));
   }
   for (int k = 0; k < rounds; ++k) Exchange(shards);
+  if (!then.empty()) {
+    ASSERT_TRUE(central->Process(then).rejections.empty());
+    Settle(*central, "central");
+    for (int s = 0; s < n; ++s) {
+      const ProcessResult r =
+          shards[s]->Process(ForShard(Shards("S" + std::to_string(s), n), then));
+      ASSERT_TRUE(r.rejections.empty()) << r.rejections[0].verdict.message;
+    }
+    for (int k = 0; k < rounds; ++k) Exchange(shards);
+  }
   ExpectCentral(shards, *central, 1e-6);
 }
 
 TEST(Shards, TwoShardsEqualOneEstimator) { RunShards(2, {{0, 1}, {1, 0}}, 10); }
 
 TEST(Shards, AChainOfThreeShardsEqualsOneEstimator) { RunShards(3, {{0, 1}, {2, 1}}, 12); }
+
+// A retracted inter-shard closure: the pose it named stays shared (the other shard holds it
+// through the summaries), and the shards end at the estimate without it.
+TEST(Shards, ARetractedClosureBetweenShardsLeavesTheOneEstimatorsAnswer) {
+  RunShards(2, {{0, 1}}, 10,
+            {estimator_test::Remove(RemoveTarget::kLoopClosure, "r0", 11, "r1", 12)});
+}
 
 // Every shard closes loops with every other: no shard's information is counted twice.
 TEST(Shards, FourShardsClosingLoopsWithEachOtherEqualOneEstimator) {
