@@ -85,6 +85,7 @@ struct EstimatorState {
   EstimatorCounters counters;
   std::int64_t num_factors = 0;
   std::int64_t residual_dimension = 0;
+  std::vector<core::Key> shard_boundary = {};  // a map shard's boundary so far
 };
 
 }  // namespace slamd::server

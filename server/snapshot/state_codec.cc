@@ -243,6 +243,7 @@ std::string EncodeState(const EstimatorState& state, const JournalPosition& posi
   for (std::int64_t n : state.counters.rejects_by_reason) c->add_rejects_by_reason(n);
   out.set_num_factors(state.num_factors);
   out.set_residual_dimension(state.residual_dimension);
+  for (core::Key k : state.shard_boundary) out.add_shard_boundary(k);
   return out.SerializeAsString();
 }
 
@@ -338,6 +339,7 @@ core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition
   }
   state.num_factors = in.num_factors();
   state.residual_dimension = in.residual_dimension();
+  state.shard_boundary.assign(in.shard_boundary().begin(), in.shard_boundary().end());
   return state;
 }
 

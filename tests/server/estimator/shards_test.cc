@@ -9,6 +9,7 @@
 
 #include "server/estimator/estimator.h"
 #include "server/messages/inbound.h"
+#include "server/snapshot/state_codec.h"
 #include "tests/server/estimator/estimator_test_messages.h"
 
 namespace slamd::server::shards_test {
@@ -154,6 +155,39 @@ TEST(Shards, AChainOfThreeShardsEqualsOneEstimator) { RunShards(3, {{0, 1}, {2, 
 TEST(Shards, ARetractedClosureBetweenShardsLeavesTheOneEstimatorsAnswer) {
   RunShards(2, {{0, 1}}, 10,
             {estimator_test::Remove(RemoveTarget::kLoopClosure, "r0", 11, "r1", 12)});
+}
+
+// The boundary is part of the state: a restored shard still shares the pose of a closure it
+// retracted (which the other shard holds through its summaries).
+TEST(Shards, TheBoundaryOutlivesARetractionAndASnapshot) {
+  const std::vector<Inbound> world = World(2, {{0, 1}});
+  std::vector<std::unique_ptr<Estimator>> shards;
+  for (int s = 0; s < 2; ++s) {
+    shards.push_back(Make(Shards("S" + std::to_string(s), 2)));
+    ASSERT_TRUE(shards.back()
+                    ->Process(ForShard(Shards("S" + std::to_string(s), 2), world))
+                    .rejections.empty());
+  }
+  Exchange(shards);
+  Exchange(shards);
+  const ProcessResult r =
+      shards[0]->Process({estimator_test::Remove(RemoveTarget::kLoopClosure, "r0", 11, "r1", 12)});
+  ASSERT_TRUE(r.rejections.empty()) << r.rejections[0].verdict.message;
+  const auto before = shards[0]->ShardSummary(0);
+  ASSERT_TRUE(before.ok() && before->has_value());
+  EXPECT_EQ((*before)->poses.size(), 6u);  // r0:11 and r1:12 still shared
+  JournalPosition position;
+  const core::Result<EstimatorState> state =
+      DecodeState(EncodeState(shards[0]->ExportState(), {}), &position);
+  ASSERT_TRUE(state.ok()) << state.status().ToString();
+  core::Isam2Params isam2;
+  isam2.refine_threshold = 1e-10;
+  auto restored =
+      Estimator::Restore({.chi2_interval_s = 0.0, .shards = Shards("S0", 2)}, isam2, state.value())
+          .value();
+  const auto after = restored->ShardSummary(0);
+  ASSERT_TRUE(after.ok() && after->has_value());
+  EXPECT_EQ((*after)->poses, (*before)->poses);
 }
 
 // Every shard closes loops with every other: no shard's information is counted twice.
