@@ -202,6 +202,8 @@ void Daemon::OnInbound(std::string_view channel, const Msg& msg) {
       // It took over meanwhile: this message goes the leader's way.
     }
     if (kJournaled && !WaitForReplication(params_.queue.block_timeout_s)) {
+      // A deposed leader says nothing: the new one, which heard the message too, answers it.
+      if (deposed_) return;
       PublishReject({RejectReason::kReplicationUnavailable,
                      std::string(type) + ": the replicated journal (NATS stream " +
                          params_.replication.stream + ") has not acknowledged: intake held"},
