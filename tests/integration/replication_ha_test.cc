@@ -86,7 +86,9 @@ TEST(ReplicationHaTest, ReplicatedJournalRidesOutNatsFailuresAndLosesNothing) {
     }
   };
   ASSERT_NO_FATAL_FAILURE(stream_steps(0, 100));
-  // A follower of the stream down: the other two are a quorum, nothing waits.
+  // A follower of the stream down: the other two are a quorum. Nothing waits unless slamd's own
+  // connection was to that server: then its client reconnects to another and re-sends, which on
+  // a loaded machine can outlast ack_timeout_ms once (one hold, over by the next commit).
   const int leader = nats.StreamLeader("SLAMD");
   ASSERT_GE(leader, 0);
   const int follower = (leader + 1) % 3;
@@ -95,7 +97,9 @@ TEST(ReplicationHaTest, ReplicatedJournalRidesOutNatsFailuresAndLosesNothing) {
   ASSERT_NO_FATAL_FAILURE(nats.Start(follower));
   const std::int64_t t_follower = testing::WallUs();
   ASSERT_TRUE(client.PumpUntil([&] { return s.status_utime > t_follower; }, 10.0));
-  EXPECT_EQ(s.status.replication_holds, 0) << "a follower down held intake";
+  EXPECT_LE(s.status.replication_holds, 1) << "a follower down held intake";
+  EXPECT_FALSE(s.status.replication_held) << "intake still held with a quorum up";
+  const std::int64_t holds_before_leader = s.status.replication_holds;
   // The stream's leader down: intake waits while the other two elect one (counted as a hold);
   // the robot's re-sends go through after it.
   nats.Kill(leader);
@@ -126,7 +130,7 @@ TEST(ReplicationHaTest, ReplicatedJournalRidesOutNatsFailuresAndLosesNothing) {
                s.status.replication_pending_bytes == 0;
       },
       20.0));
-  EXPECT_GE(s.status.replication_holds, 1);
+  EXPECT_GT(s.status.replication_holds, holds_before_leader);  // the quorum loss held intake
   EXPECT_EQ(s.status.messages_rejected, s.rejects[slamd::reject_t::REASON_REPLICATION_UNAVAILABLE] +
                                             s.rejects[slamd::reject_t::REASON_DUPLICATE])
       << "rejections other than the hold's";
