@@ -164,7 +164,7 @@ class Daemon {
   // every other shard its summary when it changed.
   core::Status StartShards();
   void MaybeSendSummaries();
-  void SendSummary(const ShardSummaryMessage& summary);
+  void SendSummaries(const ShardSummaryMessage& summary);  // to every other shard
 
   core::Status Subscribe();
   template <typename Msg>

@@ -92,29 +92,29 @@ void Daemon::MaybeSendSummaries() {
       !SummaryChanged(last_summary_sent_, **summary, params_.isam2.wildfire_threshold)) {
     return;
   }
-  ShardSummaryMessage& m = **summary;
-  for (const std::string& neighbour : shards.Neighbours()) {
-    m.to_shard = neighbour;
-    SendSummary(m);
-  }
-  last_summary_sent_ = std::move(m);
+  SendSummaries(**summary);
+  last_summary_sent_ = std::move(**summary);
 }
 
-void Daemon::SendSummary(const ShardSummaryMessage& summary) {
+void Daemon::SendSummaries(const ShardSummaryMessage& summary) {
   slamd::shard_summary_t msg;
-  ToLcm(summary, &msg);
-  std::vector<std::uint8_t> bytes(static_cast<size_t>(msg.getEncodedSize()));
-  msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
-  const core::Status s =
-      shard_nats_ ? shard_nats_->Publish(params_.shards.subject + "." + summary.to_shard, bytes)
-                  : bus_->Publish(channels_.Inbound<ShardSummarySpec>(), bytes);
-  if (!s.ok()) {
-    log_->warn("shard summary for '{}' ({} poses, {} bytes): {}", summary.to_shard,
-               summary.poses.size(), bytes.size(), s.ToString());
-    return;
+  ToLcm(summary, &msg);  // once: only to_shard differs between the copies
+  std::vector<std::uint8_t> bytes;
+  for (const std::string& neighbour : params_.estimator.shards.Neighbours()) {
+    msg.to_shard = neighbour;
+    core::Status s = Encode(msg, &bytes);
+    if (s.ok()) {
+      s = shard_nats_ ? shard_nats_->Publish(params_.shards.subject + "." + neighbour, bytes)
+                      : bus_->Publish(channels_.Inbound<ShardSummarySpec>(), bytes);
+    }
+    if (!s.ok()) {
+      log_->warn("shard summary for '{}' ({} poses, {} bytes): {}", neighbour,
+                 summary.poses.size(), bytes.size(), s.ToString());
+      continue;
+    }
+    ++summaries_sent_;
+    summary_bytes_sent_ += static_cast<std::int64_t>(bytes.size());
   }
-  ++summaries_sent_;
-  summary_bytes_sent_ += static_cast<std::int64_t>(bytes.size());
 }
 
 }  // namespace slamd::server

@@ -44,8 +44,8 @@ std::vector<std::pair<std::string, std::vector<std::uint8_t>>> World() {
   const auto name = [](int r) { return "robot" + std::to_string(r); };
   std::vector<std::pair<std::string, std::vector<std::uint8_t>>> out;
   const auto add = [&](const char* suffix, const auto& msg) {
-    std::vector<std::uint8_t> bytes(static_cast<size_t>(msg.getEncodedSize()));
-    msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    std::vector<std::uint8_t> bytes;
+    EXPECT_TRUE(Encode(msg, &bytes).ok());
     out.emplace_back(suffix, std::move(bytes));
   };
   for (int r = 0; r < kRobots; ++r) {

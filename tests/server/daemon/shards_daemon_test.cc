@@ -30,8 +30,8 @@ std::vector<std::pair<std::string, std::vector<std::uint8_t>>> World() {
   const auto truth = [](int r, int i) { return Pose2(1.0 * i, 3.0 * r, 0.0); };
   std::vector<std::pair<std::string, std::vector<std::uint8_t>>> out;
   const auto add = [&](const char* channel, const auto& msg) {
-    std::vector<std::uint8_t> bytes(static_cast<size_t>(msg.getEncodedSize()));
-    msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    std::vector<std::uint8_t> bytes;
+    EXPECT_TRUE(Encode(msg, &bytes).ok());
     out.emplace_back(channel, std::move(bytes));
   };
   for (int r = 0; r < 2; ++r) {
@@ -97,7 +97,7 @@ double Gap(const Daemon& s0, const Daemon& s1, const Daemon& central) {
 
 // Drives both shards (one bus) until their own robots' estimates are within `tol` of the
 // central daemon's, at most `seconds`; returns the gap reached.
-double DriveUntilClose(InProcessBus& bus, Daemon& s0, Daemon& s1, const Daemon& central, double tol,
+double DriveUntilClose(Daemon& s0, Daemon& s1, const Daemon& central, double tol,
                        double seconds) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   double gap = 1e9;
@@ -109,7 +109,6 @@ double DriveUntilClose(InProcessBus& bus, Daemon& s0, Daemon& s1, const Daemon& 
     gap = Gap(s0, s1, central);
     if (gap < tol) break;
   }
-  (void)bus;
   return gap;
 }
 
@@ -130,7 +129,7 @@ TEST(ShardsDaemon, TwoShardsOnOneBusEndAtTheCentralEstimate) {
   auto s0 = Daemon::Create(ShardParams("S0", dir), &bus).value();
   auto s1 = Daemon::Create(ShardParams("S1"), &bus).value();
   for (const auto& [channel, bytes] : world) ASSERT_TRUE(bus.Publish(channel, bytes).ok());
-  const double gap = DriveUntilClose(bus, *s0, *s1, *central, 1e-6, 20.0);
+  const double gap = DriveUntilClose(*s0, *s1, *central, 1e-6, 20.0);
   EXPECT_LT(gap, 1e-6);
   // Each took its robot's messages and its closures, and left the rest to the other.
   // Applied: 1 prior, 14 odometry, 3 closures, and the summaries S1 sent.
