@@ -138,6 +138,7 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   if (sh.has_servers()) p->shards.servers = sh.servers();
   if (sh.has_subject()) p->shards.subject = sh.subject();
   if (sh.has_summary_every_ms()) p->shards.summary_every_ms = sh.summary_every_ms();
+  if (sh.has_forward_queries()) p->shards.forward_queries = sh.forward_queries();
   const proto::EstimatorConfig& e = config.estimator();
   if (e.has_new_robot_anchor()) {
     p->estimator.new_robot_anchor = static_cast<AnchorPolicy>(e.new_robot_anchor());
@@ -396,6 +397,8 @@ std::string DefaultConfigText() {
       << "  subject: " << Quote(d.shards.subject) << "  # summaries for shard s on <subject>.<s>\n"
       << "  summary_every_ms: " << d.shards.summary_every_ms
       << "  # each neighbour's summary at most this often [ms]\n"
+      << "  forward_queries: " << (d.shards.forward_queries ? "true" : "false")
+      << "  # shards on different LCM buses: queries for another shard's robot go to it\n"
       << "}\n";
   return out.str();
 }

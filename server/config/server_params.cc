@@ -74,6 +74,10 @@ core::Status ServerParams::Validate() const {
   }
   SLAMD_CONFIG_CHECK(shards.summary_every_ms, >=, 10);
   SLAMD_CONFIG_CHECK(shards.summary_every_ms, <=, 600000);
+  if (shards.forward_queries && shards.servers.empty()) {
+    return core::InvalidArgument(
+        "shards.forward_queries = true needs shards.servers: queries are forwarded over NATS");
+  }
   SLAMD_CONFIG_CHECK(journal.sync_interval_ms, >=, 1);
   SLAMD_CONFIG_CHECK(journal.sync_interval_ms, <=, 60000);
   SLAMD_CONFIG_CHECK(journal.snapshot_every_updates, >=, 0);

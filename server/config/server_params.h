@@ -125,6 +125,11 @@ struct ServerParams {
     std::string servers;                   // NATS URLs, comma-separated; "" = the LCM bus
     std::string subject = "slamd.shards";  // NATS subject prefix, [A-Za-z0-9_-] parts
     int summary_every_ms = 1000;           // 10..600000
+    // Shards on different LCM buses (needs servers): a query for another shard's robot is
+    // forwarded to its owner on <subject>.<owner>.query; the owner's replies, map pages and
+    // rejects come back on <subject>.<self>.reply and are published on this bus. Off: all
+    // shards hear one bus and the owner answers there.
+    bool forward_queries = false;
   };
   Shards shards = {};
 

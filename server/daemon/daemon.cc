@@ -176,10 +176,17 @@ core::Status Daemon::Subscribe() {
 }
 
 template <typename Msg>
-void Daemon::OnInbound(std::string_view channel, const Msg& msg) {
+void Daemon::OnInbound(std::string_view channel, const Msg& msg, const std::string& reply_shard) {
   using Spec = SpecOfLcm<Msg>;
   ++received_;
   if (!ForThisShard<Spec>(params_.estimator.shards, msg)) {  // another shard's robot
+    if constexpr (Spec::kRole == MessageRole::kQuery) {
+      // Forwarded once, by the leader of a pair (a standby does not answer).
+      if (params_.shards.forward_queries && reply_shard.empty() && !standby_) {
+        ForwardQuery(channel, msg);
+        return;
+      }
+    }
     ++not_owned_;
     return;
   }
@@ -192,7 +199,9 @@ void Daemon::OnInbound(std::string_view channel, const Msg& msg) {
     const Verdict full{RejectReason::kQueueFull, std::string(type) +
                                                      ": ingest queue full (queue.depth = " +
                                                      std::to_string(params_.queue.depth) + ")"};
-    Inbound in{std::move(checked).value(), SteadyMicros()};
+    auto value = std::move(checked).value();
+    if constexpr (Spec::kRole == MessageRole::kQuery) value.reply_shard = reply_shard;
+    Inbound in{std::move(value), SteadyMicros()};
     constexpr bool kJournaled = Spec::kRole != MessageRole::kQuery;
     if (standby_) {  // the leader answers; kept in case this slamd takes over
       if (!kJournaled) return;
@@ -236,15 +245,22 @@ void Daemon::OnInbound(std::string_view channel, const Msg& msg) {
                  std::string(type) + ": the journal could not take it: " + seq.status().message()};
     }
   }
-  PublishReject(verdict, channel, type, Spec::Robot(msg), msg.utime);
   if constexpr (Spec::kRole == MessageRole::kQuery) {
-    // The asker waits for a reply, not for a reject_t.
-    slamd::query_reply_t reply;
-    FillRejectedQueryReply(QueryRequest{.client = msg.client, .request_id = msg.request_id},
-                           verdict.message, WallMicros(), &reply);
-    const core::Status s = server::Publish(*bus_, channels_.QueryReply(), reply);
-    if (!s.ok()) log_->warn("cannot publish query_reply_t: {}", s.ToString());
+    RejectQuery(verdict, channel, msg, ReplyBus(reply_shard));
+  } else {
+    PublishReject(verdict, channel, type, Spec::Robot(msg), msg.utime);
   }
+}
+
+void Daemon::RejectQuery(const Verdict& verdict, std::string_view channel,
+                         const slamd::query_t& msg, Bus& out) {
+  PublishReject(verdict, channel, QuerySpec::kType, msg.client, msg.utime, &out);
+  // The asker waits for a reply, not for a reject_t.
+  slamd::query_reply_t reply;
+  FillRejectedQueryReply(QueryRequest{.client = msg.client, .request_id = msg.request_id},
+                         verdict.message, WallMicros(), &reply);
+  const core::Status s = server::Publish(out, channels_.QueryReply(), reply);
+  if (!s.ok()) log_->warn("cannot publish query_reply_t: {}", s.ToString());
 }
 
 void Daemon::OnDecodeError(std::string_view channel, const core::Status& error) {
@@ -254,13 +270,13 @@ void Daemon::OnDecodeError(std::string_view channel, const core::Status& error) 
 }
 
 void Daemon::PublishReject(const Verdict& verdict, std::string_view channel, std::string_view type,
-                           std::string_view robot, std::int64_t utime) {
+                           std::string_view robot, std::int64_t utime, Bus* out) {
   ++intake_rejected_;
   ++intake_rejects_by_reason_[static_cast<int>(verdict.reason)];
-  slamd::reject_t out;
-  FillReject(verdict, channel, type, robot, utime, WallMicros(), &out);
+  slamd::reject_t msg;
+  FillReject(verdict, channel, type, robot, utime, WallMicros(), &msg);
   NoteReject(type, verdict);
-  const core::Status s = server::Publish(*bus_, channels_.Reject(), out);
+  const core::Status s = server::Publish(out ? *out : *bus_, channels_.Reject(), msg);
   if (!s.ok()) log_->warn("cannot publish reject_t: {}", s.ToString());
 }
 

@@ -45,6 +45,7 @@
 #include <atomic>
 #include <cstdint>
 #include <deque>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <set>
@@ -62,6 +63,7 @@
 #include "server/estimator/journal_replay.h"
 #include "server/journal/journal.h"
 #include "server/replication/leader_lease.h"
+#include "server/replication/relay_bus.h"
 #include "server/replication/stream_journal.h"
 #include "server/replication/stream_reader.h"
 #include "server/transport/bus.h"
@@ -165,17 +167,30 @@ class Daemon {
   core::Status StartShards();
   void MaybeSendSummaries();
   void SendSummaries(const ShardSummaryMessage& summary);  // to every other shard
+  // shards.forward_queries: sends a query for another shard's robot to its owner; takes a query
+  // forwarded to this shard into intake (its answer goes back through relays_); publishes on the
+  // bus what an owner sent back.
+  void ForwardQuery(std::string_view channel, const slamd::query_t& msg);
+  void OnForwardedQuery(const std::string& subject, std::span<const std::uint8_t> payload);
+  void OnRelayedReply(const std::string& subject, std::span<const std::uint8_t> payload);
+  // Where the answer to a query goes: the bus, or the relay to the shard that forwarded it.
+  Bus& ReplyBus(const std::string& reply_shard);
 
   core::Status Subscribe();
   template <typename Msg>
   core::Status SubscribeInbound(const std::string& channel);
+  // reply_shard: the shard that forwarded this query ("" = heard on the bus).
   template <typename Msg>
-  void OnInbound(std::string_view channel, const Msg& msg);
+  void OnInbound(std::string_view channel, const Msg& msg, const std::string& reply_shard = "");
   void OnDecodeError(std::string_view channel, const core::Status& error);
   // Queues what intake_held_ holds, in order; intake_mutex_ held.
   void QueueHeldLocked();
+  // On `out` (null: the bus).
   void PublishReject(const Verdict& verdict, std::string_view channel, std::string_view type,
-                     std::string_view robot, std::int64_t utime);
+                     std::string_view robot, std::int64_t utime, Bus* out = nullptr);
+  // A query that gets no answer: its reject_t and the query_reply_t its asker waits for.
+  void RejectQuery(const Verdict& verdict, std::string_view channel, const slamd::query_t& msg,
+                   Bus& out);
   std::string InboundChannel(const Inbound& in) const;
   // now_steady: the publication time that latency_us counts to.
   void PublishEstimates(const EstimateSnapshot& snap, std::int64_t now_steady);
@@ -193,8 +208,8 @@ class Daemon {
   void MaybePublishStatus(const EstimateSnapshot& snap);
   void MaybePublishMaps(const EstimateSnapshot& snap);
   void AnswerAndPublish(const QueryRequest& query, std::int64_t update_sequence);
-  // Publishes the map_t pages of `robot` ("*" = all); returns how many.
-  int PublishMaps(const std::string& robot, bool marginals, std::int64_t request_id,
+  // Publishes the map_t pages of `robot` ("*" = all) on `out`; returns how many.
+  int PublishMaps(Bus& out, const std::string& robot, bool marginals, std::int64_t request_id,
                   std::int64_t update_sequence, bool* partial);
   bool RefineDue() const;           // refinement enabled and the estimate not settled
   std::int64_t IdleMicros() const;  // since the estimator last popped a message [µs]
@@ -240,6 +255,9 @@ class Daemon {
   // Map shards: the NATS connection of the summaries (null: the bus), when they last went out
   // (steady µs) and of which update.
   std::unique_ptr<NatsClient> shard_nats_;
+  // shards.forward_queries: per other shard, the relay of the answers to the queries it
+  // forwarded here (<subject>.<shard>.reply).
+  std::map<std::string, std::unique_ptr<RelayBus>> relays_;
   std::int64_t last_summaries_us_ = 0, last_summaries_sequence_ = -1;
   ShardSummaryMessage last_summary_sent_;
   IngestQueue queue_;
@@ -255,6 +273,7 @@ class Daemon {
   std::atomic<std::int64_t> journal_errors_{0};
   // Messages for robots another shard owns (dropped), summaries sent and their bytes.
   std::atomic<std::int64_t> not_owned_{0}, summaries_sent_{0}, summary_bytes_sent_{0};
+  std::atomic<std::int64_t> queries_forwarded_{0};
   std::mutex reject_log_mutex_;
   std::int64_t rejects_unlogged_ = 0, reject_logged_us_ = 0;
   std::array<std::atomic<std::int64_t>, kNumRejectReasonCodes> intake_rejects_by_reason_{};

@@ -40,11 +40,12 @@ std::array<std::int64_t, N> Percentiles(std::vector<double> v, const std::array<
 
 void Daemon::AnswerAndPublish(const QueryRequest& query, std::int64_t update_sequence) {
   const QueryAnswer answer = AnswerQuery(*estimator_, query, params_.publish.query_budget_s);
+  Bus& out = ReplyBus(query.reply_shard);
   int pages = 0;
   bool maps_partial = false;
   if (!query.map_robot.empty()) {
-    pages = PublishMaps(query.map_robot, query.want_marginals, query.request_id, update_sequence,
-                        &maps_partial);
+    pages = PublishMaps(out, query.map_robot, query.want_marginals, query.request_id,
+                        update_sequence, &maps_partial);
   }
   slamd::query_reply_t reply;
   FillQueryReply(query, answer, update_sequence, pages, WallMicros(), &reply);
@@ -52,11 +53,11 @@ void Daemon::AnswerAndPublish(const QueryRequest& query, std::int64_t update_seq
     reply.status = slamd::query_reply_t::STATUS_PARTIAL;
     reply.error = "map marginals not ready within the query budget";
   }
-  const core::Status s = server::Publish(*bus_, channels_.QueryReply(), reply);
+  const core::Status s = server::Publish(out, channels_.QueryReply(), reply);
   if (!s.ok()) log_->warn("cannot publish query_reply_t: {}", s.ToString());
 }
 
-int Daemon::PublishMaps(const std::string& robot, bool marginals, std::int64_t request_id,
+int Daemon::PublishMaps(Bus& out, const std::string& robot, bool marginals, std::int64_t request_id,
                         std::int64_t update_sequence, bool* partial) {
   const std::vector<RobotMap> maps =
       CollectMaps(*estimator_, robot, marginals, params_.publish.query_budget_s, partial);
@@ -64,7 +65,7 @@ int Daemon::PublishMaps(const std::string& robot, bool marginals, std::int64_t r
   const std::int64_t now = WallMicros();
   for (const RobotMap& map : maps) {
     for (const slamd::map_t& page : MapPages(map, update_sequence, request_id, now)) {
-      const core::Status s = server::Publish(*bus_, channels_.Map(), page);
+      const core::Status s = server::Publish(out, channels_.Map(), page);
       if (!s.ok()) log_->warn("cannot publish map_t: {}", s.ToString());
       ++pages;
     }
@@ -80,7 +81,7 @@ void Daemon::MaybePublishMaps(const EstimateSnapshot& snap) {
   last_map_us_ = now;
   last_map_sequence_ = snap.update_sequence;
   bool partial = false;
-  PublishMaps("*", params_.publish.map_covariance, 0, snap.update_sequence, &partial);
+  PublishMaps(*bus_, "*", params_.publish.map_covariance, 0, snap.update_sequence, &partial);
 }
 
 void Daemon::PublishEstimates(const EstimateSnapshot& snap, std::int64_t now_steady) {
@@ -186,6 +187,7 @@ void Daemon::PublishStatus(const EstimateSnapshot& snap) {
   out.replication_pending_bytes = replica_ ? replica_->pending_bytes() : 0;
   out.shard_not_owned = not_owned_;
   out.shard_summaries_sent = summaries_sent_;
+  out.shard_queries_forwarded = queries_forwarded_;
   out.shard_summary_bytes = summary_bytes_sent_;
   out.chi2 = snap.chi2;
   out.residual_dimension = snap.residual_dimension;

@@ -1,8 +1,11 @@
 // Map shards (docs/SCALING.md): the daemon's side. Which messages a shard takes is decided at
 // intake (ForThisShard); the estimator keeps the shared poses and applies neighbours' summaries
-// (shard_summary_t, journaled like any message); here summaries come in from NATS and go out.
+// (shard_summary_t, journaled like any message); here summaries come in from NATS and go out,
+// and, for shards on different buses (shards.forward_queries), queries go to their owner and
+// its answers come back.
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <random>
 
 #include "server/daemon/daemon.h"
@@ -68,7 +71,82 @@ core::Status Daemon::StartShards() {
         QueueHeldLocked();
       }));
   log_->info("shard '{}': summaries on NATS {} ({})", shards.self, subject, params_.shards.servers);
+  if (!params_.shards.forward_queries) return core::Status::Ok();
+  for (const std::string& neighbour : shards.Neighbours()) {
+    relays_[neighbour] = std::make_unique<RelayBus>(
+        shard_nats_.get(), params_.shards.subject + "." + neighbour + ".reply", channels_.prefix);
+  }
+  const std::string queries = subject + ".query", replies = subject + ".reply";
+  SLAMD_RETURN_IF_ERROR(
+      shard_nats_->Subscribe(queries, [this, queries](std::span<const std::uint8_t> payload) {
+        OnForwardedQuery(queries, payload);
+      }));
+  SLAMD_RETURN_IF_ERROR(
+      shard_nats_->Subscribe(replies, [this, replies](std::span<const std::uint8_t> payload) {
+        OnRelayedReply(replies, payload);
+      }));
+  log_->info("shard '{}': other shards' queries forwarded to them, theirs taken on NATS {}",
+             shards.self, queries);
   return core::Status::Ok();
+}
+
+void Daemon::ForwardQuery(std::string_view channel, const slamd::query_t& msg) {
+  const ShardMap& shards = params_.estimator.shards;
+  const std::string& owner = shards.OwnerOf(QuerySpec::ShardRobot(msg));
+  std::vector<std::uint8_t> bytes;
+  core::Status s = Encode(msg, &bytes);
+  if (s.ok()) {
+    s = shard_nats_->Publish(params_.shards.subject + "." + owner + ".query",
+                             Frame(shards.self, bytes));
+  }
+  if (s.ok()) {
+    ++queries_forwarded_;
+    return;
+  }
+  RejectQuery({RejectReason::kShardUnavailable,
+               "query_t: for shard '" + owner + "', which could not be reached: " + s.message()},
+              channel, msg, *bus_);
+}
+
+void Daemon::OnForwardedQuery(const std::string& subject, std::span<const std::uint8_t> payload) {
+  const std::string channel = "nats:" + subject;
+  const std::optional<Framed> framed = Unframe(payload);
+  const std::vector<std::string> neighbours = params_.estimator.shards.Neighbours();
+  if (!framed || std::find(neighbours.begin(), neighbours.end(), framed->tag) == neighbours.end()) {
+    OnDecodeError(channel, core::InvalidArgument("a forwarded query_t from no known shard ('" +
+                                                 std::string(framed ? framed->tag : "") + "')"));
+    return;
+  }
+  slamd::query_t msg;
+  const core::Status decoded = internal::DecodeAs(framed->body, &msg);
+  if (!decoded.ok()) {
+    OnDecodeError(channel, decoded);
+    return;
+  }
+  OnInbound(channel, msg, std::string(framed->tag));
+  std::lock_guard lock(intake_mutex_);  // no PumpIntake burst to wait for
+  QueueHeldLocked();
+}
+
+void Daemon::OnRelayedReply(const std::string& subject, std::span<const std::uint8_t> payload) {
+  // What an owner answers: these channels (suffixes) only, published with this bus's prefix.
+  const ChannelNames suffix{.prefix = ""};
+  const std::optional<Framed> framed = Unframe(payload);
+  if (!framed || (framed->tag != suffix.QueryReply() && framed->tag != suffix.Map() &&
+                  framed->tag != suffix.Reject())) {
+    log_->warn("NATS {}: a relayed answer on no answer channel ('{}'): dropped", subject,
+               framed ? framed->tag : "");
+    return;
+  }
+  const core::Status s = bus_->Publish(channels_.prefix + std::string(framed->tag), framed->body);
+  if (!s.ok()) log_->warn("cannot publish a relayed {}: {}", framed->tag, s.ToString());
+}
+
+Bus& Daemon::ReplyBus(const std::string& reply_shard) {
+  if (reply_shard.empty()) return *bus_;
+  const auto it = relays_.find(reply_shard);
+  SLAMD_CHECK(it != relays_.end()) << "a query forwarded by unknown shard '" << reply_shard << "'";
+  return *it->second;
 }
 
 void Daemon::MaybeSendSummaries() {

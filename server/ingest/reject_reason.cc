@@ -33,7 +33,8 @@ SLAMD_SAME_CODE(kQueueFull, REASON_QUEUE_FULL);
 SLAMD_SAME_CODE(kWouldDisconnect, REASON_WOULD_DISCONNECT);
 SLAMD_SAME_CODE(kStorageError, REASON_STORAGE_ERROR);
 SLAMD_SAME_CODE(kReplicationUnavailable, REASON_REPLICATION_UNAVAILABLE);
-static_assert(kNumRejectReasonCodes == ::slamd::reject_t::REASON_REPLICATION_UNAVAILABLE + 1);
+SLAMD_SAME_CODE(kShardUnavailable, REASON_SHARD_UNAVAILABLE);
+static_assert(kNumRejectReasonCodes == ::slamd::reject_t::REASON_SHARD_UNAVAILABLE + 1);
 #undef SLAMD_SAME_CODE
 
 const char* RejectReasonName(RejectReason reason) {
@@ -94,6 +95,8 @@ const char* RejectReasonName(RejectReason reason) {
       return "storage_error";
     case RejectReason::kReplicationUnavailable:
       return "replication_unavailable";
+    case RejectReason::kShardUnavailable:
+      return "shard_unavailable";
   }
   return "unknown";
 }

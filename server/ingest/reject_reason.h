@@ -38,10 +38,11 @@ enum class RejectReason : std::int32_t {
   kWouldDisconnect = 38,
   kStorageError = 39,
   kReplicationUnavailable = 40,
+  kShardUnavailable = 41,
 };
 
 // One past the largest code: the length of status_t.rejects_by_reason.
-inline constexpr int kNumRejectReasonCodes = 41;
+inline constexpr int kNumRejectReasonCodes = 42;
 
 // "covariance_not_positive_definite", ... ("none" for kNone, "unknown" for other values).
 const char* RejectReasonName(RejectReason reason);

@@ -24,6 +24,9 @@ struct QueryRequest {
   bool want_marginals = false;
   bool want_joint_marginal = false;
   std::string map_robot = "";  // "" none, "*" all, or a robot name
+  // Not on the wire: the shard that forwarded this query (shards.forward_queries), where its
+  // answer goes; "" = this slamd's bus.
+  std::string reply_shard = "";
 };
 
 Verdict Validate(const slamd::query_t& msg, const Limits& limits = {});

@@ -2,7 +2,9 @@
 // namespace (scripts/netns-run; ctest labels ha and netns), a 4-robot world streamed over UDP LCM
 // to one unsharded slamd and to 2 and to 4 shards (robots split in order) that exchange
 // summaries over NATS. Every robot's poses from its shard end within 1 mm of the unsharded
-// slamd's, and the shards sent summaries.
+// slamd's, and the shards sent summaries. Shards on two buses (two channel prefixes) with
+// shards.forward_queries answer a query, a map request and a bad query for the other shard's
+// robot on the asker's bus, exactly as the owner answers on its own.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -15,7 +17,9 @@
 #include "server/messages/inbound.h"
 #include "server/transport/lcm_bus.h"
 #include "server/transport/typed_subscribe.h"
+#include "slamd/map_t.hpp"
 #include "slamd/query_reply_t.hpp"
+#include "slamd/reject_t.hpp"
 #include "tests/testing/nats_cluster.h"
 #include "tests/testing/noise.h"
 #include "tests/testing/processes.h"
@@ -94,7 +98,7 @@ constexpr const char* kConfig =
     "log_level: \"info\"\n";
 
 // The config of shard `self` of `n` (robots split in order) exchanging over `nats`.
-std::string ShardConfig(int n, int self, const std::string& nats) {
+std::string ShardConfig(int n, int self, const std::string& nats, bool forward_queries = false) {
   std::string c = std::string(kConfig) + "shards {\n  self: \"S" + std::to_string(self) + "\"\n";
   for (int s = 0; s < n; ++s) {
     c += "  shard { name: \"S" + std::to_string(s) + "\"";
@@ -103,32 +107,58 @@ std::string ShardConfig(int n, int self, const std::string& nats) {
     }
     c += " }\n";
   }
-  return c + "  servers: \"" + nats + "\"\n  summary_every_ms: 100\n}\n";
+  return c + "  servers: \"" + nats + "\"\n  summary_every_ms: 100\n" +
+         (forward_queries ? "  forward_queries: true\n" : "") + "}\n";
 }
 
-// Asks the slamd(s) on `prefix` for every pose of `robot` (its shard answers).
+// What the slamd(s) on one prefix answered to one query.
+struct Answer {
+  bool replied = false;
+  slamd::query_reply_t reply;
+  int map_pages = 0;  // map_t pages of the request
+  int rejects = 0;    // reject_t of the query's client
+};
+
+// Asks the slamd(s) on `prefix` (the robot's shard answers).
 class Asker {
  public:
   Asker() : bus_(LcmBus::Create(LcmBusParams{.url = kUrl}).value()) {}
-  std::vector<Pose2> Poses(const std::string& prefix, const std::string& robot) {
-    QueryRequest q{.utime = 0, .client = "shards_test", .request_id = ++id_};
-    for (int i = 0; i < kPoses; ++i) q.keys.push_back({robot, KeyKind::kPose, std::uint64_t(i)});
+  Answer Ask(const std::string& prefix, QueryRequest q) {
+    q.client = "shards_test";
+    q.request_id = ++id_;
     slamd::query_t msg;
     ToLcm(q, &msg);
-    std::vector<Pose2> poses;
-    auto sub = Subscribe<slamd::query_reply_t>(
+    Answer a;
+    auto replies = Subscribe<slamd::query_reply_t>(
         *bus_, prefix + "QUERY_REPLY",
         [&](std::string_view, const slamd::query_reply_t& r) {
           if (r.request_id != id_) return;
-          for (const slamd::variable_t& v : r.results) {
-            poses.push_back(v.found ? Pose2(v.values[0], v.values[1], v.values[2])
-                                    : Pose2(1e9, 1e9, 0));
-          }
+          a.reply = r;
+          a.replied = true;
         },
+        nullptr);
+    auto pages = Subscribe<slamd::map_t>(
+        *bus_, prefix + "MAP",
+        [&](std::string_view, const slamd::map_t& m) { a.map_pages += m.request_id == id_; },
+        nullptr);
+    auto rejects = Subscribe<slamd::reject_t>(
+        *bus_, prefix + "REJECT",
+        [&](std::string_view, const slamd::reject_t& r) { a.rejects += r.robot == q.client; },
         nullptr);
     EXPECT_TRUE(Publish(*bus_, prefix + "QUERY", msg).ok());
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-    while (poses.empty() && std::chrono::steady_clock::now() < deadline) (void)bus_->HandleOnce(20);
+    while (!a.replied && std::chrono::steady_clock::now() < deadline) (void)bus_->HandleOnce(20);
+    (void)bus_->HandleOnce(50);  // a reject_t after its reply
+    return a;
+  }
+  // Every pose of `robot` (poses not found far away; none when there was no reply).
+  std::vector<Pose2> Poses(const std::string& prefix, const std::string& robot) {
+    QueryRequest q;
+    for (int i = 0; i < kPoses; ++i) q.keys.push_back({robot, KeyKind::kPose, std::uint64_t(i)});
+    std::vector<Pose2> poses;
+    for (const slamd::variable_t& v : Ask(prefix, q).reply.results) {
+      poses.push_back(v.found ? Pose2(v.values[0], v.values[1], v.values[2]) : Pose2(1e9, 1e9, 0));
+    }
     return poses;
   }
 
@@ -206,6 +236,80 @@ void RunShards(int n) {
 
 TEST(ShardsHaTest, TwoShardsOverNatsEndAtOneServersEstimate) { RunShards(2); }
 TEST(ShardsHaTest, FourShardsOverNatsEndAtOneServersEstimate) { RunShards(4); }
+
+// Two shards, each on its own bus (prefixes A_ and B_: neither hears the other's channels), both
+// sent the whole world (each takes its robots'). Asked on A_, S0 forwards robot2's and robot3's
+// queries to S1 and publishes S1's answers on A_.
+TEST(ShardsHaTest, QueriesForAnotherShardsRobotAreForwardedBetweenBuses) {
+  ASSERT_TRUE(testing::OnlyLoopback()) << testing::kNotInNetns;
+  if (!testing::HaveNatsServer()) GTEST_SKIP() << "nats-server is not installed";
+  testing::TempDir tmp("ha_shards_forward");
+  testing::NatsCluster nats(tmp.str() + "/nats", 1);
+  ASSERT_NO_FATAL_FAILURE(nats.StartAll());
+  Client client(kUrl, "robot0");
+  std::vector<Server> shards(2);  // not copyable
+  shards[0] = Server{.prefix = "A_", .data_dir = tmp.str() + "/s0", .log = tmp.str() + "/s0.log"};
+  shards[1] = Server{.prefix = "B_", .data_dir = tmp.str() + "/s1", .log = tmp.str() + "/s1.log"};
+  const testing::KillOnExit cleanup({&shards[0], &shards[1]});
+  for (int s = 0; s < 2; ++s) {
+    const std::string config = tmp.str() + "/s" + std::to_string(s) + ".textproto";
+    std::ofstream(config) << ShardConfig(2, s, nats.Urls(), /*forward_queries=*/true);
+    ASSERT_NO_FATAL_FAILURE(testing::Launch(config, client, &shards[s]));
+  }
+  client.Attach(&shards[0]);
+  for (Server& s : shards) {
+    ASSERT_TRUE(testing::WaitForLog(client, s, "queries forwarded", 30.0)) << s.log;
+  }
+  testing::StepMessages step;
+  for (auto& [suffix, bytes] : World()) step.push_back({suffix, std::move(bytes), nullptr});
+  for (std::size_t k = 0; k < step.size(); k += 40) {
+    const testing::StepMessages burst(step.begin() + k,
+                                      step.begin() + std::min(step.size(), k + 40));
+    client.Send(shards[0], burst);
+    client.Send(shards[1], burst);
+    client.Drain(5);
+  }
+  // Settled: the owner's answer on its own bus and the forwarded one agree.
+  Asker asker;
+  const auto gap = [&](const std::string& robot) {
+    const std::vector<Pose2> direct = asker.Poses("B_", robot);
+    const std::vector<Pose2> forwarded = asker.Poses("A_", robot);
+    if (direct.size() != kPoses || forwarded.size() != kPoses) return 1e9;
+    double g = 0.0;
+    for (int i = 0; i < kPoses; ++i) {
+      g = std::max(g, (direct[i].translation() - forwarded[i].translation()).norm());
+      if (direct[i].translation().norm() > 1e3) return 1e9;  // not found
+    }
+    return g;
+  };
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  double worst = 1e9;
+  while (worst > 1e-9 && std::chrono::steady_clock::now() < deadline) {
+    client.Drain(300);
+    worst = std::max(gap("robot2"), gap("robot3"));
+  }
+  EXPECT_LT(worst, 1e-9) << "logs in " << tmp.str();
+
+  // A map request for robot3, asked on A_: its pages come on A_MAP.
+  const Answer map = asker.Ask("A_", QueryRequest{.map_robot = "robot3"});
+  ASSERT_TRUE(map.replied);
+  EXPECT_EQ(map.reply.status, slamd::query_reply_t::STATUS_OK) << map.reply.error;
+  EXPECT_GT(map.map_pages, 0);
+  EXPECT_EQ(map.reply.map_pages, map.map_pages);
+  // A bad query for robot2 (a joint marginal of more keys than allowed): S1's rejection, on A_.
+  QueryRequest bad{.want_joint_marginal = true};
+  for (int i = 0; i < 20; ++i) bad.keys.push_back({"robot2", KeyKind::kPose, std::uint64_t(i)});
+  const Answer rejected = asker.Ask("A_", bad);
+  ASSERT_TRUE(rejected.replied);
+  EXPECT_EQ(rejected.reply.status, slamd::query_reply_t::STATUS_REJECTED);
+  EXPECT_NE(rejected.reply.error.find("joint marginal"), std::string::npos) << rejected.reply.error;
+  EXPECT_EQ(rejected.rejects, 1);
+  // S0's own robot is answered by S0 (not forwarded).
+  EXPECT_EQ(asker.Poses("A_", "robot0").size(), kPoses);
+  client.Drain(300);
+  EXPECT_GE(shards[0].status.shard_queries_forwarded, 2 + 2);
+  EXPECT_GT(shards[0].status.shard_not_owned, 0);  // S1's robots' measurements
+}
 
 }  // namespace
 }  // namespace slamd::server

@@ -20,7 +20,9 @@ TEST(RejectReason, CodesMatchTheWireConstants) {
   EXPECT_EQ(static_cast<int>(RejectReason::kStorageError), slamd::reject_t::REASON_STORAGE_ERROR);
   EXPECT_EQ(static_cast<int>(RejectReason::kReplicationUnavailable),
             slamd::reject_t::REASON_REPLICATION_UNAVAILABLE);
-  EXPECT_EQ(kNumRejectReasonCodes, slamd::reject_t::REASON_REPLICATION_UNAVAILABLE + 1);
+  EXPECT_EQ(static_cast<int>(RejectReason::kShardUnavailable),
+            slamd::reject_t::REASON_SHARD_UNAVAILABLE);
+  EXPECT_EQ(kNumRejectReasonCodes, slamd::reject_t::REASON_SHARD_UNAVAILABLE + 1);
 }
 
 TEST(RejectReason, EveryCodeHasAUniqueName) {
@@ -32,7 +34,7 @@ TEST(RejectReason, EveryCodeHasAUniqueName) {
     ++named;
     EXPECT_TRUE(names.insert(name).second) << name;
   }
-  EXPECT_EQ(named, 1 + 18 + 9);  // none, 18 stateless, 9 stateful
+  EXPECT_EQ(named, 1 + 18 + 10);  // none, 18 stateless, 10 stateful
   EXPECT_STREQ(RejectReasonName(RejectReason::kNone), "none");
   EXPECT_STREQ(RejectReasonName(static_cast<RejectReason>(25)), "unknown");
 }
