@@ -100,6 +100,8 @@ TEST(ReplicationHaTest, ReplicatedJournalRidesOutNatsFailuresAndLosesNothing) {
   EXPECT_LE(s.status.replication_holds, 1) << "a follower down held intake";
   EXPECT_FALSE(s.status.replication_held) << "intake still held with a quorum up";
   const std::int64_t holds_before_leader = s.status.replication_holds;
+  ASSERT_TRUE(nats.WaitForReplicasCurrent("SLAMD", 30.0))
+      << "the restarted follower never caught up";
   // The stream's leader down: intake waits while the other two elect one (counted as a hold);
   // the robot's re-sends go through after it.
   nats.Kill(leader);

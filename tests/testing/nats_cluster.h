@@ -162,6 +162,30 @@ class NatsCluster {
     jsStreamInfo_Destroy(si);
     return leader;
   }
+  // Waits until every other replica of `stream` is current with its leader (a replica restarted
+  // a moment ago is still catching up: killing the leader then leaves no quorum that can elect
+  // one, which is two failures, not one).
+  bool WaitForReplicasCurrent(const std::string& stream, double timeout_s) const {
+    const auto deadline = std::chrono::steady_clock::now() +
+                          std::chrono::milliseconds(static_cast<int>(timeout_s * 1e3));
+    while (std::chrono::steady_clock::now() < deadline) {
+      auto client = server::NatsClient::Connect({.servers = UrlList()});
+      jsStreamInfo* si = nullptr;
+      jsErrCode jerr = static_cast<jsErrCode>(0);
+      if (client.ok() && js_GetStreamInfo(&si, client.value()->jetstream(), stream.c_str(), nullptr,
+                                          &jerr) == NATS_OK) {
+        bool current = si->Cluster != nullptr && si->Cluster->ReplicasLen == size() - 1;
+        for (int r = 0; current && r < si->Cluster->ReplicasLen; ++r) {
+          const jsPeerInfo* peer = si->Cluster->Replicas[r];
+          current = peer->Current && !peer->Offline && peer->Lag == 0;
+        }
+        jsStreamInfo_Destroy(si);
+        if (current) return true;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    return false;
+  }
   void Kill(int i) { Signal(i, SIGKILL); }
   void Stop(int i) { Signal(i, SIGTERM); }
   bool running(int i) const { return pids_[i] > 0; }
