@@ -247,6 +247,13 @@ class Estimator {
   // After a successful update: the batch's aliases and merged measurements; forgets aliases
   // beyond each robot's keep_aliases (and the merged measurements that named them).
   void CommitReduced(Staged* s);
+  // Map shards (estimator_shards.cc): whether `k` is a pose of another shard's robot; the
+  // boundary grown by one factor (own: every pose of one that names another shard's pose;
+  // a received summary: its own poses), and by every factor of an applied update, so that
+  // replaying the journal grows it as the live run did.
+  bool ForeignPose(core::Key k) const;
+  void GrowShardBoundary(const core::Factor& f, bool received_summary);
+  void GrowShardBoundary(const Staged& s);
   // The newest pose of every anchored robot (its anchor when an alias): what updates touch next.
   std::vector<core::Key> NewestPoses(const Staged* s = nullptr) const;
   // Logs a successful live update for the rebuild in flight (if any).

@@ -1,6 +1,5 @@
 // Estimator::ShardSummary: the message a map shard sends every other shard (docs/SCALING.md).
 #include <algorithm>
-#include <array>
 #include <set>
 
 #include "core/factors/linear_container_factor.h"
@@ -9,15 +8,36 @@
 
 namespace slamd::server {
 
+bool Estimator::ForeignPose(core::Key k) const {
+  return core::KeySymbol(k) == 'x' && !params_.shards.Owns(registry_.Name(core::KeyRobot(k)));
+}
+
+void Estimator::GrowShardBoundary(const core::Factor& f, bool received_summary) {
+  const core::KeyVector& keys = f.keys();
+  if (received_summary) {
+    for (core::Key k : keys) {
+      if (core::KeySymbol(k) == 'x' && !ForeignPose(k)) shard_boundary_.insert(k);
+    }
+  } else if (std::any_of(keys.begin(), keys.end(), [&](core::Key k) { return ForeignPose(k); })) {
+    for (core::Key k : keys) {
+      if (core::KeySymbol(k) == 'x') shard_boundary_.insert(k);
+    }
+  }
+}
+
+void Estimator::GrowShardBoundary(const Staged& s) {
+  if (!params_.shards.sharded()) return;
+  std::vector<bool> received(s.factors.size(), false);
+  for (const auto& [position, id, first] : s.ids) {
+    received[position] = std::get<0>(id) == ShardSummarySpec::kIdentity;
+  }
+  for (std::size_t i = 0; i < s.factors.size(); ++i) GrowShardBoundary(*s.factors[i], received[i]);
+}
+
 core::Result<std::optional<ShardSummaryMessage>> Estimator::ShardSummary(std::int64_t utime) {
   const ShardMap& shards = params_.shards;
   if (!shards.sharded()) return core::FailedPrecondition("shard summary: not a shard");
   FinishUpdate();  // the estimate of every variable
-  std::array<bool, 256> foreign{};
-  for (std::uint8_t id : registry_.ids()) foreign[id] = !shards.Owns(registry_.Name(id));
-  const auto is_foreign = [&](core::Key k) {
-    return core::KeySymbol(k) == 'x' && foreign[core::KeyRobot(k)];
-  };
   // The summaries received (excluded: each shard's own factors are counted once, by it).
   std::vector<core::FactorPtr> received;
   std::set<int> received_slots;
@@ -29,27 +49,19 @@ core::Result<std::optional<ShardSummaryMessage>> Estimator::ShardSummary(std::in
     received_slots.insert(slot);
   }
   // The boundary: both ends of its own factors on another shard's poses, and its own poses in
-  // what the others sent; and what it was before, still in the graph (a pose whose closure was
-  // retracted stays: the other shards may hold it only through this summary, and dropping it
-  // would leave it there with no factor). Then the keys only the received summaries name.
+  // what the others sent, grown as they were applied (GrowShardBoundary: a replayed journal
+  // grows it the same way) and by the factors in the graph (of a state restored from an older
+  // snapshot); what it was before stays while in the graph (a pose whose closure was retracted
+  // stays: the other shards may hold it only through this summary, and dropping it would leave
+  // it there with no factor). Then the keys only the received summaries name.
   std::set<core::Key>& boundary = shard_boundary_;
   std::erase_if(boundary, [&](core::Key k) { return !isam_->linearization_point().Contains(k); });
-  std::set<core::Key> beyond;
   const auto& slots = isam_->factor_slots();
   for (std::size_t i = 0; i < slots.size(); ++i) {
-    const core::FactorPtr& f = slots[i];
-    if (!f || received_slots.contains(static_cast<int>(i))) continue;
-    if (std::none_of(f->keys().begin(), f->keys().end(), is_foreign)) continue;
-    for (core::Key k : f->keys()) {
-      if (core::KeySymbol(k) == 'x') boundary.insert(k);
-    }
-  }
-  for (const core::FactorPtr& f : received) {
-    for (core::Key k : f->keys()) {
-      if (!is_foreign(k)) boundary.insert(k);
-    }
+    if (slots[i]) GrowShardBoundary(*slots[i], received_slots.contains(static_cast<int>(i)));
   }
   if (boundary.empty()) return std::optional<ShardSummaryMessage>();
+  std::set<core::Key> beyond;
   for (const core::FactorPtr& f : received) {
     for (core::Key k : f->keys()) {
       if (!boundary.contains(k)) beyond.insert(k);

@@ -190,6 +190,58 @@ TEST(Shards, TheBoundaryOutlivesARetractionAndASnapshot) {
   EXPECT_EQ((*after)->poses, (*before)->poses);
 }
 
+// A crash after a retraction and before the next snapshot: the journal replayed from the last
+// snapshot (closures, the summaries received, the retraction; no summary is computed meanwhile)
+// gives the boundary the live run had, so the retracted closure's poses stay shared.
+TEST(Shards, AReplayedRetractionKeepsTheBoundaryOfTheLiveRun) {
+  const std::vector<Inbound> world = World(2, {{0, 1}});
+  const ShardMap s0 = Shards("S0", 2), s1 = Shards("S1", 2);
+  auto live = Make(s0), other = Make(s1);
+  std::vector<Inbound> closures, journal;  // S0's closures; what S0 takes after its snapshot
+  std::vector<Inbound> before_closures;
+  for (const Inbound& in : ForShard(s0, world)) {
+    (std::holds_alternative<LoopClosureMeasurement>(in.measurement) ? closures : before_closures)
+        .push_back(in);
+  }
+  ASSERT_FALSE(closures.empty());
+  ASSERT_TRUE(live->Process(before_closures).rejections.empty());
+  ASSERT_TRUE(other->Process(ForShard(s1, world)).rejections.empty());
+  const EstimatorState snapshot = live->ExportState();
+  const auto take = [&](const std::vector<Inbound>& in) {
+    const ProcessResult r = live->Process(in);
+    ASSERT_TRUE(r.rejections.empty()) << r.rejections[0].verdict.message;
+    journal.insert(journal.end(), in.begin(), in.end());
+  };
+  ASSERT_NO_FATAL_FAILURE(take(closures));
+  for (int round = 0; round < 2; ++round) {
+    const auto mine = live->ShardSummary(0);
+    ASSERT_TRUE(mine.ok() && mine->has_value());
+    ShardSummaryMessage to_other = **mine;
+    to_other.to_shard = "S1";
+    ASSERT_TRUE(other->Process({Inbound{to_other, 0}}).rejections.empty());
+    const auto theirs = other->ShardSummary(0);
+    ASSERT_TRUE(theirs.ok() && theirs->has_value());
+    ShardSummaryMessage to_live = **theirs;
+    to_live.to_shard = "S0";
+    ASSERT_NO_FATAL_FAILURE(take({Inbound{to_live, 0}}));
+  }
+  ASSERT_NO_FATAL_FAILURE(
+      take({estimator_test::Remove(RemoveTarget::kLoopClosure, "r0", 11, "r1", 12)}));
+  const auto before = live->ShardSummary(0);
+  ASSERT_TRUE(before.ok() && before->has_value());
+
+  core::Isam2Params isam2;
+  isam2.refine_threshold = 1e-10;
+  auto replayed = Estimator::Restore({.chi2_interval_s = 0.0, .shards = s0}, isam2, snapshot);
+  ASSERT_TRUE(replayed.ok()) << replayed.status().ToString();
+  for (const Inbound& in : journal) {  // one message per update, as a journal replays them
+    ASSERT_TRUE(replayed.value()->Process({in}).rejections.empty());
+  }
+  const auto after = replayed.value()->ShardSummary(0);
+  ASSERT_TRUE(after.ok() && after->has_value()) << after.status().ToString();
+  EXPECT_EQ((*after)->poses, (*before)->poses);
+}
+
 // Every shard closes loops with every other: no shard's information is counted twice.
 TEST(Shards, FourShardsClosingLoopsWithEachOtherEqualOneEstimator) {
   RunShards(4, {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {0, 2}, {3, 1}}, 12);
