@@ -45,7 +45,6 @@
 #include <atomic>
 #include <cstdint>
 #include <deque>
-#include <map>
 #include <memory>
 #include <mutex>
 #include <set>
@@ -58,12 +57,12 @@
 
 #include "server/config/server_params.h"
 #include "server/daemon/ingest_queue.h"
+#include "server/daemon/shard_exchange.h"
 #include "server/daemon/snapshot_writer.h"
 #include "server/estimator/estimator.h"
 #include "server/estimator/journal_replay.h"
 #include "server/journal/journal.h"
 #include "server/replication/leader_lease.h"
-#include "server/replication/relay_bus.h"
 #include "server/replication/stream_journal.h"
 #include "server/replication/stream_reader.h"
 #include "server/transport/bus.h"
@@ -168,7 +167,7 @@ class Daemon {
   void MaybeSendSummaries();
   void SendSummaries(const ShardSummaryMessage& summary);  // to every other shard
   // shards.forward_queries: sends a query for another shard's robot to its owner; takes a query
-  // forwarded to this shard into intake (its answer goes back through relays_); publishes on the
+  // forwarded to this shard into intake (its answer goes back through a relay); publishes on the
   // bus what an owner sent back.
   void ForwardQuery(std::string_view channel, const slamd::query_t& msg);
   void OnForwardedQuery(const std::string& subject, std::span<const std::uint8_t> payload);
@@ -252,14 +251,7 @@ class Daemon {
   std::deque<std::pair<std::int64_t, std::string>> streamed_order_;  // (steady µs, key)
   std::atomic<bool> stop_lease_{false};
   std::thread lease_thread_;
-  // Map shards: the NATS connection of the summaries (null: the bus), when they last went out
-  // (steady µs) and of which update.
-  std::unique_ptr<NatsClient> shard_nats_;
-  // shards.forward_queries: per other shard, the relay of the answers to the queries it
-  // forwarded here (<subject>.<shard>.reply).
-  std::map<std::string, std::unique_ptr<RelayBus>> relays_;
-  std::int64_t last_summaries_us_ = 0, last_summaries_sequence_ = -1;
-  ShardSummaryMessage last_summary_sent_;
+  ShardExchange shard_exchange_;  // map shards (daemon_shards.cc)
   IngestQueue queue_;
   // Journal append + queue push, so journal order = queue order; and intake_held_.
   std::mutex intake_mutex_;
@@ -271,9 +263,6 @@ class Daemon {
   // Intake counters (intake thread writes, status reads).
   std::atomic<std::int64_t> received_{0}, queued_{0}, intake_rejected_{0}, decode_errors_{0};
   std::atomic<std::int64_t> journal_errors_{0};
-  // Messages for robots another shard owns (dropped), summaries sent and their bytes.
-  std::atomic<std::int64_t> not_owned_{0}, summaries_sent_{0}, summary_bytes_sent_{0};
-  std::atomic<std::int64_t> queries_forwarded_{0};
   std::mutex reject_log_mutex_;
   std::int64_t rejects_unlogged_ = 0, reject_logged_us_ = 0;
   std::array<std::atomic<std::int64_t>, kNumRejectReasonCodes> intake_rejects_by_reason_{};

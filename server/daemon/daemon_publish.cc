@@ -185,10 +185,10 @@ void Daemon::PublishStatus(const EstimateSnapshot& snap) {
   out.replication_holds = replication_holds_;
   out.replicated_batches = replica_ ? replica_->batches_published() : 0;
   out.replication_pending_bytes = replica_ ? replica_->pending_bytes() : 0;
-  out.shard_not_owned = not_owned_;
-  out.shard_summaries_sent = summaries_sent_;
-  out.shard_queries_forwarded = queries_forwarded_;
-  out.shard_summary_bytes = summary_bytes_sent_;
+  out.shard_not_owned = shard_exchange_.not_owned;
+  out.shard_summaries_sent = shard_exchange_.summaries_sent;
+  out.shard_queries_forwarded = shard_exchange_.queries_forwarded;
+  out.shard_summary_bytes = shard_exchange_.summary_bytes;
   out.chi2 = snap.chi2;
   out.residual_dimension = snap.residual_dimension;
   out.settled = snap.settled;

@@ -55,10 +55,10 @@ core::Status Daemon::StartShards() {
   core::Result<std::unique_ptr<NatsClient>> client =
       NatsClient::Connect({.servers = SplitServers(params_.shards.servers)});
   if (!client.ok()) return client.status();
-  shard_nats_ = std::move(client).value();
+  shard_exchange_.nats = std::move(client).value();
   const std::string subject = params_.shards.subject + "." + shards.self;
-  SLAMD_RETURN_IF_ERROR(
-      shard_nats_->Subscribe(subject, [this, subject](std::span<const std::uint8_t> bytes) {
+  SLAMD_RETURN_IF_ERROR(shard_exchange_.nats->Subscribe(
+      subject, [this, subject](std::span<const std::uint8_t> bytes) {
         slamd::shard_summary_t msg;
         const core::Status decoded = internal::DecodeAs(bytes, &msg);
         const std::string channel = "nats:" + subject;
@@ -73,16 +73,17 @@ core::Status Daemon::StartShards() {
   log_->info("shard '{}': summaries on NATS {} ({})", shards.self, subject, params_.shards.servers);
   if (!params_.shards.forward_queries) return core::Status::Ok();
   for (const std::string& neighbour : shards.Neighbours()) {
-    relays_[neighbour] = std::make_unique<RelayBus>(
-        shard_nats_.get(), params_.shards.subject + "." + neighbour + ".reply", channels_.prefix);
+    shard_exchange_.relays[neighbour] = std::make_unique<RelayBus>(
+        shard_exchange_.nats.get(), params_.shards.subject + "." + neighbour + ".reply",
+        channels_.prefix);
   }
   const std::string queries = subject + ".query", replies = subject + ".reply";
-  SLAMD_RETURN_IF_ERROR(
-      shard_nats_->Subscribe(queries, [this, queries](std::span<const std::uint8_t> payload) {
+  SLAMD_RETURN_IF_ERROR(shard_exchange_.nats->Subscribe(
+      queries, [this, queries](std::span<const std::uint8_t> payload) {
         OnForwardedQuery(queries, payload);
       }));
-  SLAMD_RETURN_IF_ERROR(
-      shard_nats_->Subscribe(replies, [this, replies](std::span<const std::uint8_t> payload) {
+  SLAMD_RETURN_IF_ERROR(shard_exchange_.nats->Subscribe(
+      replies, [this, replies](std::span<const std::uint8_t> payload) {
         OnRelayedReply(replies, payload);
       }));
   log_->info("shard '{}': other shards' queries forwarded to them, theirs taken on NATS {}",
@@ -96,11 +97,11 @@ void Daemon::ForwardQuery(std::string_view channel, const slamd::query_t& msg) {
   std::vector<std::uint8_t> bytes;
   core::Status s = Encode(msg, &bytes);
   if (s.ok()) {
-    s = shard_nats_->Publish(params_.shards.subject + "." + owner + ".query",
-                             Frame(shards.self, bytes));
+    s = shard_exchange_.nats->Publish(params_.shards.subject + "." + owner + ".query",
+                                      Frame(shards.self, bytes));
   }
   if (s.ok()) {
-    ++queries_forwarded_;
+    ++shard_exchange_.queries_forwarded;
     return;
   }
   RejectQuery({RejectReason::kShardUnavailable,
@@ -144,8 +145,9 @@ void Daemon::OnRelayedReply(const std::string& subject, std::span<const std::uin
 
 Bus& Daemon::ReplyBus(const std::string& reply_shard) {
   if (reply_shard.empty()) return *bus_;
-  const auto it = relays_.find(reply_shard);
-  SLAMD_CHECK(it != relays_.end()) << "a query forwarded by unknown shard '" << reply_shard << "'";
+  const auto it = shard_exchange_.relays.find(reply_shard);
+  SLAMD_CHECK(it != shard_exchange_.relays.end())
+      << "a query forwarded by unknown shard '" << reply_shard << "'";
   return *it->second;
 }
 
@@ -154,12 +156,12 @@ void Daemon::MaybeSendSummaries() {
   if (!shards.sharded()) return;
   const std::int64_t now = SteadyMicros();
   const std::int64_t sequence = estimator_->snapshot()->update_sequence;
-  if (sequence == last_summaries_sequence_ ||
-      now - last_summaries_us_ < params_.shards.summary_every_ms * std::int64_t{1000}) {
+  if (sequence == shard_exchange_.last_sent_sequence ||
+      now - shard_exchange_.last_sent_us < params_.shards.summary_every_ms * std::int64_t{1000}) {
     return;
   }
-  last_summaries_us_ = now;
-  last_summaries_sequence_ = sequence;
+  shard_exchange_.last_sent_us = now;
+  shard_exchange_.last_sent_sequence = sequence;
   core::Result<std::optional<ShardSummaryMessage>> summary = estimator_->ShardSummary(WallMicros());
   if (!summary.ok()) {
     log_->warn("shard summary: {}", summary.status().ToString());
@@ -167,11 +169,11 @@ void Daemon::MaybeSendSummaries() {
   }
   // Estimates are solved to the wildfire threshold: closer than that is no news.
   if (!summary->has_value() ||
-      !SummaryChanged(last_summary_sent_, **summary, params_.isam2.wildfire_threshold)) {
+      !SummaryChanged(shard_exchange_.last_sent, **summary, params_.isam2.wildfire_threshold)) {
     return;
   }
   SendSummaries(**summary);
-  last_summary_sent_ = std::move(**summary);
+  shard_exchange_.last_sent = std::move(**summary);
 }
 
 void Daemon::SendSummaries(const ShardSummaryMessage& summary) {
@@ -182,16 +184,17 @@ void Daemon::SendSummaries(const ShardSummaryMessage& summary) {
     msg.to_shard = neighbour;
     core::Status s = Encode(msg, &bytes);
     if (s.ok()) {
-      s = shard_nats_ ? shard_nats_->Publish(params_.shards.subject + "." + neighbour, bytes)
-                      : bus_->Publish(channels_.Inbound<ShardSummarySpec>(), bytes);
+      s = shard_exchange_.nats
+              ? shard_exchange_.nats->Publish(params_.shards.subject + "." + neighbour, bytes)
+              : bus_->Publish(channels_.Inbound<ShardSummarySpec>(), bytes);
     }
     if (!s.ok()) {
       log_->warn("shard summary for '{}' ({} poses, {} bytes): {}", neighbour,
                  summary.poses.size(), bytes.size(), s.ToString());
       continue;
     }
-    ++summaries_sent_;
-    summary_bytes_sent_ += static_cast<std::int64_t>(bytes.size());
+    ++shard_exchange_.summaries_sent;
+    shard_exchange_.summary_bytes += static_cast<std::int64_t>(bytes.size());
   }
 }
 

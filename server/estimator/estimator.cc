@@ -476,7 +476,7 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
     return;
   }
   CommitCamerasAndTracks(&result);
-  GrowShardBoundary(s);
+  shard_boundary_.Grow(s.factors, s.ids);
   for (const auto& [position, id, first] : s.ids) {
     applied_[id] = static_cast<int>(solver_index_.size());
     applied_factors_.push_back({id, first, s.factors[position]->dim()});

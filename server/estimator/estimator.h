@@ -67,6 +67,7 @@
 #include "server/estimator/estimator_params.h"
 #include "server/estimator/reduced_graph.h"
 #include "server/estimator/robot_registry.h"
+#include "server/estimator/shard_boundary.h"
 #include "server/messages/inbound.h"
 #include "server/messages/landmark_tracks.h"
 #include "server/snapshot/estimate_snapshot.h"
@@ -145,9 +146,8 @@ class Estimator {
   core::Isam2::RefineResult Refine(double budget_s,
                                    int max_rounds = std::numeric_limits<int>::max());
 
-  // Map shards (estimator_shards.cc): what this shard's own factors say about its boundary (the
-  // poses it shares with any shard), less the summaries it received (separator_summary.h), for
-  // every other shard (to_shard empty); nullopt when it shares nothing yet.
+  // Map shards (estimator_shards.cc): its own factors' marginal on its boundary (shard_boundary.h)
+  // less the summaries it received, for every other shard; nullopt when it shares nothing yet.
   core::Result<std::optional<ShardSummaryMessage>> ShardSummary(std::int64_t utime);
 
   std::shared_ptr<const EstimateSnapshot> snapshot() const { return snapshot_; }  // never null
@@ -247,13 +247,6 @@ class Estimator {
   // After a successful update: the batch's aliases and merged measurements; forgets aliases
   // beyond each robot's keep_aliases (and the merged measurements that named them).
   void CommitReduced(Staged* s);
-  // Map shards (estimator_shards.cc): whether `k` is a pose of another shard's robot; the
-  // boundary grown by one factor (own: every pose of one that names another shard's pose;
-  // a received summary: its own poses), and by every factor of an applied update, so that
-  // replaying the journal grows it as the live run did.
-  bool ForeignPose(core::Key k) const;
-  void GrowShardBoundary(const core::Factor& f, bool received_summary);
-  void GrowShardBoundary(const Staged& s);
   // The newest pose of every anchored robot (its anchor when an alias): what updates touch next.
   std::vector<core::Key> NewestPoses(const Staged* s = nullptr) const;
   // Logs a successful live update for the rebuild in flight (if any).
@@ -291,7 +284,7 @@ class Estimator {
   mutable ReducedGraphState reduced_;  // NearNode rebuilds its grid
   std::int64_t sequence_ = 0;
   std::int64_t window_sequence_ = 0;  // the update sequence the window last ran at
-  std::set<core::Key> shard_boundary_;  // ShardSummary's boundary so far (it never shrinks)
+  ShardBoundary shard_boundary_{params_.shards, registry_};  // what ShardSummary is on
   std::int64_t num_factors_ = 0;
   std::int64_t residual_dimension_ = 0;
   bool settled_ = true;

@@ -55,7 +55,7 @@ EstimatorState Estimator::ExportState() const {
   state.counters = counters_;
   state.num_factors = num_factors_;
   state.residual_dimension = residual_dimension_;
-  state.shard_boundary.assign(shard_boundary_.begin(), shard_boundary_.end());
+  state.shard_boundary.assign(shard_boundary_.keys().begin(), shard_boundary_.keys().end());
   return state;
 }
 
@@ -152,7 +152,7 @@ core::Result<std::unique_ptr<Estimator>> Estimator::Restore(const EstimatorParam
   e->window_sequence_ = state.update_sequence;
   e->num_factors_ = state.num_factors;
   e->residual_dimension_ = state.residual_dimension;
-  e->shard_boundary_.insert(state.shard_boundary.begin(), state.shard_boundary.end());
+  e->shard_boundary_.Insert(state.shard_boundary.begin(), state.shard_boundary.end());
   e->settled_ = false;
   e->snapshot_.reset();
   e->PublishSnapshot(false);

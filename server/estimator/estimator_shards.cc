@@ -1,5 +1,4 @@
 // Estimator::ShardSummary: the message a map shard sends every other shard (docs/SCALING.md).
-#include <algorithm>
 #include <set>
 
 #include "core/factors/linear_container_factor.h"
@@ -7,32 +6,6 @@
 #include "server/estimator/estimator.h"
 
 namespace slamd::server {
-
-bool Estimator::ForeignPose(core::Key k) const {
-  return core::KeySymbol(k) == 'x' && !params_.shards.Owns(registry_.Name(core::KeyRobot(k)));
-}
-
-void Estimator::GrowShardBoundary(const core::Factor& f, bool received_summary) {
-  const core::KeyVector& keys = f.keys();
-  if (received_summary) {
-    for (core::Key k : keys) {
-      if (core::KeySymbol(k) == 'x' && !ForeignPose(k)) shard_boundary_.insert(k);
-    }
-  } else if (std::any_of(keys.begin(), keys.end(), [&](core::Key k) { return ForeignPose(k); })) {
-    for (core::Key k : keys) {
-      if (core::KeySymbol(k) == 'x') shard_boundary_.insert(k);
-    }
-  }
-}
-
-void Estimator::GrowShardBoundary(const Staged& s) {
-  if (!params_.shards.sharded()) return;
-  std::vector<bool> received(s.factors.size(), false);
-  for (const auto& [position, id, first] : s.ids) {
-    received[position] = std::get<0>(id) == ShardSummarySpec::kIdentity;
-  }
-  for (std::size_t i = 0; i < s.factors.size(); ++i) GrowShardBoundary(*s.factors[i], received[i]);
-}
 
 core::Result<std::optional<ShardSummaryMessage>> Estimator::ShardSummary(std::int64_t utime) {
   const ShardMap& shards = params_.shards;
@@ -48,18 +21,15 @@ core::Result<std::optional<ShardSummaryMessage>> Estimator::ShardSummary(std::in
     received.push_back(isam_->factor_slots()[slot]);
     received_slots.insert(slot);
   }
-  // The boundary: both ends of its own factors on another shard's poses, and its own poses in
-  // what the others sent, grown as they were applied (GrowShardBoundary: a replayed journal
-  // grows it the same way) and by the factors in the graph (of a state restored from an older
-  // snapshot); what it was before stays while in the graph (a pose whose closure was retracted
-  // stays: the other shards may hold it only through this summary, and dropping it would leave
-  // it there with no factor). Then the keys only the received summaries name.
-  std::set<core::Key>& boundary = shard_boundary_;
-  std::erase_if(boundary, [&](core::Key k) { return !isam_->linearization_point().Contains(k); });
+  // The boundary (shard_boundary.h), grown as factors were applied, and by the factors in the
+  // graph (a state restored from an older snapshot, the summaries of removed variables); then
+  // the keys only the received summaries name.
+  shard_boundary_.KeepOnly(isam_->linearization_point());
   const auto& slots = isam_->factor_slots();
   for (std::size_t i = 0; i < slots.size(); ++i) {
-    if (slots[i]) GrowShardBoundary(*slots[i], received_slots.contains(static_cast<int>(i)));
+    if (slots[i]) shard_boundary_.Grow(*slots[i], received_slots.contains(static_cast<int>(i)));
   }
+  const std::set<core::Key>& boundary = shard_boundary_.keys();
   if (boundary.empty()) return std::optional<ShardSummaryMessage>();
   std::set<core::Key> beyond;
   for (const core::FactorPtr& f : received) {
