@@ -303,6 +303,15 @@ void Daemon::TakeOver() {
       "(the others were in the stream)",
       (SteadyMicros() - t0) * 1e-6, stream_end, estimator_->snapshot()->update_sequence,
       pending.size(), journaled, heard_count);
+  // An update of the outage's backlog relinearises in a background rebuild, and until that is
+  // swapped in the estimate can be far off: live updates meanwhile start new poses from it (a
+  // failover settled in a worse minimum that way). The first estimates are out: swap it now.
+  if (estimator_->Rebuilding()) {
+    const std::int64_t swap_t0 = SteadyMicros();
+    SwapRebuild();
+    log_->info("replication: the takeover's relinearisation swapped in after {:.3f} s",
+               (SteadyMicros() - swap_t0) * 1e-6);
+  }
 }
 
 void Daemon::StartLeaseThread() {
