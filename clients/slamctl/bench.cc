@@ -148,9 +148,9 @@ void RegisterBench(CLI::App& app) {
       ->check(CLI::IsMember({"batch", "isam2", "ba"}))
       ->capture_default_str();
   cmd->add_option("--linear-solver", opt->linear_solver,
-                  "ba: how the reduced camera system is solved: auto (dense for few cameras, "
-                  "sparse Cholesky, conjugate gradients for many), dense-schur, sparse-schur, "
-                  "iterative-schur")
+                  "ba: how the reduced camera system is solved: auto (the exact solver, dense "
+                  "for few cameras else sparse Cholesky, or conjugate gradients, whichever is "
+                  "less work per iteration), dense-schur, sparse-schur, iterative-schur")
       ->check(CLI::IsMember({"auto", "dense-schur", "sparse-schur", "iterative-schur"}))
       ->capture_default_str();
   auto ordering = std::make_shared<std::string>("auto");

@@ -18,11 +18,40 @@ namespace {
 using internal::BaProblem;
 using internal::ReducedCameraMatrix;
 
-BaLinearSolver ChooseSolver(const BundleAdjusterParams& params, int num_cameras, int block_dim) {
-  if (params.linear_solver != BaLinearSolver::kAuto) return params.linear_solver;
-  if (num_cameras * block_dim <= params.dense_max_camera_dim) return BaLinearSolver::kDenseSchur;
-  if (num_cameras <= params.sparse_max_cameras) return BaLinearSolver::kSparseSchur;
-  return BaLinearSolver::kIterativeSchur;
+// kAuto between the two exact solvers: dense while S is small.
+BaLinearSolver ExactSolver(const BundleAdjusterParams& params, int num_cameras, int block_dim) {
+  return num_cameras * block_dim <= params.dense_max_camera_dim ? BaLinearSolver::kDenseSchur
+                                                                : BaLinearSolver::kSparseSchur;
+}
+
+// kAuto: the exact solver (ExactSolver) or conjugate gradients, whichever costs less per
+// iteration by this model of its work, in seconds measured here (2 cores, OpenBLAS; D = 9;
+// the ratios matter). An exact solve assembles S point by point, one D x D product per pair of
+// cameras that see the point (33 ns), and factors it (0.04 ns per flop: CHOLMOD's supernodal
+// or Eigen's blocked LLᵀ); the iterative one assembles only the diagonal and runs conjugate
+// gradients, each iteration a pass over the observations (16 ns each). Conjugate gradients took
+// 3-60 iterations per solve on the development problems; counting 30 leans to the exact
+// solvers, which need no tolerance. Dense co-visibility (cameras around an object, a city
+// block) makes both exact steps grow with the square of the cameras per point.
+// `covisibility`: S's block pattern in the exact solver's camera order.
+BaLinearSolver AutoSolver(const BundleAdjusterParams& params, const Reconstruction& rec,
+                          int block_dim, const std::vector<std::vector<int>>& covisibility) {
+  const int n = static_cast<int>(rec.images.size());
+  const BaLinearSolver exact = ExactSolver(params, n, block_dim);
+  std::vector<double> seen_by(rec.points.size(), 0.0);
+  for (const SfmObservation& o : rec.observations) seen_by[o.point] += 1.0;
+  double pairs = 0.0;
+  for (double k : seen_by) pairs += k * (k + 1.0) / 2.0;
+  const double dim = static_cast<double>(n) * block_dim;
+  const double factor_flops = exact == BaLinearSolver::kDenseSchur
+                                  ? dim * dim * dim / 3.0
+                                  : internal::BlockCholeskyFlops(block_dim, covisibility);
+  const double scale = block_dim / 9.0;  // the measurements' D
+  const double exact_s = 33e-9 * scale * scale * pairs + 0.04e-9 * factor_flops;
+  constexpr double kExpectedCgIterations = 30.0;
+  const double iterative_s =
+      kExpectedCgIterations * 16e-9 * scale * static_cast<double>(rec.observations.size());
+  return iterative_s < exact_s ? BaLinearSolver::kIterativeSchur : exact;
 }
 
 // Preconditioned conjugate gradients on S x = b with S applied implicitly and the inverses of
@@ -81,28 +110,39 @@ double StateNorm(const State& x) {
 }
 
 template <typename Cal, bool kRefineCal>
-Result<BundleAdjusterSummary> Adjust(const BundleAdjusterParams& params, BaLinearSolver solver,
-                                     Reconstruction* rec) {
+Result<BundleAdjusterSummary> Adjust(const BundleAdjusterParams& params, Reconstruction* rec) {
   using Problem = BaProblem<Cal, kRefineCal>;
   constexpr int kD = Problem::kD;
   const Stopwatch total;
   BundleAdjusterSummary summary;
-  summary.linear_solver = solver;
   summary.camera_block_dim = kD;
   summary.num_cameras = static_cast<int>(rec->images.size());
   summary.num_points = static_cast<int>(rec->points.size());
   summary.num_observations = static_cast<int>(rec->observations.size());
 
-  Result<std::vector<int>> positions =
-      internal::CameraPositions(*rec, solver == BaLinearSolver::kSparseSchur);
+  BaLinearSolver solver = params.linear_solver;
+  if (solver == BaLinearSolver::kAuto && summary.num_cameras > params.sparse_max_cameras) {
+    solver = BaLinearSolver::kIterativeSchur;
+  }
+  const bool exact = solver != BaLinearSolver::kIterativeSchur;
+  // Cameras in a fill-reducing order whenever the sparse solver may run.
+  const bool fill_reducing =
+      solver == BaLinearSolver::kSparseSchur ||
+      (solver == BaLinearSolver::kAuto &&
+       ExactSolver(params, summary.num_cameras, kD) == BaLinearSolver::kSparseSchur);
+  Result<std::vector<int>> positions = internal::CameraPositions(*rec, fill_reducing);
   if (!positions.ok()) return positions.status();
   WorkerPool pool(params.num_threads - 1);
   Problem problem(*rec, params.robust, std::move(positions).value(), &pool);
   typename Problem::State x = Problem::StateOf(*rec);
 
+  std::vector<std::vector<int>> covisibility;
+  if (exact) covisibility = problem.CoVisibility();
+  if (solver == BaLinearSolver::kAuto) solver = AutoSolver(params, *rec, kD, covisibility);
+  summary.linear_solver = solver;
   std::unique_ptr<ReducedCameraMatrix> s;
   if (solver != BaLinearSolver::kIterativeSchur) {
-    s = std::make_unique<ReducedCameraMatrix>(kD, problem.CoVisibility());
+    s = std::make_unique<ReducedCameraMatrix>(kD, std::move(covisibility));
   }
   std::vector<typename Problem::CameraMatrix> diagonal;
   Eigen::VectorXd b, dc;
@@ -196,10 +236,8 @@ Result<BundleAdjusterSummary> BundleAdjust(const BundleAdjusterParams& params,
   if (Status s = internal::CheckAdjustable(*reconstruction, "bundle adjustment"); !s.ok()) {
     return s;
   }
-  const int n = static_cast<int>(reconstruction->images.size());
   return internal::WithProblemType(params, *reconstruction, [&]<typename Cal, bool kRefineCal>() {
-    const int block_dim = BaProblem<Cal, kRefineCal>::kD;
-    return Adjust<Cal, kRefineCal>(params, ChooseSolver(params, n, block_dim), reconstruction);
+    return Adjust<Cal, kRefineCal>(params, reconstruction);
   });
 }
 

@@ -12,8 +12,9 @@ namespace slamd::core {
 
 // How the reduced camera system S δc = b (the points eliminated) is solved.
 enum class BaLinearSolver {
-  kAuto,            // dense below `dense_max_camera_dim`, sparse up to `sparse_max_cameras`,
-                    // iterative above
+  kAuto,            // the exact solver (dense up to `dense_max_camera_dim`, else sparse) or the
+                    // iterative one, whichever a model of the work per iteration finds cheaper
+                    // (bundle_adjuster.cc); iterative above `sparse_max_cameras`
   kDenseSchur,      // S formed as a dense matrix, Cholesky (LLᵀ) by Eigen
   kSparseSchur,     // S formed block-sparse (camera co-visibility), Cholesky by CHOLMOD in a
                     // fill-reducing camera order
@@ -26,10 +27,10 @@ Result<BaLinearSolver> ParseBaLinearSolver(const std::string& name);
 
 struct BundleAdjusterParams {
   BaLinearSolver linear_solver = BaLinearSolver::kAuto;
-  // kAuto: dense while the reduced camera system has at most this many scalar unknowns
-  // (cameras × block size; 2000 unknowns = 32 MB of matrix). >= 0.
+  // kAuto: the exact solver is dense while the reduced camera system has at most this many
+  // scalar unknowns (cameras × block size; 2000 unknowns = 32 MB of matrix). >= 0.
   int dense_max_camera_dim = 2000;
-  // kAuto: sparse Cholesky up to this many cameras, conjugate gradients above. >= 1.
+  // kAuto: conjugate gradients above this many cameras whatever the model says. >= 1.
   int sparse_max_cameras = 5000;
   // Threads for the Jacobians, the Schur complement and the implicit products (the caller's
   // thread is one of them). >= 1.

@@ -4,6 +4,7 @@
 #include <algorithm>
 
 #include "core/base/check.h"
+#include "core/linear/partial_cholesky.h"
 
 namespace slamd::core::internal {
 
@@ -49,19 +50,25 @@ Eigen::MatrixXd ReducedCameraMatrix::ToDense() const {
 }
 
 Status ReducedCameraMatrix::SolveDense(const Eigen::VectorXd& b, Eigen::VectorXd* x) const {
-  const int n = num_cameras();
-  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(dim(), dim());  // pairs that share no point: 0
+  const int n = num_cameras(), dim = d_ * n;
+  // The lower triangle (what PartialCholeskyLower reads): block (k, i) = block (i, k)ᵀ, and the
+  // diagonal blocks' lower triangles from their upper ones. Pairs that share no point: 0.
+  Eigen::MatrixXd S = Eigen::MatrixXd::Zero(dim, dim);
+  Eigen::VectorXd ref(dim);
   for (int i = 0; i < n; ++i) {
     for (long blk = row_start_[i]; blk < row_start_[i + 1]; ++blk) {
-      S.block(d_ * i, d_ * col_[blk], d_, d_) =
-          Eigen::Map<const Eigen::MatrixXd>(Block(blk), d_, d_);
+      S.block(d_ * col_[blk], d_ * i, d_, d_) =
+          Eigen::Map<const Eigen::MatrixXd>(Block(blk), d_, d_).transpose();
     }
   }
-  const Eigen::LLT<Eigen::MatrixXd, Eigen::Upper> llt(S);
-  if (llt.info() != Eigen::Success) {
+  ref = S.diagonal().cwiseAbs();
+  // LLᵀ, blocked, its wide rank updates in the BLAS (partial_cholesky.h); fails on a pivot <= 0.
+  if (PartialCholeskyLower(S.data(), dim, dim, dim, ref.data(), 0.0) >= 0) {
     return NumericalFailure("reduced camera system not positive definite");
   }
-  *x = llt.solve(b);
+  *x = b;
+  S.triangularView<Eigen::Lower>().solveInPlace(*x);
+  S.triangularView<Eigen::Lower>().adjoint().solveInPlace(*x);
   return Status::Ok();
 }
 
@@ -133,6 +140,34 @@ void ReducedCameraMatrix::Pin(int k) {
     if (blk >= 0) std::fill_n(Block(blk) + r * d_, d_, 0.0);
   }
   Block(row_start_[i])[r * d_ + r] = 1.0;  // a row's first block is its diagonal one
+}
+
+double BlockCholeskyFlops(int block_dim, const std::vector<std::vector<int>>& neighbours) {
+  const int n = static_cast<int>(neighbours.size());
+  // from_children[j]: the patterns of the factor's columns whose elimination-tree parent is j
+  // (concatenated; j's own column takes their union, less j, with its row of S).
+  std::vector<std::vector<int>> from_children(n);
+  std::vector<int> mark(n, -1), column;
+  const double d3 = static_cast<double>(block_dim) * block_dim * block_dim;
+  double flops = 0.0;
+  for (int j = 0; j < n; ++j) {
+    column.clear();
+    const auto add = [&](int k) {
+      if (k != j && mark[k] != j) {
+        mark[k] = j;
+        column.push_back(k);
+      }
+    };
+    for (int k : neighbours[j]) add(k);
+    for (int k : from_children[j]) add(k);
+    std::vector<int>().swap(from_children[j]);
+    const double c = static_cast<double>(column.size());
+    flops += (c + 1.0) * (c + 1.0) * d3;
+    if (column.empty()) continue;
+    const int parent = *std::min_element(column.begin(), column.end());
+    from_children[parent].insert(from_children[parent].end(), column.begin(), column.end());
+  }
+  return flops;
 }
 
 }  // namespace slamd::core::internal

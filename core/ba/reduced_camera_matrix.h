@@ -73,4 +73,10 @@ class ReducedCameraMatrix {
   std::unique_ptr<SparseCholesky> cholesky_;
 };
 
+// Floating-point operations of the LLᵀ of a matrix of D x D blocks with the upper block pattern
+// `neighbours` (as the constructor takes it), eliminated in that order: a symbolic factorisation
+// of the block pattern, column j of the factor costing about (c_j + 1)² D³ for its c_j blocks
+// below the diagonal. O(blocks of the factor).
+double BlockCholeskyFlops(int block_dim, const std::vector<std::vector<int>>& neighbours);
+
 }  // namespace slamd::core::internal

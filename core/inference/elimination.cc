@@ -7,8 +7,8 @@
 
 #include "core/base/inlined_vector.h"
 #include "core/base/param_check.h"
-#include "core/inference/partial_cholesky.h"
 #include "core/inference/subtree_split.h"
+#include "core/linear/partial_cholesky.h"
 
 namespace slamd::core {
 namespace {

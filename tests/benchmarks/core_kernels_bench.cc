@@ -14,9 +14,9 @@
 
 #include "core/factors/between_factor.h"
 #include "core/factors/prior_factor.h"
-#include "core/inference/partial_cholesky.h"
 #include "core/io/dataset.h"
 #include "core/isam/isam2.h"
+#include "core/linear/partial_cholesky.h"
 
 namespace slamd::core {
 namespace {
@@ -43,7 +43,7 @@ void BM_LinearizeBetweenPose3(benchmark::State& state) {
 }
 BENCHMARK(BM_LinearizeBetweenPose3);
 
-// The dense kernel of clique elimination (core/inference/partial_cholesky.h): k of n columns of
+// The dense kernel of clique elimination (core/linear/partial_cholesky.h): k of n columns of
 // a symmetric positive-definite matrix eliminated in place, as a clique with k frontal and n - k
 // separator (+ right-hand side) scalars is. Counter GFLOPs: Σ_{j<k} (n - j)² flops (each column
 // updates the trailing lower triangle, a multiply and a subtraction per entry) per second.

@@ -1,5 +1,5 @@
 // Partial Cholesky factorisation of a dense symmetric matrix: the numeric kernel of clique
-// elimination (multifrontal method). Internal to core/inference.
+// elimination (multifrontal method) and of the dense reduced camera system. Internal to core.
 //
 // Given symmetric M (n x n, only the LOWER triangle is read and written, column-major with
 // leading dimension ld) partitioned as [[M_ff, .], [M_rf, M_rr]] with f = the first `k` rows and

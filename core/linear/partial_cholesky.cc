@@ -1,4 +1,4 @@
-#include "core/inference/partial_cholesky.h"
+#include "core/linear/partial_cholesky.h"
 
 #include <cblas.h>
 
