@@ -124,7 +124,7 @@ Result<BundleAdjusterSummary> Adjust(const BundleAdjusterParams& params, Reconst
   if (solver == BaLinearSolver::kAuto && summary.num_cameras > params.sparse_max_cameras) {
     solver = BaLinearSolver::kIterativeSchur;
   }
-  const bool exact = solver != BaLinearSolver::kIterativeSchur;
+  const bool may_be_exact = solver != BaLinearSolver::kIterativeSchur;
   // Cameras in a fill-reducing order whenever the sparse solver may run.
   const bool fill_reducing =
       solver == BaLinearSolver::kSparseSchur ||
@@ -136,14 +136,16 @@ Result<BundleAdjusterSummary> Adjust(const BundleAdjusterParams& params, Reconst
   Problem problem(*rec, params.robust, std::move(positions).value(), &pool);
   typename Problem::State x = Problem::StateOf(*rec);
 
-  std::vector<std::vector<int>> covisibility;
-  if (exact) covisibility = problem.CoVisibility();
-  if (solver == BaLinearSolver::kAuto) solver = AutoSolver(params, *rec, kD, covisibility);
-  summary.linear_solver = solver;
   std::unique_ptr<ReducedCameraMatrix> s;
-  if (solver != BaLinearSolver::kIterativeSchur) {
-    s = std::make_unique<ReducedCameraMatrix>(kD, std::move(covisibility));
+  {
+    std::vector<std::vector<int>> covisibility;  // not kept when the iterative solver runs
+    if (may_be_exact) covisibility = problem.CoVisibility();
+    if (solver == BaLinearSolver::kAuto) solver = AutoSolver(params, *rec, kD, covisibility);
+    if (solver != BaLinearSolver::kIterativeSchur) {
+      s = std::make_unique<ReducedCameraMatrix>(kD, std::move(covisibility));
+    }
   }
+  summary.linear_solver = solver;
   std::vector<typename Problem::CameraMatrix> diagonal;
   Eigen::VectorXd b, dc;
   std::vector<Vector3> dp;
