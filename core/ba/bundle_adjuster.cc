@@ -33,7 +33,7 @@ BaLinearSolver ExactSolver(const BundleAdjusterParams& params, int num_cameras, 
 // 3-60 iterations per solve on the development problems; counting 30 leans to the exact
 // solvers, which need no tolerance. Dense co-visibility (cameras around an object, a city
 // block) makes both exact steps grow with the square of the cameras per point.
-// `covisibility`: S's block pattern in the exact solver's camera order.
+// `covisibility`: S's block pattern in the exact solver's camera order (read when it is sparse).
 BaLinearSolver AutoSolver(const BundleAdjusterParams& params, const Reconstruction& rec,
                           int block_dim, const std::vector<std::vector<int>>& covisibility) {
   const int n = static_cast<int>(rec.images.size());
@@ -124,7 +124,6 @@ Result<BundleAdjusterSummary> Adjust(const BundleAdjusterParams& params, Reconst
   if (solver == BaLinearSolver::kAuto && summary.num_cameras > params.sparse_max_cameras) {
     solver = BaLinearSolver::kIterativeSchur;
   }
-  const bool may_be_exact = solver != BaLinearSolver::kIterativeSchur;
   // Cameras in a fill-reducing order whenever the sparse solver may run.
   const bool fill_reducing =
       solver == BaLinearSolver::kSparseSchur ||
@@ -138,10 +137,15 @@ Result<BundleAdjusterSummary> Adjust(const BundleAdjusterParams& params, Reconst
 
   std::unique_ptr<ReducedCameraMatrix> s;
   {
-    std::vector<std::vector<int>> covisibility;  // not kept when the iterative solver runs
-    if (may_be_exact) covisibility = problem.CoVisibility();
-    if (solver == BaLinearSolver::kAuto) solver = AutoSolver(params, *rec, kD, covisibility);
+    // S's pattern (Σ over points of their cameras squared to build): for the choice only when
+    // it would be sparse, and not kept when the iterative solver runs.
+    std::vector<std::vector<int>> covisibility;
+    if (solver == BaLinearSolver::kAuto) {
+      if (fill_reducing) covisibility = problem.CoVisibility();
+      solver = AutoSolver(params, *rec, kD, covisibility);
+    }
     if (solver != BaLinearSolver::kIterativeSchur) {
+      if (covisibility.empty()) covisibility = problem.CoVisibility();
       s = std::make_unique<ReducedCameraMatrix>(kD, std::move(covisibility));
     }
   }
