@@ -10,6 +10,7 @@ namespace slamd::core {
 
 Status ReconstructionStreamParams::Validate() const {
   SLAMD_PARAM_CHECK(ReconstructionStreamParams, min_views, >=, 2);
+  SLAMD_PARAM_CHECK(ReconstructionStreamParams, min_registration_points, >=, 3);
   SLAMD_PARAM_CHECK(ReconstructionStreamParams, min_parallax_deg, >=, 0.0);
   SLAMD_PARAM_CHECK(ReconstructionStreamParams, anchor_sigma, >, 0.0);
   SLAMD_PARAM_CHECK(ReconstructionStreamParams, pixel_sigma, >, 0.0);
@@ -42,7 +43,9 @@ ReconstructionStream::ReconstructionStream(Reconstruction r, ReconstructionStrea
 
 bool ReconstructionStream::Determined(int point) const {
   const std::vector<int>& held = held_[point];
-  if (static_cast<int>(held.size()) < params_.min_views) return false;
+  // The initial pair's points enter with its two views (nothing else could fix the scale).
+  const int views = scale_fixed_ && !registering_initial_pair_ ? params_.min_views : 2;
+  if (static_cast<int>(held.size()) < views) return false;
   const double min_cos = std::cos(params_.min_parallax_deg * M_PI / 180.0);
   const Point3& X = r_.points[point].position;
   for (std::size_t a = 0; a < held.size(); ++a) {
@@ -55,27 +58,43 @@ bool ReconstructionStream::Determined(int point) const {
   return false;
 }
 
-ReconstructionStep ReconstructionStream::Next() {
-  SLAMD_CHECK(next_ < num_steps()) << "ReconstructionStream: no step " << next_;
-  const int i = next_++;
-  ReconstructionStep step;
+bool ReconstructionStream::Registrable(int image) {
+  if (image == 0) return true;  // the anchor
+  int points = 0;
+  for (int o : observations_of_image_[image]) {
+    const int j = r_.observations[o].point;
+    if (point_in_[j]) {
+      ++points;
+    } else if (!scale_fixed_) {  // the first pair: the points it would determine
+      held_[j].push_back(o);
+      points += Determined(j) ? 1 : 0;
+      held_[j].pop_back();
+    }
+  }
+  return points >= params_.min_registration_points;
+}
+
+void ReconstructionStream::Register(int i, ReconstructionStep* step) {
+  step->images_entered.push_back(i);
+  registering_initial_pair_ = i != 0 && !scale_fixed_;
   const SfmImage& image = r_.images[i];
   const Key pose = keys_.images[i];
-  SLAMD_CHECK(step.values.Insert(pose, image.pose).ok());
+  SLAMD_CHECK(step->values.Insert(pose, image.pose).ok());
   if (i == 0) {
-    step.factors.Emplace<PriorFactor<Pose3>>(
+    step->factors.Emplace<PriorFactor<Pose3>>(
         pose, image.pose, NoiseModel::Isotropic(6, params_.anchor_sigma).value());
   }
   if (params_.refine_intrinsics && !intrinsics_in_[image.intrinsics]) {
     intrinsics_in_[image.intrinsics] = 1;
     const Key calibration = keys_.calibrations[image.intrinsics];
     SLAMD_CHECK(
-        step.values.Insert(calibration, CalibrationVariable(r_.intrinsics[image.intrinsics])).ok());
+        step->values.Insert(calibration, CalibrationVariable(r_.intrinsics[image.intrinsics]))
+            .ok());
     if (i == 0) {
       std::visit(
           [&](const auto& k) {
             using Cal = std::decay_t<decltype(k)>;
-            step.factors.Emplace<PriorFactor<Cal>>(
+            step->factors.Emplace<PriorFactor<Cal>>(
                 calibration, k, NoiseModel::Isotropic(Cal::kDim, params_.anchor_sigma).value());
           },
           r_.intrinsics[image.intrinsics].calibration);
@@ -83,8 +102,8 @@ ReconstructionStep ReconstructionStream::Next() {
   }
   auto add_observation = [&](int o) {
     AddObservationFactor(r_, r_.observations[o], keys_, pixel_noise_, params_.robust,
-                         &step.factors);
-    ++step.observations_entered;
+                         &step->factors);
+    ++step->observations_entered;
   };
   for (int o : observations_of_image_[i]) {
     const int j = r_.observations[o].point;
@@ -96,9 +115,9 @@ ReconstructionStep ReconstructionStream::Next() {
     if (!Determined(j)) continue;
     point_in_[j] = 1;
     ++points_in_;
-    ++step.points_entered;
+    ++step->points_entered;
     const Point3& X = r_.points[j].position;
-    SLAMD_CHECK(step.values.Insert(keys_.points[j], X).ok());
+    SLAMD_CHECK(step->values.Insert(keys_.points[j], X).ok());
     for (int h : held_[j]) add_observation(h);
     held_[j].clear();
     if (!scale_fixed_) {  // the range from image 0
@@ -107,8 +126,28 @@ ReconstructionStep ReconstructionStream::Next() {
       const Matrix3 information =
           u * u.transpose() / (params_.anchor_sigma * params_.anchor_sigma) +
           1e-6 * Matrix3::Identity();
-      step.factors.Emplace<PriorFactor<Point3>>(keys_.points[j], X,
-                                                NoiseModel::FromInformation(information).value());
+      step->factors.Emplace<PriorFactor<Point3>>(keys_.points[j], X,
+                                                 NoiseModel::FromInformation(information).value());
+    }
+  }
+  registering_initial_pair_ = false;
+}
+
+ReconstructionStep ReconstructionStream::Next() {
+  SLAMD_CHECK(next_ < num_steps()) << "ReconstructionStream: no step " << next_;
+  ReconstructionStep step;
+  held_images_.push_back(next_++);
+  // Registering one image puts points in that may let an earlier held one register: until none
+  // can.
+  for (bool registered = true; registered;) {
+    registered = false;
+    for (auto it = held_images_.begin(); it != held_images_.end(); ++it) {
+      if (!Registrable(*it)) continue;
+      const int image = *it;
+      held_images_.erase(it);
+      Register(image, &step);
+      registered = true;
+      break;
     }
   }
   return step;
@@ -117,7 +156,10 @@ ReconstructionStep ReconstructionStream::Next() {
 int ReconstructionStream::held_observations() const {
   int held = 0;
   for (const std::vector<int>& h : held_) held += static_cast<int>(h.size());
+  for (int image : held_images_) held += static_cast<int>(observations_of_image_[image].size());
   return held;
 }
+
+int ReconstructionStream::held_images() const { return static_cast<int>(held_images_.size()); }
 
 }  // namespace slamd::core

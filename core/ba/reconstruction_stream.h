@@ -1,10 +1,17 @@
 // A reconstruction replayed camera by camera, as a robot's camera would send it to an
-// incremental solver: step i brings image i's pose and calibration (values from the
-// reconstruction) and its observations. A point enters once it is determined: seen by at least
-// `min_views` images with at least `min_parallax_deg` between two of their rays (at the
-// reconstruction's camera centres); its observations are held until then and enter with it, its
-// initial value the reconstruction's. A point seen by fewer views, or along nearly parallel rays,
-// would leave the incremental system indeterminate (GTSAM's "indeterminant linear system").
+// incremental solver: step i brings image i and its observations. An image enters (its pose and
+// calibration, values from the reconstruction) once it is registered: it sees at least
+// `min_registration_points` points already in the graph (its pose, scale included, is then
+// determined), or, before the first point fixes the scale, that many points that become
+// determined with it. An image that is not yet registered is held, and enters at the first later
+// step after which it is (a camera that shares points only with image 0, or turned on the spot,
+// would otherwise bring a pose or a scale nothing determines). A point enters once it is
+// determined: seen by at least `min_views` registered images (the initial pair's by its two)
+// with at least `min_parallax_deg` between two of their rays (at the reconstruction's camera
+// centres); its observations are held
+// until then and enter with it, its initial value the reconstruction's. A point seen by fewer
+// views, or along nearly parallel rays, would leave the incremental system indeterminate
+// (GTSAM's "indeterminant linear system").
 //
 // Gauge: image 0's pose and (when refined) calibration have priors (sigma anchor_sigma); the scale
 // is fixed by a prior on the first point that enters along its ray from image 0 only (information
@@ -25,7 +32,8 @@
 namespace slamd::core {
 
 struct ReconstructionStreamParams {
-  int min_views = 2;              // >= 2
+  int min_views = 2;                // >= 2
+  int min_registration_points = 5;  // >= 3 (a pose from points in the graph; 5: the first pair)
   bool refine_intrinsics = true;  // calibrations as variables, or held at the file's values
   double min_parallax_deg = 1.0;  // >= 0
   double anchor_sigma = 1e-3;     // > 0
@@ -40,6 +48,7 @@ struct ReconstructionStep {
   Values values;        // the variables these factors introduce
   int points_entered = 0;
   int observations_entered = 0;  // projection factors in `factors`
+  std::vector<int> images_entered;  // registered at this step (this step's image or held ones)
 };
 
 class ReconstructionStream {
@@ -51,8 +60,10 @@ class ReconstructionStream {
   int num_steps() const { return static_cast<int>(r_.images.size()); }
   // Step `image`; steps must be taken in order 0, 1, ... (checked).
   ReconstructionStep Next();
-  // Observations held for points not (yet) in: after the last step, those never determined.
+  // Observations not (yet) in the graph: of points not yet determined and of images not yet
+  // registered; after the last step, those never determined or registered.
   int held_observations() const;
+  int held_images() const;  // images not (yet) registered
   int points_in() const { return points_in_; }
   // The graph's keys (ReconstructionKeys), e.g. for UpdateReconstruction.
   const ReconstructionGraph& keys() const { return keys_; }
@@ -60,6 +71,11 @@ class ReconstructionStream {
  private:
   ReconstructionStream(Reconstruction r, ReconstructionStreamParams params, NoiseModel pixel_noise);
   bool Determined(int point) const;
+  // Whether `image` can be registered now (class comment).
+  bool Registrable(int image);
+  // Enters `image`: its pose, calibration, the observations of points in, and the points it
+  // determines.
+  void Register(int image, ReconstructionStep* step);
 
   Reconstruction r_;
   ReconstructionStreamParams params_;
@@ -68,9 +84,11 @@ class ReconstructionStream {
   int next_ = 0;
   int points_in_ = 0;
   bool scale_fixed_ = false;
+  bool registering_initial_pair_ = false;  // Register of the image that fixes the scale
   std::vector<std::vector<int>> observations_of_image_;  // indices into r_.observations
   std::vector<std::vector<int>> held_;                   // per point, its held observations
   std::vector<char> point_in_, intrinsics_in_;
+  std::vector<int> held_images_;  // not yet registered, in order
 };
 
 }  // namespace slamd::core

@@ -70,35 +70,109 @@ TEST(ReconstructionStreamTest, Isam2SettlesAtTheBatchOptimumOfTheSameGraph) {
   EXPECT_NEAR(settled, batch.summary.final_cost, 1e-6 * batch.summary.final_cost);
 }
 
-TEST(ReconstructionStreamTest, PointsWaitForViewsAndParallax) {
-  // Three cameras: 0 and 1 at the same centre (a pure rotation), 2 a metre to the side.
+TEST(ReconstructionStreamTest, PointsWaitForViewsAndParallaxImagesForPointsIn) {
+  // Four cameras: 0 and 1 at the same centre (a pure rotation), 2 a metre to the side, 3 two
+  // metres; five points 5 m ahead, seen by all four.
   const Cal3Bundler K(500.0, 0.0, 0.0);
   Reconstruction r;
-  for (int i = 0; i < 3; ++i) r.intrinsics.push_back({.calibration = K});
-  const Point3 X(0.0, 0.0, 5.0);
   const Rot3 turned = Rot3::Exp(Vector3(0.0, 0.05, 0.0));
   r.images.push_back({.pose = Pose3(), .intrinsics = 0});
   r.images.push_back({.pose = Pose3(turned, Point3::Zero()), .intrinsics = 1});
   r.images.push_back({.pose = Pose3(Rot3(), Point3(1.0, 0.0, 0.0)), .intrinsics = 2});
-  r.points.push_back({.position = X});
-  for (int i = 0; i < 3; ++i) {
-    r.observations.push_back({.image = i, .point = 0, .uv = Project(r.images[i].pose, K, X).uv});
+  r.images.push_back({.pose = Pose3(Rot3(), Point3(2.0, 0.0, 0.0)), .intrinsics = 3});
+  for (int i = 0; i < 4; ++i) r.intrinsics.push_back({.calibration = K});
+  for (int j = 0; j < 5; ++j) {
+    const Point3 X(0.2 * j, 0.1 * (j % 2), 5.0);
+    r.points.push_back({.position = X});
+    for (int i = 0; i < 4; ++i) {
+      r.observations.push_back({.image = i, .point = j, .uv = Project(r.images[i].pose, K, X).uv});
+    }
   }
   Result<ReconstructionStream> stream = ReconstructionStream::Create(r);
   ASSERT_TRUE(stream.ok());
-  EXPECT_EQ(stream->Next().points_entered, 0);
-  EXPECT_EQ(stream->Next().points_entered, 0);  // two views, no parallax
-  EXPECT_EQ(stream->held_observations(), 2);
-  const ReconstructionStep third = stream->Next();  // 11° from camera 2
-  EXPECT_EQ(third.points_entered, 1);
-  EXPECT_EQ(third.observations_entered, 3);
+  EXPECT_EQ(stream->Next().images_entered, std::vector<int>{0});
+  // Camera 1 determines no point (no parallax with camera 0): held, and its observations.
+  const ReconstructionStep second = stream->Next();
+  EXPECT_TRUE(second.images_entered.empty());
+  EXPECT_EQ(second.points_entered, 0);
+  EXPECT_EQ(stream->held_images(), 1);
+  EXPECT_EQ(stream->held_observations(), 10);
+  // Camera 2 (11° from camera 0) determines all five: it registers, they enter with the views of
+  // cameras 0 and 2, and camera 1, now seeing five points in, registers after them.
+  const ReconstructionStep third = stream->Next();
+  EXPECT_EQ(third.images_entered, (std::vector<int>{2, 1}));
+  EXPECT_EQ(third.points_entered, 5);
+  EXPECT_EQ(third.observations_entered, 15);
   EXPECT_EQ(stream->held_observations(), 0);
+  EXPECT_EQ(stream->held_images(), 0);
 
-  // Asking for three views: the same point waits for the third either way.
+  // Asking for three views: the initial pair's points still enter with its two (they fix the
+  // scale); a point first seen after them waits for a third view.
+  r.points.push_back({.position = Point3(0.3, -0.2, 6.0)});
+  for (int i : {2, 3}) {
+    r.observations.push_back(
+        {.image = i, .point = 5, .uv = Project(r.images[i].pose, K, r.points[5].position).uv});
+  }
   Result<ReconstructionStream> three = ReconstructionStream::Create(r, {.min_views = 3});
   ASSERT_TRUE(three.ok());
-  EXPECT_EQ(three->Next().points_entered + three->Next().points_entered, 0);
-  EXPECT_EQ(three->Next().points_entered, 1);
+  for (int i = 0; i < 2; ++i) EXPECT_EQ(three->Next().points_entered, 0) << "step " << i;
+  EXPECT_EQ(three->Next().points_entered, 5);
+  EXPECT_EQ(three->Next().points_entered, 0);  // point 5: two views, held
+  EXPECT_EQ(three->held_observations(), 2);
+}
+
+// Camera 2 shares points only with camera 0 and none already in: had it entered at its step, it
+// would have brought a second scale nothing fixes (the update indeterminate, as a sim city's
+// third image did). Cameras 1 m apart looking along +z; cluster A seen by cameras 0, 1 and 3,
+// B by 0 and 2, C by 1, 2 and 3. Camera 2 waits for camera 3, which registers on A and
+// determines C, through which camera 2 registers and B enters. Every update succeeds and the
+// increments settle at the batch optimum of the same graph.
+TEST(ReconstructionStreamTest, ACameraWhoseScaleNothingFixesWaitsUntilPointsInFixIt) {
+  const Cal3Bundler K(500.0, 0.0, 0.0);
+  Reconstruction r;
+  for (int i = 0; i < 4; ++i) {
+    r.images.push_back({.pose = Pose3(Rot3(), Point3(i, 0.0, 0.0)), .intrinsics = i});
+    r.intrinsics.push_back({.calibration = K});
+  }
+  const std::vector<std::vector<int>> clusters = {{0, 1, 3}, {0, 2}, {1, 2, 3}};
+  for (const std::vector<int>& seen_by : clusters) {
+    for (int j = 0; j < 8; ++j) {
+      const Point3 X(-0.5 + 0.5 * j, 0.3 * std::sin(j), 8.0 + 0.5 * (j % 3));
+      r.points.push_back({.position = X});
+      for (int i : seen_by) {
+        r.observations.push_back({.image = i,
+                                  .point = static_cast<int>(r.points.size()) - 1,
+                                  .uv = Project(r.images[i].pose, K, X).uv});
+      }
+    }
+  }
+  testing::BaPerturb(&r, 0.002, 0.02, 5);
+  Result<ReconstructionStream> stream =
+      ReconstructionStream::Create(r, {.refine_intrinsics = false});
+  ASSERT_TRUE(stream.ok());
+  Result<std::unique_ptr<Isam2>> isam = Isam2::Create({});
+  ASSERT_TRUE(isam.ok());
+  FactorGraph graph;
+  Values initial;
+  std::vector<std::vector<int>> entered;
+  for (int i = 0; i < stream->num_steps(); ++i) {
+    const ReconstructionStep step = stream->Next();
+    entered.push_back(step.images_entered);
+    const Isam2Result u = (*isam)->Update(step.factors, step.values);
+    ASSERT_TRUE(u.status.ok()) << "step " << i << ": " << u.status.ToString();
+    for (const FactorPtr& f : step.factors) graph.Add(f);
+    for (int s = 0; s < static_cast<int>(step.values.size()); ++s) {
+      ASSERT_TRUE(initial.Insert(step.values.KeyAt(s), step.values.VariableAt(s)).ok());
+    }
+  }
+  EXPECT_EQ(entered, (std::vector<std::vector<int>>{{0}, {1}, {}, {3, 2}}));
+  EXPECT_EQ(stream->held_images(), 0);
+  EXPECT_EQ(stream->held_observations(), 0);
+  ASSERT_TRUE((*isam)->Refine(10.0).status.ok());
+  const BatchResult batch = Optimize(graph, initial, {});
+  ASSERT_TRUE(batch.status.ok()) << batch.status.ToString();
+  const double settled = graph.Cost((*isam)->CalculateEstimate());
+  EXPECT_NEAR(settled, batch.summary.final_cost, 1e-6 * (1.0 + batch.summary.final_cost));
 }
 
 TEST(ReconstructionStreamTest, FixedIntrinsicsAddNoCalibrationVariables) {
@@ -125,6 +199,10 @@ TEST(ReconstructionStreamTest, RejectsBadParams) {
   EXPECT_EQ(views.code(), StatusCode::kInvalidArgument);
   EXPECT_NE(views.message().find("min_views"), std::string::npos) << views.ToString();
   EXPECT_FALSE(ReconstructionStream::Create(World(), {.anchor_sigma = 0.0}).ok());
+  const Status registration =
+      ReconstructionStream::Create(World(), {.min_registration_points = 2}).status();
+  EXPECT_NE(registration.message().find("min_registration_points"), std::string::npos)
+      << registration.ToString();
 }
 
 }  // namespace
