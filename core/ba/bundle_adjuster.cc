@@ -28,7 +28,7 @@ BaLinearSolver ExactSolver(const BundleAdjusterParams& params, int num_cameras, 
 // iteration by this model of its work, in seconds measured here (2 cores, OpenBLAS; D = 9;
 // the ratios matter). An exact solve assembles S point by point, one D x D product per pair of
 // cameras that see the point (33 ns), and factors it (0.04 ns per flop: CHOLMOD's supernodal
-// or Eigen's blocked LLᵀ); the iterative one assembles only the diagonal and runs conjugate
+// or the blocked dense LLᵀ); the iterative one assembles only the diagonal and runs conjugate
 // gradients, each iteration a pass over the observations (16 ns each). Conjugate gradients took
 // 3-60 iterations per solve on the development problems; counting 30 leans to the exact
 // solvers, which need no tolerance. Dense co-visibility (cameras around an object, a city
