@@ -1,6 +1,10 @@
 #include "core/linear/partial_cholesky.h"
 
+// Declared C linkage here: ATLAS's cblas.h (the system's when libceres-dev pulls in ATLAS) has no
+// extern "C" guard of its own, OpenBLAS's and the reference one do (nesting is harmless).
+extern "C" {
 #include <cblas.h>
+}
 
 #include <Eigen/Core>
 #include <algorithm>
