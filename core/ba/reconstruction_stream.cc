@@ -1,5 +1,6 @@
 #include "core/ba/reconstruction_stream.h"
 
+#include <algorithm>
 #include <cmath>
 #include <variant>
 
@@ -41,24 +42,31 @@ ReconstructionStream::ReconstructionStream(Reconstruction r, ReconstructionStrea
   intrinsics_in_.assign(r_.intrinsics.size(), 0);
 }
 
-bool ReconstructionStream::Determined(int point) const {
-  const std::vector<int>& held = held_[point];
+int ReconstructionStream::ViewsNeeded() const {
   // The initial pair's points enter with its two views (nothing else could fix the scale).
-  const int views = scale_fixed_ && !registering_initial_pair_ ? params_.min_views : 2;
-  if (static_cast<int>(held.size()) < views) return false;
+  return scale_fixed_ ? params_.min_views : 2;
+}
+
+bool ReconstructionStream::Determined(int point, int views, int extra) const {
+  const std::vector<int>& held = held_[point];
+  const int n = static_cast<int>(held.size()) + (extra >= 0 ? 1 : 0);
+  if (n < views) return false;
   const double min_cos = std::cos(params_.min_parallax_deg * M_PI / 180.0);
   const Point3& X = r_.points[point].position;
-  for (std::size_t a = 0; a < held.size(); ++a) {
-    const Vector3 ra = (X - r_.images[r_.observations[held[a]].image].pose.translation());
-    for (std::size_t c = a + 1; c < held.size(); ++c) {
-      const Vector3 rc = (X - r_.images[r_.observations[held[c]].image].pose.translation());
-      if (ra.normalized().dot(rc.normalized()) <= min_cos) return true;
+  const auto ray = [&](int a) {
+    const int o = a < static_cast<int>(held.size()) ? held[a] : extra;
+    return (X - r_.images[r_.observations[o].image].pose.translation()).normalized();
+  };
+  for (int a = 0; a < n; ++a) {
+    const Vector3 ra = ray(a);
+    for (int c = a + 1; c < n; ++c) {
+      if (ra.dot(ray(c)) <= min_cos) return true;
     }
   }
   return false;
 }
 
-bool ReconstructionStream::Registrable(int image) {
+bool ReconstructionStream::Registrable(int image) const {
   if (image == 0) return true;  // the anchor
   int points = 0;
   for (int o : observations_of_image_[image]) {
@@ -66,9 +74,7 @@ bool ReconstructionStream::Registrable(int image) {
     if (point_in_[j]) {
       ++points;
     } else if (!scale_fixed_) {  // the first pair: the points it would determine
-      held_[j].push_back(o);
-      points += Determined(j) ? 1 : 0;
-      held_[j].pop_back();
+      points += Determined(j, ViewsNeeded(), o) ? 1 : 0;
     }
   }
   return points >= params_.min_registration_points;
@@ -76,7 +82,7 @@ bool ReconstructionStream::Registrable(int image) {
 
 void ReconstructionStream::Register(int i, ReconstructionStep* step) {
   step->images_entered.push_back(i);
-  registering_initial_pair_ = i != 0 && !scale_fixed_;
+  const int views = ViewsNeeded();  // before a point of this image fixes the scale
   const SfmImage& image = r_.images[i];
   const Key pose = keys_.images[i];
   SLAMD_CHECK(step->values.Insert(pose, image.pose).ok());
@@ -112,7 +118,7 @@ void ReconstructionStream::Register(int i, ReconstructionStep* step) {
       continue;
     }
     held_[j].push_back(o);
-    if (!Determined(j)) continue;
+    if (!Determined(j, views)) continue;
     point_in_[j] = 1;
     ++points_in_;
     ++step->points_entered;
@@ -130,25 +136,21 @@ void ReconstructionStream::Register(int i, ReconstructionStep* step) {
                                                  NoiseModel::FromInformation(information).value());
     }
   }
-  registering_initial_pair_ = false;
 }
 
 ReconstructionStep ReconstructionStream::Next() {
   SLAMD_CHECK(next_ < num_steps()) << "ReconstructionStream: no step " << next_;
   ReconstructionStep step;
   held_images_.push_back(next_++);
-  // Registering one image puts points in that may let an earlier held one register: until none
-  // can.
-  for (bool registered = true; registered;) {
-    registered = false;
-    for (auto it = held_images_.begin(); it != held_images_.end(); ++it) {
-      if (!Registrable(*it)) continue;
-      const int image = *it;
-      held_images_.erase(it);
-      Register(image, &step);
-      registered = true;
-      break;
-    }
+  // Registering one image puts points in that may let an earlier held one register: the first
+  // that can, in order, until none can.
+  const auto registrable = [this](int image) { return Registrable(image); };
+  for (auto it = std::find_if(held_images_.begin(), held_images_.end(), registrable);
+       it != held_images_.end();
+       it = std::find_if(held_images_.begin(), held_images_.end(), registrable)) {
+    const int image = *it;
+    held_images_.erase(it);
+    Register(image, &step);
   }
   return step;
 }

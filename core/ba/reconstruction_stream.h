@@ -70,9 +70,13 @@ class ReconstructionStream {
 
  private:
   ReconstructionStream(Reconstruction r, ReconstructionStreamParams params, NoiseModel pixel_noise);
-  bool Determined(int point) const;
+  // Views a point needs to enter now: two until the scale is fixed, then min_views.
+  int ViewsNeeded() const;
+  // Whether `point`'s held observations, with observation `extra` (>= 0) too, are `views` views
+  // with enough parallax.
+  bool Determined(int point, int views, int extra = -1) const;
   // Whether `image` can be registered now (class comment).
-  bool Registrable(int image);
+  bool Registrable(int image) const;
   // Enters `image`: its pose, calibration, the observations of points in, and the points it
   // determines.
   void Register(int image, ReconstructionStep* step);
@@ -84,7 +88,6 @@ class ReconstructionStream {
   int next_ = 0;
   int points_in_ = 0;
   bool scale_fixed_ = false;
-  bool registering_initial_pair_ = false;  // Register of the image that fixes the scale
   std::vector<std::vector<int>> observations_of_image_;  // indices into r_.observations
   std::vector<std::vector<int>> held_;                   // per point, its held observations
   std::vector<char> point_in_, intrinsics_in_;

@@ -54,14 +54,13 @@ Status ReducedCameraMatrix::SolveDense(const Eigen::VectorXd& b, Eigen::VectorXd
   // The lower triangle (what PartialCholeskyLower reads): block (k, i) = block (i, k)ᵀ, and the
   // diagonal blocks' lower triangles from their upper ones. Pairs that share no point: 0.
   Eigen::MatrixXd S = Eigen::MatrixXd::Zero(dim, dim);
-  Eigen::VectorXd ref(dim);
   for (int i = 0; i < n; ++i) {
     for (long blk = row_start_[i]; blk < row_start_[i + 1]; ++blk) {
       S.block(d_ * col_[blk], d_ * i, d_, d_) =
           Eigen::Map<const Eigen::MatrixXd>(Block(blk), d_, d_).transpose();
     }
   }
-  ref = S.diagonal().cwiseAbs();
+  Eigen::VectorXd ref = S.diagonal().cwiseAbs();
   // LLᵀ, blocked, its wide rank updates in the BLAS (partial_cholesky.h); fails on a pivot <= 0.
   if (PartialCholeskyLower(S.data(), dim, dim, dim, ref.data(), 0.0) >= 0) {
     return NumericalFailure("reduced camera system not positive definite");
