@@ -285,7 +285,11 @@ void RegisterBench(CLI::App& app) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd->add_flag("--fixed-intrinsics", opt->fixed_intrinsics,
-                "isam2 on a reconstruction: hold every calibration at the file's values");
+                "isam2 and ba on a reconstruction: hold every calibration at the file's values "
+                "(otherwise focal lengths and distortion are refined, each intrinsics once however "
+                "many images share it)");
+  cmd->add_flag("--refine-principal-point", opt->refine_principal_point,
+                "ba: refine the principal point of pinhole and OpenCV calibrations too");
   cmd->add_flag("--compare-batch", opt->compare_batch,
                 "isam2: also solve the final graph in batch and report batch_chi2");
   cmd->add_option("--settle", opt->settle_s,

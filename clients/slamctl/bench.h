@@ -37,10 +37,11 @@ struct BenchOptions {
   int marginals_every = 1;
   int threads = 2;  // isam2 (Isam2Params::threads) and ba
   double min_parallax_deg = 1.0;  // isam2 on a reconstruction: when a point enters
-  bool fixed_intrinsics = false;  // isam2 on a reconstruction: calibrations held
+  bool fixed_intrinsics = false;  // isam2 and ba on a reconstruction: calibrations held
   // ba
   std::string linear_solver = "auto";
   int ba_max_iterations = 50;
+  bool refine_principal_point = false;
 };
 
 // Peak resident memory of this process so far.

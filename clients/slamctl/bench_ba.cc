@@ -35,6 +35,8 @@ void RunBundleAdjustment(const BenchOptions& opt) {
   params.num_threads = opt.threads;
   params.robust = opt.robust;
   params.max_iterations = opt.ba_max_iterations;
+  params.refine_intrinsics = !opt.fixed_intrinsics;
+  params.refine_principal_point = opt.refine_principal_point;
   params.verbosity = opt.batch.verbosity;
   if (const core::Status valid = params.Validate(); !valid.ok()) Fail(kExitUsage, valid.message());
   core::Result<core::BundleAdjusterSummary> adjusted = core::BundleAdjust(params, &reconstruction);
@@ -67,6 +69,7 @@ void RunBundleAdjustment(const BenchOptions& opt) {
         .Add("points_retriangulated", retriangulated.replaced)
         .Add("cameras", s.num_cameras)
         .Add("camera_block_dim", s.camera_block_dim)
+        .Add("shared_calibrations", s.shared_calibrations)
         .Add("points", s.num_points)
         .Add("observations", s.num_observations)
         .Add("initial_cost", s.initial_cost)
@@ -84,6 +87,9 @@ void RunBundleAdjustment(const BenchOptions& opt) {
     std::printf("%s: %d cameras (%d unknowns each), %d points, %d observations (read in %.3f s)\n",
                 opt.dataset.c_str(), s.num_cameras, s.camera_block_dim, s.num_points,
                 s.num_observations, read_s);
+    if (s.shared_calibrations > 0) {
+      std::printf("calibrations refined as shared by their images: %d\n", s.shared_calibrations);
+    }
     if (opt.init == "auto") {
       std::printf("initial guess: %d points with a poor start, %d triangulated again\n",
                   retriangulated.poor, retriangulated.replaced);

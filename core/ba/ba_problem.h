@@ -12,7 +12,11 @@
 // with V_j⁻¹ applied through a triangular factor R_j of the damped V_j computed from the rows of
 // Jp (EliminatePoints says why).
 // Cal: the calibration model; kRefineCal: whether it is part of each camera's unknowns
-// (D = 6 + its dimension) or fixed (D = 6). Pose unknowns are right perturbations T_wc·Exp(ξ).
+// (D = 6 + its dimension) or not (D = 6). Pose unknowns are right perturbations T_wc·Exp(ξ).
+// Shared calibrations (BaLinearization's `shared`) are the border of the reduced system
+// (calibration_border.h): with Jk_o the calibration's Jacobian of observation o and
+// B_jk = Σ_{o of j through calibration k} Jk_oᵀ Jp_o, E = Σ_o Jc_oᵀ Jk_o − Σ_j W_j V_j⁻¹ B_jᵀ,
+// F = Σ Jk_oᵀ Jk_o + λ·diag − Σ_j B_j V_j⁻¹ B_jᵀ, bk = −gk + Σ_j B_j V_j⁻¹ gp_j.
 //
 // Threads: every pass splits the points (or cameras) into one chunk per thread, except the
 // elimination, which splits the rows of S and b (ForEachRowShare). One owner drives the problem.
@@ -26,6 +30,7 @@
 #include <vector>
 
 #include "core/ba/ba_linearization.h"
+#include "core/ba/calibration_border.h"
 #include "core/ba/point_factor.h"
 #include "core/ba/reduced_camera_matrix.h"
 #include "core/factors/robust_kernel.h"
@@ -47,14 +52,15 @@ class BaProblem : public BaLinearization<Cal, kRefineCal> {
   static constexpr int kD = Base::kD;
   using Base::num_cameras;
   using Base::num_points;
+  static constexpr int kC = Base::kC;
   using typename Base::CameraMatrix;
   using typename Base::CameraPoint;
   using typename Base::CameraVector;
   using typename Base::State;
 
   BaProblem(const Reconstruction& r, const RobustKernel& robust, std::vector<int> position,
-            WorkerPool* pool)
-      : Base(r, robust, std::move(position), pool) {
+            WorkerPool* pool, CalibrationUnknowns cal = {})
+      : Base(r, robust, std::move(position), pool, cal) {
     r_factor_.resize(this->num_points());
   }
 
@@ -134,6 +140,67 @@ class BaProblem : public BaLinearization<Cal, kRefineCal> {
     });
   }
 
+  // The border of the shared calibrations with the damping and the points' factors of the last
+  // EliminatePoints. Each thread sums its points into its own copy.
+  void EliminateBorder(CalibrationBorder* border) const {
+    const int n = num_cameras(), m = this->shared_dim();
+    std::vector<CalibrationBorder> partial(Chunks());
+    ForEachPointChunk([&](int t, int j_begin, int j_end) {
+      CalibrationBorder& out = partial[t];
+      out.SetZero(kD * n, m);
+      std::vector<CameraPoint> a;                    // per observation: Jc_oᵀ Jp_o R_j⁻¹
+      std::vector<int> ks;                           // the point's shared calibrations
+      std::vector<Eigen::Matrix<double, kC, 3>> bs;  // and B_jk R_j⁻¹ for each
+      for (int j = j_begin; j < j_end; ++j) {
+        const int begin = point_start_[j], end = point_start_[j + 1];
+        const Matrix3& R = r_factor_[j];
+        a.resize(end - begin);
+        ks.clear();
+        bs.clear();
+        for (int o = begin; o < end; ++o) {
+          const Matrix32 zt = SolveFactorTransposed(R, Matrix32(jp_[o].transpose()));
+          a[o - begin].noalias() = jc_[o].transpose().lazyProduct(zt.transpose());
+          const int k = shared_of_[camera_[o]];
+          const auto found = std::find(ks.begin(), ks.end(), k);
+          if (found == ks.end()) {
+            ks.push_back(k);
+            bs.emplace_back(jk_[o].transpose() * zt.transpose());
+          } else {
+            bs[found - ks.begin()].noalias() += jk_[o].transpose() * zt.transpose();
+          }
+        }
+        const Vector3 q = SolveFactorTransposed(R, gp_[j]);
+        for (size_t x = 0; x < ks.size(); ++x) {
+          out.b.template segment<kC>(kC * ks[x]).noalias() += bs[x] * q;
+          for (size_t y = 0; y < ks.size(); ++y) {
+            out.f.template block<kC, kC>(kC * ks[x], kC * ks[y]).noalias() -=
+                bs[x] * bs[y].transpose();
+          }
+          for (int o = begin; o < end; ++o) {
+            out.e.template block<kD, kC>(kD * position_[camera_[o]], kC * ks[x]).noalias() -=
+                a[o - begin] * bs[x].transpose();
+          }
+        }
+      }
+    });
+    *border = std::move(partial[0]);
+    for (int t = 1; t < Chunks(); ++t) {
+      border->e += partial[t].e;
+      border->f += partial[t].f;
+      border->b += partial[t].b;
+    }
+    // The cameras' own terms, and the calibrations' damping (Marquardt's, as U's and V's).
+    Eigen::VectorXd diagonal = Eigen::VectorXd::Zero(m);
+    for (int i = 0; i < n; ++i) {
+      const int k = shared_of_[i];
+      border->e.template block<kD, kC>(kD * position_[i], kC * k) += uk_[i];
+      border->f.template block<kC, kC>(kC * k, kC * k) += kk_[i];
+      border->b.template segment<kC>(kC * k) -= gk_[i];
+      diagonal.template segment<kC>(kC * k) += kk_[i].diagonal();
+    }
+    border->f.diagonal() += lambda_ * ClampedDiagonal(diagonal);
+  }
+
   // y = S x with the damping of the last EliminatePoints, without forming S (positions order).
   void MultiplyReduced(const Eigen::VectorXd& x, Eigen::VectorXd* y) const {
     const int n = num_cameras();
@@ -163,9 +230,17 @@ class BaProblem : public BaLinearization<Cal, kRefineCal> {
     }
   }
 
-  // The points' step from the cameras' (positions order), and the model's predicted decrease
-  // of the cost, −(gᵀδ + ½|Jδ|²).
-  double BackSubstitute(const Eigen::VectorXd& dc, std::vector<Vector3>* dp) const {
+  // The points' step from the cameras' (positions order) and the shared calibrations' (`dk`,
+  // empty without them), and the model's predicted decrease of the cost, −(gᵀδ + ½|Jδ|²).
+  double BackSubstitute(const Eigen::VectorXd& dc, const Eigen::VectorXd& dk,
+                        std::vector<Vector3>* dp) const {
+    // J_o δ of the cameras' and calibrations' unknowns.
+    const auto camera_step = [&](int o) {
+      Vector2 jx = jc_[o] * dc.template segment<kD>(kD * position_[camera_[o]]);
+      if (this->shared())
+        jx.noalias() += jk_[o] * dk.template segment<kC>(kC * shared_of_[camera_[o]]);
+      return jx;
+    };
     dp->resize(num_points());
     std::vector<double> model(Chunks(), 0.0);
     ForEachPointChunk([&](int t, int j_begin, int j_end) {
@@ -173,15 +248,13 @@ class BaProblem : public BaLinearization<Cal, kRefineCal> {
       for (int j = j_begin; j < j_end; ++j) {
         Vector3 rhs = -gp_[j];
         for (int o = point_start_[j]; o < point_start_[j + 1]; ++o) {
-          const Vector2 jx = jc_[o] * dc.template segment<kD>(kD * position_[camera_[o]]);
-          rhs.noalias() -= jp_[o].transpose() * jx;
+          rhs.noalias() -= jp_[o].transpose() * camera_step(o);
         }
         const Vector3 d = SolveDampedV(j, rhs);
         (*dp)[j] = d;
         double m = -gp_[j].dot(d);
         for (int o = point_start_[j]; o < point_start_[j + 1]; ++o) {
-          const Vector2 jd =
-              jc_[o] * dc.template segment<kD>(kD * position_[camera_[o]]) + jp_[o] * d;
+          const Vector2 jd = camera_step(o) + jp_[o] * d;
           m -= 0.5 * jd.squaredNorm();
         }
         chunk_model += m;
@@ -192,17 +265,23 @@ class BaProblem : public BaLinearization<Cal, kRefineCal> {
     for (int i = 0; i < num_cameras(); ++i) {
       m -= gc_[i].dot(dc.template segment<kD>(kD * position_[i]));
     }
+    if (this->shared()) m -= this->SharedGradient().dot(dk);
     return m;
   }
 
-  // x ⊕ δ: poses by right perturbation, calibrations and points by addition.
-  State Retract(const State& x, const Eigen::VectorXd& dc, const std::vector<Vector3>& dp) const {
+  // x ⊕ δ: poses by right perturbation, calibrations and points by addition (`dk`: the shared
+  // calibrations' step, empty without them; every image of one gets the same).
+  State Retract(const State& x, const Eigen::VectorXd& dc, const Eigen::VectorXd& dk,
+                const std::vector<Vector3>& dp) const {
     State y = x;
     for (int i = 0; i < num_cameras(); ++i) {
       const CameraVector d = dc.template segment<kD>(kD * position_[i]);
       y.poses[i] = x.poses[i].Retract(d.template head<6>());
       if constexpr (kRefineCal) {
-        y.cals[i] = x.cals[i].Retract(d.template tail<Cal::kDim>());
+        y.cals[i] = x.cals[i].Retract(this->cal_basis(i) * d.template tail<Cal::kDim>());
+      } else if (this->shared()) {
+        y.cals[i] =
+            x.cals[i].Retract(this->cal_basis(i) * dk.template segment<kC>(kC * shared_of_[i]));
       }
     }
     for (int j = 0; j < num_points(); ++j) y.points[j] = x.points[j] + dp[j];
@@ -217,16 +296,21 @@ class BaProblem : public BaLinearization<Cal, kRefineCal> {
   using Base::ForEachPointChunk;
   using Base::ForEachRowShare;
   using Base::gc_;
+  using Base::gk_;
   using Base::gp_;
   using Base::IndexBlocks;
   using Base::jc_;
+  using Base::jk_;
   using Base::jp_;
+  using Base::kk_;
   using Base::pair_block_;
   using Base::pair_start_;
   using Base::point_start_;
   using Base::position_;
+  using Base::shared_of_;
   using Base::Sum;
   using Base::u_;
+  using Base::uk_;
   using Base::v_diagonal_;
 
   // (V_j + λ·D_j)⁻¹ x with the factor of the last EliminatePoints.

@@ -16,7 +16,23 @@ namespace slamd::core {
 namespace {
 
 using internal::BaProblem;
+using internal::CalibrationBorder;
 using internal::ReducedCameraMatrix;
+
+// S solved for several right-hand sides by the exact solver (dense or sparse).
+internal::MultiSolve ExactMultiSolve(BaLinearSolver solver, ReducedCameraMatrix* s) {
+  return [solver, s](const Eigen::MatrixXd& rhs, Eigen::MatrixXd* x) -> Status {
+    if (solver == BaLinearSolver::kDenseSchur) return s->SolveDense(rhs, x);
+    SLAMD_RETURN_IF_ERROR(s->FactorSparse());
+    x->resize(rhs.rows(), rhs.cols());
+    Eigen::VectorXd column;
+    for (int c = 0; c < rhs.cols(); ++c) {
+      SLAMD_RETURN_IF_ERROR(s->SolveFactored(rhs.col(c), &column));
+      x->col(c) = column;
+    }
+    return Status::Ok();
+  };
+}
 
 // kAuto between the two exact solvers: dense while S is small.
 BaLinearSolver ExactSolver(const BundleAdjusterParams& params, int num_cameras, int block_dim) {
@@ -54,12 +70,14 @@ BaLinearSolver AutoSolver(const BundleAdjusterParams& params, const Reconstructi
   return iterative_s < exact_s ? BaLinearSolver::kIterativeSchur : exact;
 }
 
-// Preconditioned conjugate gradients on S x = b with S applied implicitly and the inverses of
-// its diagonal blocks as preconditioner. Returns the iterations run.
+// Preconditioned conjugate gradients on S x = b, or on the system bordered by the shared
+// calibrations ([S E; Eᵀ F], x and b stacked poses then calibrations) when `border` is set, with S
+// applied implicitly and the inverses of its diagonal blocks (and of F) as preconditioner.
+// Returns the iterations run.
 template <typename Problem>
 int SolveIterative(const Problem& problem, const std::vector<typename Problem::CameraMatrix>& diag,
-                   const Eigen::VectorXd& b, const BundleAdjusterParams& params,
-                   Eigen::VectorXd* x) {
+                   const CalibrationBorder* border, const Eigen::VectorXd& b,
+                   const BundleAdjusterParams& params, Eigen::VectorXd* x) {
   constexpr int kD = Problem::kD;
   const int n = static_cast<int>(diag.size());
   std::vector<typename Problem::CameraMatrix> inverse(n);
@@ -67,10 +85,42 @@ int SolveIterative(const Problem& problem, const std::vector<typename Problem::C
     const Eigen::LLT<typename Problem::CameraMatrix> llt(diag[i]);
     inverse[i] = llt.solve(Problem::CameraMatrix::Identity());
   }
+  // With the border: M = [D E; Eᵀ F], D S's block diagonal, applied exactly through its Schur
+  // complement G = F − Eᵀ D⁻¹ E (the calibrations couple every camera; preconditioning them by F
+  // alone made the first steps from a poor start useless).
+  Eigen::MatrixXd d_inv_e;  // D⁻¹ E
+  Eigen::LLT<Eigen::MatrixXd> g_llt;
+  if (border) {
+    d_inv_e.resize(border->e.rows(), border->dim());
+    for (int i = 0; i < n; ++i) {
+      d_inv_e.middleRows<kD>(kD * i).noalias() = inverse[i] * border->e.middleRows<kD>(kD * i);
+    }
+    g_llt.compute(border->f - border->e.transpose() * d_inv_e);
+    if (g_llt.info() != Eigen::Success) {  // M not positive definite: D and F apart
+      d_inv_e.setZero();
+      g_llt.compute(border->f);
+    }
+  }
   auto precondition = [&](const Eigen::VectorXd& r, Eigen::VectorXd* z) {
     z->resize(r.size());
     for (int i = 0; i < n; ++i) {
       z->template segment<kD>(kD * i).noalias() = inverse[i] * r.template segment<kD>(kD * i);
+    }
+    if (!border) return;
+    // [D E; Eᵀ F]⁻¹ r: z_k = G⁻¹ (r_k − Eᵀ D⁻¹ r_c), z_c = D⁻¹ r_c − D⁻¹ E z_k.
+    const int m = border->dim(), c = static_cast<int>(r.size()) - m;
+    const Eigen::VectorXd zk = g_llt.solve(r.tail(m) - d_inv_e.transpose() * r.head(c));
+    z->head(c).noalias() -= d_inv_e * zk;
+    z->tail(m) = zk;
+  };
+  const auto multiply_s = [&](const Eigen::VectorXd& v, Eigen::VectorXd* y) {
+    problem.MultiplyReduced(v, y);
+  };
+  const auto multiply = [&](const Eigen::VectorXd& v, Eigen::VectorXd* y) {
+    if (border) {
+      BorderedProduct(multiply_s, *border, v, y);
+    } else {
+      multiply_s(v, y);
     }
   };
   x->setZero(b.size());
@@ -81,7 +131,7 @@ int SolveIterative(const Problem& problem, const std::vector<typename Problem::C
   const double stop = params.cg_tolerance * b.norm();
   int k = 0;
   while (k < params.cg_max_iterations) {
-    problem.MultiplyReduced(p, &q);
+    multiply(p, &q);
     const double pq = p.dot(q);
     if (!(pq > 0.0)) break;  // S not positive definite along p: keep what we have
     const double alpha = rz / pq;
@@ -114,6 +164,8 @@ Result<BundleAdjusterSummary> Adjust(const BundleAdjusterParams& params, Reconst
   using Problem = BaProblem<Cal, kRefineCal>;
   constexpr int kD = Problem::kD;
   const Stopwatch total;
+  // Calibrations refined but not per camera: some intrinsics are shared by several images.
+  const bool shared = params.refine_intrinsics && !kRefineCal;
   BundleAdjusterSummary summary;
   summary.camera_block_dim = kD;
   summary.num_cameras = static_cast<int>(rec->images.size());
@@ -132,8 +184,10 @@ Result<BundleAdjusterSummary> Adjust(const BundleAdjusterParams& params, Reconst
   Result<std::vector<int>> positions = internal::CameraPositions(*rec, fill_reducing);
   if (!positions.ok()) return positions.status();
   WorkerPool pool(params.num_threads - 1);
-  Problem problem(*rec, params.robust, std::move(positions).value(), &pool);
+  Problem problem(*rec, params.robust, std::move(positions).value(), &pool,
+                  {.shared = shared, .principal_point = params.refine_principal_point});
   typename Problem::State x = Problem::StateOf(*rec);
+  summary.shared_calibrations = problem.num_shared();
 
   std::unique_ptr<ReducedCameraMatrix> s;
   {
@@ -151,7 +205,8 @@ Result<BundleAdjusterSummary> Adjust(const BundleAdjusterParams& params, Reconst
   }
   summary.linear_solver = solver;
   std::vector<typename Problem::CameraMatrix> diagonal;
-  Eigen::VectorXd b, dc;
+  CalibrationBorder border;
+  Eigen::VectorXd b, dc, dk;
   std::vector<Vector3> dp;
 
   Stopwatch phase;
@@ -167,20 +222,32 @@ Result<BundleAdjusterSummary> Adjust(const BundleAdjusterParams& params, Reconst
     phase.Restart();
     problem.EliminatePoints(1.0 / radius, s.get(),
                             solver == BaLinearSolver::kIterativeSchur ? &diagonal : nullptr, &b);
+    if (shared) problem.EliminateBorder(&border);
     summary.schur_s += phase.Lap();
     Status solved;
-    if (solver == BaLinearSolver::kDenseSchur) {
+    if (solver == BaLinearSolver::kIterativeSchur) {
+      if (shared) {
+        Eigen::VectorXd bordered_b(b.size() + border.dim()), step;
+        bordered_b << b, border.b;
+        it.linear_iterations =
+            SolveIterative(problem, diagonal, &border, bordered_b, params, &step);
+        dc = step.head(b.size());
+        dk = step.tail(border.dim());
+      } else {
+        it.linear_iterations = SolveIterative(problem, diagonal, nullptr, b, params, &dc);
+      }
+    } else if (shared) {
+      solved = internal::SolveBordered(ExactMultiSolve(solver, s.get()), border, b, &dc, &dk);
+    } else if (solver == BaLinearSolver::kDenseSchur) {
       solved = s->SolveDense(b, &dc);
-    } else if (solver == BaLinearSolver::kSparseSchur) {
-      solved = s->SolveSparse(b, &dc);
     } else {
-      it.linear_iterations = SolveIterative(problem, diagonal, b, params, &dc);
+      solved = s->SolveSparse(b, &dc);
     }
     summary.solve_s += phase.Lap();
     bool taken = false;
-    if (solved.ok() && dc.allFinite()) {
-      const double model = problem.BackSubstitute(dc, &dp);
-      double step2 = dc.squaredNorm();
+    if (solved.ok() && dc.allFinite() && dk.allFinite()) {
+      const double model = problem.BackSubstitute(dc, dk, &dp);
+      double step2 = dc.squaredNorm() + dk.squaredNorm();
       for (const Vector3& d : dp) step2 += d.squaredNorm();
       const double x_norm = StateNorm(x);
       if (std::sqrt(step2) <= params.parameter_tolerance * (x_norm + params.parameter_tolerance)) {
@@ -190,7 +257,7 @@ Result<BundleAdjusterSummary> Adjust(const BundleAdjusterParams& params, Reconst
         summary.iterations.push_back(it);
         break;
       }
-      typename Problem::State trial = problem.Retract(x, dc, dp);
+      typename Problem::State trial = problem.Retract(x, dc, dk, dp);
       const double trial_cost = problem.Cost(trial);
       summary.update_s += phase.Lap();
       const double rho = model > 0.0 ? (cost - trial_cost) / model : -1.0;
@@ -229,7 +296,7 @@ Result<BundleAdjusterSummary> Adjust(const BundleAdjusterParams& params, Reconst
   double squared = 0.0;
   summary.final_cost = problem.Cost(x, &squared, &summary.points_behind_cameras);
   summary.rms_reprojection_px = std::sqrt(squared / std::max(1, summary.num_observations));
-  Problem::WriteBack(x, rec);
+  Problem::WriteBack(x, kRefineCal || shared, rec);
   summary.total_s = total.Seconds();
   return summary;
 }

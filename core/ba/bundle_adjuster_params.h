@@ -38,9 +38,14 @@ struct BundleAdjusterParams {
   // Robust kernel on each observation's squared pixel error s = |uv − measured|² (pixels²): the
   // cost is ½ Σ ρ(s), as Ceres defines it (e.g. Huber(1): pixels beyond 1 px count linearly).
   RobustKernel robust = RobustKernel();
-  // Refine each camera's calibration with its pose when its intrinsics belong to it alone (BAL);
-  // intrinsics shared by several images are held fixed. false: every calibration fixed.
+  // Refine the calibrations: each camera's with its pose when every intrinsics belongs to one
+  // image (BAL); otherwise each intrinsics as one unknown shared by its images (a COLMAP camera),
+  // the border of the reduced system (its width: calibrations × their dimension; each exact solve
+  // solves S for that many right-hand sides). false: every calibration fixed.
   bool refine_intrinsics = true;
+  // Refine the principal point of Cal3_S2 and Cal3DS2 calibrations too (CalibrationBasis says
+  // which parameters each model refines).
+  bool refine_principal_point = false;
   // Iterations (successful or not) at most. >= 1.
   int max_iterations = 50;
   // Stop when a successful step lowers the cost by less than this fraction of it (Ceres's
@@ -82,7 +87,8 @@ struct BaIteration {
 struct BundleAdjusterSummary {
   BaLinearSolver linear_solver = BaLinearSolver::kAuto;  // the one used (never kAuto)
   int num_cameras = 0;                                   // images whose pose was refined
-  int camera_block_dim = 0;  // unknowns per camera (6, + the calibration's when refined)
+  int camera_block_dim = 0;  // unknowns per camera (6, + the calibration's when refined per camera)
+  int shared_calibrations = 0;  // intrinsics refined as unknowns shared by their images
   int num_points = 0;
   int num_observations = 0;
   double initial_cost = 0.0;  // ½ Σ ρ(s), pixels²

@@ -64,7 +64,8 @@ Result<CameraCovariances> Estimate(const Reconstruction& r, const BundleAdjuster
   if (!positions.ok()) return positions.status();
   const std::vector<int> position = positions.value();
   WorkerPool pool(params.num_threads - 1);
-  Problem problem(r, params.robust, position, &pool);
+  Problem problem(r, params.robust, position, &pool,
+                  {.principal_point = params.refine_principal_point});
   problem.Linearize(Problem::StateOf(r));
   ReducedCameraMatrix s(kD, problem.CoVisibility());
   Eigen::VectorXd b;
@@ -72,6 +73,13 @@ Result<CameraCovariances> Estimate(const Reconstruction& r, const BundleAdjuster
   std::vector<int> gauge;
   for (int k = 0; k < 6; ++k) gauge.push_back(kD * position[0] + k);
   gauge.push_back(kD * position[out.scale_image] + out.scale_axis);
+  if constexpr (kRefineCal) {  // calibration parameters the model holds: no variance
+    for (int i = 0; i < n; ++i) {
+      for (int c = 0; c < Cal::kDim; ++c) {
+        if (problem.cal_basis(i).col(c).isZero()) gauge.push_back(kD * position[i] + 6 + c);
+      }
+    }
+  }
 
   const std::string singular =
       "camera covariances: the reduced camera system is singular beyond the gauge (cameras that "

@@ -10,9 +10,11 @@
 // rows and columns in the result; every other covariance is relative to that gauge.
 //
 // Units: each camera's unknowns are those of the adjuster: pose (v, ω: right perturbation of
-// T_wc, metres and radians) then its calibration's parameters when they are refined
-// (BundleAdjusterParams::refine_intrinsics). Pixel noise: `pixel_sigma` pixels on each
-// coordinate of every observation (the covariance scales with its square).
+// T_wc, metres and radians) then its calibration's parameters when they are refined per camera
+// (BundleAdjusterParams::refine_intrinsics; a parameter its model holds, CalibrationBasis, has
+// zero variance; calibrations shared by several images are held fixed here). Pixel noise:
+// `pixel_sigma` pixels on each coordinate of every observation (the covariance scales with its
+// square).
 //
 // Cost: up to `max_dense_dim` camera unknowns S is inverted densely, O((cameras · block)³);
 // above, CHOLMOD factors S once (cameras in a fill-reducing order) and each camera's diagonal

@@ -5,8 +5,9 @@
 // ½): at every estimate graph.Cost(values) = 2·(½ Σ ρ(|r|²)).
 //
 // Keys: image i → MakeKey('x', i), point j → MakeKey('l', j), intrinsics k → MakeKey('k', k).
-// Shared intrinsics (COLMAP cameras used by several images) are one variable, which the bundle
-// adjuster holds fixed: the graph is how to refine them.
+// Shared intrinsics (COLMAP cameras used by several images) are one variable. Every parameter of
+// a calibration variable is refined (the bundle adjuster refines what the model can hold,
+// CalibrationBasis).
 #pragma once
 
 #include <vector>

@@ -50,6 +50,13 @@ Eigen::MatrixXd ReducedCameraMatrix::ToDense() const {
 }
 
 Status ReducedCameraMatrix::SolveDense(const Eigen::VectorXd& b, Eigen::VectorXd* x) const {
+  Eigen::MatrixXd solution;
+  SLAMD_RETURN_IF_ERROR(SolveDense(Eigen::MatrixXd(b), &solution));
+  *x = solution.col(0);
+  return Status::Ok();
+}
+
+Status ReducedCameraMatrix::SolveDense(const Eigen::MatrixXd& b, Eigen::MatrixXd* x) const {
   const int n = num_cameras(), dim = d_ * n;
   // The lower triangle (what PartialCholeskyLower reads): block (k, i) = block (i, k)ᵀ, and the
   // diagonal blocks' lower triangles from their upper ones. Pairs that share no point: 0.

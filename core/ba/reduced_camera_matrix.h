@@ -42,8 +42,9 @@ class ReducedCameraMatrix {
   int Column(long index) const { return col_[index]; }
 
   // Solves S x = b (b, x: dim() entries, positions order) by a dense LLᵀ. kNumericalFailure
-  // when S is not numerically positive definite.
+  // when S is not numerically positive definite. The matrix form: one column per right-hand side.
   Status SolveDense(const Eigen::VectorXd& b, Eigen::VectorXd* x) const;
+  Status SolveDense(const Eigen::MatrixXd& b, Eigen::MatrixXd* x) const;
   // The same by CHOLMOD; the symbolic analysis is kept between calls (the pattern never changes).
   Status SolveSparse(const Eigen::VectorXd& b, Eigen::VectorXd* x);
   // SolveSparse in two steps, to solve for many right-hand sides with one factorisation.

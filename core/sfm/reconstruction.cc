@@ -1,6 +1,8 @@
 #include "core/sfm/reconstruction.h"
 
 #include <string>
+#include <type_traits>
+#include <variant>
 
 namespace slamd::core {
 namespace {
@@ -10,6 +12,26 @@ bool Finite(const Calibration& c) {
 }
 
 }  // namespace
+
+Eigen::MatrixXd CalibrationBasis(const SfmIntrinsics& k, bool principal_point) {
+  const int dim =
+      std::visit([](const auto& c) { return std::decay_t<decltype(c)>::kDim; }, k.calibration);
+  Eigen::MatrixXd basis = Eigen::MatrixXd::Identity(dim, dim);
+  const bool pinhole = std::holds_alternative<Cal3_S2>(k.calibration);
+  const bool opencv = std::holds_alternative<Cal3DS2>(k.calibration);
+  // Cal3_S2's parameters (Cal3DS2's first five): fx, fy, s, u0, v0.
+  const bool colmap = ((k.model == "SIMPLE_PINHOLE" || k.model == "PINHOLE") && pinhole) ||
+                      (k.model == "OPENCV" && opencv);
+  if (colmap) basis(2, 2) = 0.0;
+  if ((pinhole || opencv) && !principal_point) basis(3, 3) = basis(4, 4) = 0.0;
+  if (k.model == "SIMPLE_PINHOLE" && pinhole) {
+    basis(1, 0) = 1.0;  // fy follows fx
+    basis(1, 1) = 0.0;
+  } else if (k.model == "SIMPLE_RADIAL" && std::holds_alternative<Cal3Bundler>(k.calibration)) {
+    basis(2, 2) = 0.0;  // f, k1, k2
+  }
+  return basis;
+}
 
 Status Reconstruction::Validate() const {
   const int num_intrinsics = static_cast<int>(intrinsics.size());

@@ -40,6 +40,15 @@ struct SfmIntrinsics {
   std::uint32_t id = 0;       // COLMAP CAMERA_ID; BAL: the camera's index
 };
 
+// The calibration parameters that the intrinsics' model lets a bundle adjuster refine, as the
+// change of each parameter per refined one (kDim x kDim; a zero column: a parameter held at its
+// value). No model (BAL) or RADIAL: every parameter. COLMAP's models hold no skew (PINHOLE,
+// OPENCV: the skew is held), SIMPLE_PINHOLE has one focal length (column fx moves fx and fy
+// together; fy held) and SIMPLE_RADIAL no k2 (held), so that the result can be written back.
+// The principal point (Cal3_S2, Cal3DS2) only with `principal_point`: shifting it is nearly the
+// same as turning every camera, so it is poorly determined (COLMAP holds it by default too).
+Eigen::MatrixXd CalibrationBasis(const SfmIntrinsics& k, bool principal_point);
+
 // One image: where its camera was.
 struct SfmImage {
   Pose3 pose;             // T_wc

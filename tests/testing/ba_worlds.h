@@ -8,6 +8,7 @@
 //    (Cal3Bundler intrinsics) by central differences over the stacked unknowns: each image's
 //    pose (right perturbation) and, when `refine`, calibration, then every point — the
 //    independent reference for the adjuster's Schur step and covariances.
+//  * CentralDifferences(residuals, dim): the Jacobian of any residual function of a dim-vector.
 #pragma once
 
 #include <Eigen/Core>
@@ -69,6 +70,20 @@ inline void BaPerturb(core::Reconstruction* r, double pose_sigma, double point_s
   }
 }
 
+// The Jacobian at δ = 0 of residuals(δ) (a function of a `dim`-vector) by central differences.
+template <typename Residuals>
+Eigen::MatrixXd CentralDifferences(const Residuals& residuals, int dim) {
+  Eigen::MatrixXd J;
+  for (int k = 0; k < dim; ++k) {
+    Eigen::VectorXd h = Eigen::VectorXd::Zero(dim);
+    h[k] = 1e-6;
+    const Eigen::VectorXd column = (residuals(h) - residuals(-h)) / 2e-6;
+    if (k == 0) J.resize(column.size(), dim);
+    J.col(k) = column;
+  }
+  return J;
+}
+
 inline Eigen::MatrixXd BaNumericalJacobian(const core::Reconstruction& r, bool refine,
                                            Eigen::VectorXd* residuals_at_r = nullptr) {
   const int kD = refine ? 9 : 6;
@@ -89,14 +104,8 @@ inline Eigen::MatrixXd BaNumericalJacobian(const core::Reconstruction& r, bool r
     }
     return out;
   };
-  Eigen::MatrixXd J(m, dim);
-  for (int k = 0; k < dim; ++k) {
-    Eigen::VectorXd h = Eigen::VectorXd::Zero(dim);
-    h[k] = 1e-6;
-    J.col(k) = (residuals(h) - residuals(-h)) / 2e-6;
-  }
   if (residuals_at_r) *residuals_at_r = residuals(Eigen::VectorXd::Zero(dim));
-  return J;
+  return CentralDifferences(residuals, dim);
 }
 
 }  // namespace slamd::testing

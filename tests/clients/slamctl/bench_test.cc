@@ -274,6 +274,32 @@ TEST(BenchTest, BundleAdjustmentJsonAndOutput) {
   EXPECT_NE(bad.exit_code, 0);
 }
 
+// A COLMAP model with one camera for every image: its calibration refined once (focal lengths;
+// no skew, the principal point held) and the model written back as COLMAP reads it.
+TEST(BenchTest, BundleAdjustmentOfAColmapModelWithASharedCamera) {
+  testing::TempDir dir("slamd_bench_colmap_");
+  const SlamctlRun sim =
+      RunSlamctl("sim camera-object --cameras 10 --points 200 -o " + dir.File("world"));
+  ASSERT_EQ(sim.exit_code, 0) << sim.out;
+  const std::string model = dir.File("world/colmap");
+  const SlamctlRun ba =
+      RunSlamctl("bench " + model + " --solver ba --json -o " + dir.File("solved"));
+  ASSERT_EQ(ba.exit_code, 0) << ba.out;
+  EXPECT_EQ(JsonNumber(ba.out, "shared_calibrations"), 1.0);
+  EXPECT_EQ(JsonNumber(ba.out, "camera_block_dim"), 6.0);
+  const std::string cameras = testing::ReadFileBytes(dir.File("solved/cameras.txt"));
+  EXPECT_NE(cameras.find("PINHOLE"), std::string::npos) << cameras;
+  // Written back and read again: the adjuster starts at its optimum.
+  const SlamctlRun again = RunSlamctl("bench " + dir.File("solved") + " --solver ba --json");
+  ASSERT_EQ(again.exit_code, 0) << again.out;
+  const double cost = JsonNumber(ba.out, "final_cost");
+  EXPECT_NEAR(JsonNumber(again.out, "initial_cost"), cost, 1e-6 * cost);
+  const SlamctlRun fixed = RunSlamctl("bench " + model + " --solver ba --json --fixed-intrinsics");
+  ASSERT_EQ(fixed.exit_code, 0) << fixed.out;
+  EXPECT_EQ(JsonNumber(fixed.out, "shared_calibrations"), 0.0);
+  EXPECT_GE(JsonNumber(fixed.out, "final_cost"), cost * (1.0 - 1e-9));
+}
+
 // A BAL file as a factor graph: the batch solver eliminates the points first by
 // default, to the same optimum as with COLAMD; Isam2 takes it camera by camera.
 TEST(BenchTest, ReconstructionAsAGraphForBatchAndIsam2) {

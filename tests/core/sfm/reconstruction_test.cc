@@ -69,5 +69,34 @@ TEST(ReconstructionTest, NonFiniteNumbers) {
   ExpectInvalid(r, "observation 1: pixel is not finite");
 }
 
+// Which calibration parameters a model refines: a zero column is held; SIMPLE_PINHOLE ties fy to
+// fx; the principal point only on request.
+TEST(CalibrationBasisTest, FollowsTheModel) {
+  const Cal3_S2 K(500.0, 500.0, 0.0, 320.0, 240.0);
+  auto held = [](const Eigen::MatrixXd& basis) {
+    std::vector<int> out;
+    for (int c = 0; c < basis.cols(); ++c) {
+      if (basis.col(c).isZero()) out.push_back(c);
+    }
+    return out;
+  };
+  using Held = std::vector<int>;
+  EXPECT_EQ(held(CalibrationBasis({.calibration = K}, true)), Held{});
+  EXPECT_EQ(held(CalibrationBasis({.calibration = K}, false)), (Held{3, 4}));
+  EXPECT_EQ(held(CalibrationBasis({.calibration = K, .model = "PINHOLE"}, true)), Held{2});
+  const Eigen::MatrixXd simple =
+      CalibrationBasis({.calibration = K, .model = "SIMPLE_PINHOLE"}, false);
+  EXPECT_EQ(held(simple), (Held{1, 2, 3, 4}));
+  EXPECT_EQ(simple.col(0), (Eigen::VectorXd(5) << 1, 1, 0, 0, 0).finished());
+  const Cal3DS2 opencv(K, 0.1, 0.01, 0.0, 0.0);
+  EXPECT_EQ(held(CalibrationBasis({.calibration = opencv, .model = "OPENCV"}, false)),
+            (Held{2, 3, 4}));
+  const Cal3Bundler bundler(500.0, 0.1, 0.01);
+  EXPECT_EQ(held(CalibrationBasis({.calibration = bundler, .model = "SIMPLE_RADIAL"}, false)),
+            Held{2});
+  EXPECT_EQ(held(CalibrationBasis({.calibration = bundler, .model = "RADIAL"}, false)), Held{});
+  EXPECT_EQ(held(CalibrationBasis({.calibration = bundler}, false)), Held{});
+}
+
 }  // namespace
 }  // namespace slamd::core
