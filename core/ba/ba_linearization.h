@@ -222,8 +222,9 @@ class BaLinearization : public BaObservations {
   bool shared() const { return num_shared_ > 0; }
   // Camera i's calibration change per refined parameter (CalibrationBasis).
   const CalMatrix& cal_basis(int i) const { return cal_basis_[i]; }
-  // Shared calibration unknowns (0 unless `shared`), kC each.
+  // Shared calibration unknowns (0 unless `shared`), kC each; camera i's is shared_of(i).
   int num_shared() const { return num_shared_; }
+  int shared_of(int i) const { return shared_of_[i]; }
   int shared_dim() const { return kC * num_shared_; }
 
  protected:

@@ -12,7 +12,8 @@
 // Units: each camera's unknowns are those of the adjuster: pose (v, ω: right perturbation of
 // T_wc, metres and radians) then its calibration's parameters when they are refined per camera
 // (BundleAdjusterParams::refine_intrinsics; a parameter its model holds, CalibrationBasis, has
-// zero variance; calibrations shared by several images are held fixed here). Pixel noise:
+// zero variance; a calibration shared by several images is refined once, `per_intrinsics`, and
+// the poses' covariances include its uncertainty). Pixel noise:
 // `pixel_sigma` pixels on each coordinate of every observation (the covariance scales with its
 // square).
 //
@@ -36,6 +37,9 @@ namespace slamd::core {
 struct CameraCovariances {
   int block_dim = 0;                            // unknowns per camera
   std::vector<Eigen::MatrixXd> per_image = {};  // block_dim x block_dim, one per image
+  // Calibrations refined as shared by their images: per intrinsics its parameters' covariance
+  // (empty for an intrinsics no image uses, and without shared calibrations).
+  std::vector<Eigen::MatrixXd> per_intrinsics = {};
   int gauge_image = 0;
   int scale_image = 0;
   int scale_axis = 0;  // 0, 1, 2: x, y, z of scale_image's own frame

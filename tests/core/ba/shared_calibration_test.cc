@@ -206,6 +206,55 @@ TEST(SharedCalibrationTest, HeldParametersHaveNoVariance) {
   }
 }
 
+// With shared calibrations the cameras' covariances include their uncertainty, and each shared
+// calibration gets its own: the blocks of the dense inverse of the full JᵀJ (finite differences,
+// the gauge and the parameter SIMPLE_RADIAL holds, k2, removed), in the dense and sparse paths.
+TEST(SharedCalibrationTest, CovariancesEqualTheDenseInverseOfTheFullSystem) {
+  Reconstruction r = TwoCameraWorld(6, 3, 31);
+  r.intrinsics[1].model = "SIMPLE_RADIAL";
+  ASSERT_TRUE(BundleAdjust({.max_iterations = 100}, &r).ok());
+  const Result<CameraCovariances> dense = EstimateCameraCovariances(r, {});
+  const Result<CameraCovariances> sparse = EstimateCameraCovariances(r, {}, 1.0, 0);
+  ASSERT_TRUE(dense.ok()) << dense.status().ToString();
+  ASSERT_TRUE(sparse.ok()) << sparse.status().ToString();
+  ASSERT_EQ(dense->block_dim, 6);
+  ASSERT_EQ(dense->per_intrinsics.size(), 2u);
+
+  Eigen::VectorXd residuals;
+  const Eigen::MatrixXd J = SharedNumericalJacobian(r, &residuals);
+  const int n = 6, k2_of_1 = 6 * n + 3 + 2;
+  std::vector<int> kept;
+  for (int k = 0; k < J.cols(); ++k) {
+    if (k < 6 || k == 6 * dense->scale_image + dense->scale_axis || k == k2_of_1) continue;
+    kept.push_back(k);
+  }
+  Eigen::MatrixXd jk(J.rows(), kept.size());
+  for (size_t a = 0; a < kept.size(); ++a) jk.col(a) = J.col(kept[a]);
+  const Eigen::MatrixXd inverse = (jk.transpose() * jk).inverse();
+  Eigen::MatrixXd full = Eigen::MatrixXd::Zero(J.cols(), J.cols());
+  for (size_t a = 0; a < kept.size(); ++a) {
+    for (size_t c = 0; c < kept.size(); ++c) full(kept[a], kept[c]) = inverse(a, c);
+  }
+  const auto expect_block = [](const Eigen::MatrixXd& got, const Eigen::MatrixXd& want,
+                               const std::string& what) {
+    EXPECT_LT((got - want).norm(), 1e-5 * want.norm() + 1e-12) << what << "\n"
+                                                               << got << "\nexpected\n"
+                                                               << want;
+  };
+  for (const CameraCovariances* c : {&*dense, &*sparse}) {
+    const std::string path = c == &*dense ? "dense" : "sparse";
+    for (int i = 0; i < n; ++i) {
+      expect_block(c->per_image[i], full.block(6 * i, 6 * i, 6, 6),
+                   path + " image " + std::to_string(i));
+    }
+    for (int k = 0; k < 2; ++k) {
+      expect_block(c->per_intrinsics[k], full.block(6 * n + 3 * k, 6 * n + 3 * k, 3, 3),
+                   path + " intrinsics " + std::to_string(k));
+    }
+    EXPECT_EQ(c->per_intrinsics[1](2, 2), 0.0);  // k2, held
+  }
+}
+
 TEST(SharedCalibrationTest, HeldFixedWhenNotRefined) {
   Reconstruction r = TwoCameraWorld(5, 3, 9);
   const Result<BundleAdjusterSummary> s = BundleAdjust({.refine_intrinsics = false}, &r);
