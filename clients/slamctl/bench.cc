@@ -286,8 +286,9 @@ void RegisterBench(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--fixed-intrinsics", opt->fixed_intrinsics,
                 "isam2 and ba on a reconstruction: hold every calibration at the file's values "
-                "(otherwise focal lengths and distortion are refined, each intrinsics once however "
-                "many images share it)");
+                "(otherwise ba refines focal lengths and distortion, each intrinsics once however "
+                "many images share it; isam2 the calibrations whose model can write every "
+                "parameter back)");
   cmd->add_flag("--refine-principal-point", opt->refine_principal_point,
                 "ba: refine the principal point of pinhole and OpenCV calibrations too");
   cmd->add_flag("--compare-batch", opt->compare_batch,

@@ -18,7 +18,8 @@ ReconstructionGraph ReconstructionKeys(const Reconstruction& r, bool refine_intr
   for (std::size_t j = 0; j < r.points.size(); ++j) keys.points.push_back(MakeKey('l', j));
   if (refine_intrinsics) {
     for (std::size_t k = 0; k < r.intrinsics.size(); ++k) {
-      keys.calibrations.push_back(MakeKey('k', k));
+      const bool every_parameter = CalibrationBasis(r.intrinsics[k], true).isIdentity();
+      keys.calibrations.push_back(every_parameter ? std::optional(MakeKey('k', k)) : std::nullopt);
     }
   }
   return keys;
@@ -37,8 +38,8 @@ void AddObservationFactor(const Reconstruction& r, const SfmObservation& o,
   std::visit(
       [&](const auto& K) {
         using Cal = std::decay_t<decltype(K)>;
-        if (!keys.calibrations.empty()) {
-          graph->Emplace<SelfCalibratingProjectionFactor<Cal>>(pose, point, keys.calibrations[k],
+        if (!keys.calibrations.empty() && keys.calibrations[k]) {
+          graph->Emplace<SelfCalibratingProjectionFactor<Cal>>(pose, point, *keys.calibrations[k],
                                                                o.uv, noise, robust);
         } else {
           graph->Emplace<ProjectionFactor<Cal>>(pose, point, o.uv, K, noise, robust);
@@ -62,8 +63,9 @@ Result<ReconstructionGraph> BuildReconstructionGraph(const Reconstruction& r,
     SLAMD_RETURN_IF_ERROR(out.values.Insert(out.points[j], r.points[j].position));
   }
   for (std::size_t k = 0; k < out.calibrations.size(); ++k) {
+    if (!out.calibrations[k]) continue;
     SLAMD_RETURN_IF_ERROR(
-        out.values.Insert(out.calibrations[k], CalibrationVariable(r.intrinsics[k])));
+        out.values.Insert(*out.calibrations[k], CalibrationVariable(r.intrinsics[k])));
   }
   for (const SfmObservation& o : r.observations) {
     AddObservationFactor(r, o, out, *noise, params.robust, &out.graph);
@@ -80,7 +82,8 @@ void UpdateReconstruction(const ReconstructionGraph& built, const Values& values
     r->points[j].position = values.At<Point3>(built.points[j]);
   }
   for (std::size_t k = 0; k < built.calibrations.size(); ++k) {
-    std::visit([&](auto& K) { K = values.At<std::decay_t<decltype(K)>>(built.calibrations[k]); },
+    if (!built.calibrations[k]) continue;
+    std::visit([&](auto& K) { K = values.At<std::decay_t<decltype(K)>>(*built.calibrations[k]); },
                r->intrinsics[k].calibration);
   }
 }

@@ -5,11 +5,13 @@
 // ½): at every estimate graph.Cost(values) = 2·(½ Σ ρ(|r|²)).
 //
 // Keys: image i → MakeKey('x', i), point j → MakeKey('l', j), intrinsics k → MakeKey('k', k).
-// Shared intrinsics (COLMAP cameras used by several images) are one variable. Every parameter of
-// a calibration variable is refined (the bundle adjuster refines what the model can hold,
-// CalibrationBasis).
+// Shared intrinsics (COLMAP cameras used by several images) are one variable. A calibration
+// variable refines every parameter, so a calibration whose model cannot write all of them back
+// (COLMAP's PINHOLE, SIMPLE_PINHOLE, OPENCV: no skew; SIMPLE_RADIAL: no k2; CalibrationBasis) is
+// held at its value here; the bundle adjuster refines what such models can hold.
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include "core/base/status.h"
@@ -38,15 +40,17 @@ struct ReconstructionGraph {
   Values values;
   std::vector<Key> images;        // images[i]: image i's pose T_wc
   std::vector<Key> points;        // points[j]: point j
-  std::vector<Key> calibrations;  // calibrations[k]: intrinsics k (empty when held fixed)
+  // calibrations[k]: intrinsics k's variable, none when held (all empty when none is refined).
+  std::vector<std::optional<Key>> calibrations;
 };
 
-// The keys of `r`'s unknowns, calibrations only when refined (graph and values left empty).
+// The keys of `r`'s unknowns, calibrations only when refined and their model can hold every
+// parameter (graph and values left empty).
 ReconstructionGraph ReconstructionKeys(const Reconstruction& r, bool refine_intrinsics);
 // Intrinsics k's calibration as a variable.
 Variable CalibrationVariable(const SfmIntrinsics& intrinsics);
 // Adds observation `o` of `r` to `graph` on `keys`' variables: a SelfCalibratingProjectionFactor
-// when `keys` has calibrations, else a ProjectionFactor with the calibration fixed.
+// when `keys` has its calibration, else a ProjectionFactor with the calibration fixed.
 void AddObservationFactor(const Reconstruction& r, const SfmObservation& o,
                           const ReconstructionGraph& keys, const NoiseModel& noise,
                           const RobustKernel& robust, FactorGraph* graph);

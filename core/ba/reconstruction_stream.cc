@@ -90,9 +90,10 @@ void ReconstructionStream::Register(int i, ReconstructionStep* step) {
     step->factors.Emplace<PriorFactor<Pose3>>(
         pose, image.pose, NoiseModel::Isotropic(6, params_.anchor_sigma).value());
   }
-  if (params_.refine_intrinsics && !intrinsics_in_[image.intrinsics]) {
+  if (params_.refine_intrinsics && keys_.calibrations[image.intrinsics] &&
+      !intrinsics_in_[image.intrinsics]) {
     intrinsics_in_[image.intrinsics] = 1;
-    const Key calibration = keys_.calibrations[image.intrinsics];
+    const Key calibration = *keys_.calibrations[image.intrinsics];
     SLAMD_CHECK(
         step->values.Insert(calibration, CalibrationVariable(r_.intrinsics[image.intrinsics]))
             .ok());

@@ -52,6 +52,26 @@ TEST(ReconstructionGraphTest, CostIsTwiceTheAdjustersAndBatchReachesItsOptimum) 
             std::get<Cal3Bundler>(start.intrinsics[0].calibration).vector());
 }
 
+// A calibration variable refines every parameter: a model that cannot write them all back
+// (SIMPLE_RADIAL has no k2) is held, one that can (RADIAL) is a variable.
+TEST(ReconstructionGraphTest, CalibrationsWhoseModelCannotHoldEveryParameterAreHeld) {
+  Reconstruction start = PerturbedWorld();
+  start.intrinsics[0].model = "SIMPLE_RADIAL";
+  start.intrinsics[1].model = "RADIAL";
+  Result<ReconstructionGraph> built = BuildReconstructionGraph(start);
+  ASSERT_TRUE(built.ok());
+  ASSERT_EQ(built->calibrations.size(), start.intrinsics.size());
+  EXPECT_FALSE(built->calibrations[0].has_value());
+  EXPECT_TRUE(built->calibrations[1].has_value());
+  EXPECT_EQ(built->values.size(),
+            start.images.size() + start.points.size() + start.intrinsics.size() - 1);
+  for (const SfmObservation& o : start.observations) {  // in order: one factor each
+    const Factor* f = built->graph[&o - start.observations.data()].get();
+    const bool held = start.images[o.image].intrinsics == 0;
+    EXPECT_EQ(dynamic_cast<const ProjectionFactor<Cal3Bundler>*>(f) != nullptr, held);
+  }
+}
+
 TEST(ReconstructionGraphTest, FixedIntrinsicsUseFixedCalibrationFactors) {
   const Reconstruction start = PerturbedWorld();
   Result<ReconstructionGraph> built = BuildReconstructionGraph(start, {.refine_intrinsics = false});
