@@ -17,6 +17,7 @@
 #include <memory>
 #include <string>
 
+#include "core/base/memory_usage.h"
 #include "server/config/config_loader.h"
 #include "server/daemon/daemon.h"
 #include "server/transport/lcm_bus.h"
@@ -47,6 +48,7 @@ std::shared_ptr<spdlog::logger> MakeLogger(const ServerParams& params) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  slamd::core::KeepFreedMemoryForReuse();
   CLI::App app{"slamd: real-time incremental SLAM server (LCM in, estimates out)"};
   std::string config_path, lcm_url, data_dir, channel_prefix, log_level;
   bool print_default = false;

@@ -2,8 +2,10 @@
 #include <cstdio>
 
 #include "clients/slamctl/commands.h"
+#include "core/base/memory_usage.h"
 
 int main(int argc, char** argv) {
+  slamd::core::KeepFreedMemoryForReuse();
   CLI::App app{"slamctl: replay, query, watch, plot, simulate and benchmark slamd"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "slamctl 0.1.0");

@@ -1,5 +1,6 @@
 #include "core/base/memory_usage.h"
 
+#include <malloc.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -14,6 +15,11 @@ std::int64_t ResidentBytes() {
   std::fclose(f);
   if (read != 2) return 0;
   return static_cast<std::int64_t>(resident) * ::sysconf(_SC_PAGESIZE);
+}
+
+void KeepFreedMemoryForReuse() {
+  ::mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's largest
+  ::mallopt(M_TRIM_THRESHOLD, 1 << 30);
 }
 
 }  // namespace slamd::core

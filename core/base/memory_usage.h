@@ -9,4 +9,12 @@ namespace slamd::core {
 // Resident set size now [bytes] (/proc/self/statm); 0 if it cannot be read.
 std::int64_t ResidentBytes();
 
+// Keeps freed memory in the process for reuse instead of giving it back to the kernel at once
+// (glibc: blocks up to 32 MiB from the heap, not mapped one by one; the heap's free top kept up
+// to 1 GiB). Re-eliminating the top of a Bayes tree with large cliques (cameras sharing long
+// point tracks) frees and allocates megabytes per update, and the kernel's page faults on the
+// fresh pages took a quarter of a visual stream's time. Memory goes back when the solver trims
+// itself at rest (Isam2::TrimMemory: malloc_trim). For executables, once at start-up.
+void KeepFreedMemoryForReuse();
+
 }  // namespace slamd::core
