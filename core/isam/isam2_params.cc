@@ -29,6 +29,7 @@ Status Isam2Params::Validate() const {
   SLAMD_PARAM_CHECK(Isam2Params, trust_region.min_radius, >, 0.0);
   SLAMD_PARAM_CHECK(Isam2Params, threads, >=, 1);
   SLAMD_PARAM_CHECK(Isam2Params, batch_every, >=, 0);
+  SLAMD_PARAM_CHECK(Isam2Params, max_landmarks_last, >=, 0);
   return elimination.Validate();
 }
 

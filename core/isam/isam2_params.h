@@ -94,6 +94,14 @@ struct Isam2Params {
   // only. >= 1. (slamd also gives it to its marginals, MarginalsParams::threads.)
   int threads = 2;
 
+  // The re-elimination orders the variables of the new factors last (iSAM2 §V-A: the next update,
+  // which most likely touches them again, finds them near the root), landmarks (Point2, Point3)
+  // among them only while there are at most this many. A camera frame sees hundreds of points:
+  // ordered last, every older camera eliminated before them joined them into one dense root
+  // clique (3 unknowns a point, O(n³)), where ordered freely they are eliminated before their
+  // cameras (the Schur complement). A robot seeing a few landmarks keeps them at the root. >= 0.
+  int max_landmarks_last = 8;
+
   // Every `batch_every` updates, relinearise every variable and re-eliminate the whole graph
   // with a fresh COLAMD ordering (the iSAM1-style batch step). 0 = never. >= 0.
   int batch_every = 0;

@@ -215,10 +215,17 @@ Status Isam2::EliminateTop(const std::vector<int>& vars, const std::vector<int>&
     incidence.AddFactor(local);
   }
   // 6. Constrained COLAMD: the variables of the new factors last (iSAM2 §V-A), so the next
-  // update, which most likely touches them again, finds them near the root.
+  // update, which most likely touches them again, finds them near the root; their landmarks too
+  // while they are few (Isam2Params::max_landmarks_last).
+  const auto is_landmark = [&](int v) {
+    const VariableType type = theta_.TypeAt(v);
+    return type == kVariableType<Point2> || type == kVariableType<Point3>;
+  };
+  const bool landmarks_last =
+      std::count_if(last.begin(), last.end(), is_landmark) <= params_.max_landmarks_last;
   std::vector<int> group(vars.size(), 0);
   for (int v : last) {
-    if (mark_[v]) group[mark_[v] - 1] = 1;
+    if (mark_[v] && (landmarks_last || !is_landmark(v))) group[mark_[v] - 1] = 1;
   }
   Result<std::vector<int>> order =
       ConstrainedColamdOrdering(static_cast<int>(vars.size()), incidence, group);

@@ -104,6 +104,7 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   if (i.has_batch_every()) p->isam2.batch_every = i.batch_every();
   if (i.has_threads()) p->isam2.threads = i.threads();
   if (i.has_trust_region()) p->isam2.trust_region.enabled = i.trust_region();
+  if (i.has_max_landmarks_last()) p->isam2.max_landmarks_last = i.max_landmarks_last();
   const proto::JournalConfig& j = config.journal();
   if (j.has_sync()) {
     p->journal.sync = j.sync() == proto::JournalConfig::ALWAYS     ? SyncPolicy::kAlways
@@ -304,6 +305,8 @@ std::string DefaultConfigText() {
       << "  # for the large steps (relinearising, eliminating subtrees), >= 1\n"
       << "  trust_region: " << (d.isam2.trust_region.enabled ? "true" : "false")
       << "  # dog-leg steps: no divergence on weakly seen landmarks, O(map) per update\n"
+      << "  max_landmarks_last: " << d.isam2.max_landmarks_last
+      << "  # an update's landmarks ordered at the root up to this many (a frame's hundreds not)\n"
       << "}\n\n"
       << "estimator {\n"
       << "  new_robot_anchor: "

@@ -62,6 +62,7 @@ TEST(Isam2ParamsTest, EachViolationNamesTheField) {
       {{.refine_threshold = 0.0}, "refine_threshold"},
       {{.refine_max_variables = -1}, "refine_max_variables"},
       {{.batch_every = -2}, "batch_every"},
+      {{.max_landmarks_last = -1}, "max_landmarks_last"},
       {{.trust_region = {.initial_radius = 0.0}}, "trust_region.initial_radius"},
       {{.trust_region = {.min_radius = -1.0}}, "trust_region.min_radius"},
       {{.threads = 0}, "threads"},

@@ -48,7 +48,8 @@ channel_prefix: "TEST_"
 queue { depth: 7 block_timeout_s: 0.5 }
 refine { enabled: false }
 isam2 { relinearization { skip: 1 rotation_threshold: 0.01 error_threshold: 0 }
-        wildfire_threshold: 0 threads: 1 refine_max_variables: 17 trust_region: true }
+        wildfire_threshold: 0 threads: 1 refine_max_variables: 17 trust_region: true
+        max_landmarks_last: 3 }
 estimator { new_robot_anchor: ANCHOR_AT_ORIGIN max_hold_updates: 3 background_relinearization_above: 40
             rebuild_catch_up_rounds: 0 }
 publish { latency_window: 64 }
@@ -70,6 +71,7 @@ publish { latency_window: 64 }
   EXPECT_EQ(v.isam2.refine_max_variables, 17);
   EXPECT_TRUE(v.isam2.trust_region.enabled);
   EXPECT_FALSE(ServerParams{}.isam2.trust_region.enabled);
+  EXPECT_EQ(v.isam2.max_landmarks_last, 3);
   EXPECT_EQ(v.estimator.new_robot_anchor, AnchorPolicy::kAnchorAtOrigin);
   EXPECT_EQ(v.estimator.max_hold_updates, 3);
   EXPECT_EQ(v.estimator.background_relinearization_above, 40);

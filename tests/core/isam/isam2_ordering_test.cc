@@ -1,0 +1,106 @@
+// How Isam2 orders the re-eliminated top (Isam2Params::max_landmarks_last): a frame that sees
+// many landmarks does not put them all in the root clique, a robot seeing few keeps them there,
+// and either way every step settles at the batch optimum.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+
+#include "core/batch/batch_solver.h"
+#include "core/factors/between_factor.h"
+#include "core/factors/prior_factor.h"
+#include "core/factors/relative_point_factor.h"
+#include "core/isam/isam2.h"
+#include "tests/testing/solver_checks.h"
+
+namespace slamd::core {
+namespace {
+
+struct Frame {
+  FactorGraph factors;
+  Values values;
+};
+
+// Poses along x, each seeing `points` points (3D, relative) spread in front of the track.
+std::vector<Frame> VisualStream(int poses, int points, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  const auto jitter = [&](double sigma) {
+    return Vector3(sigma * noise(rng), sigma * noise(rng), sigma * noise(rng));
+  };
+  const NoiseModel odometry = NoiseModel::Isotropic(6, 0.05).value();
+  const NoiseModel seen = NoiseModel::Isotropic(3, 0.1).value();
+  std::vector<Point3> world;
+  for (int j = 0; j < points; ++j) {
+    world.emplace_back(0.5 * poses * (j % 10) / 10.0, -3.0 + 6.0 * (j / 10) / 3.0, 2.0);
+  }
+  std::vector<Frame> frames(poses);
+  for (int i = 0; i < poses; ++i) {
+    const Pose3 truth(Rot3(), Point3(0.5 * i, 0.0, 0.0));
+    const Key x = MakeKey('x', i);
+    Frame& f = frames[i];
+    EXPECT_TRUE(f.values.Insert(x, Pose3(Rot3(), truth.translation() + jitter(0.05))).ok());
+    if (i == 0) {
+      f.factors.Emplace<PriorFactor<Pose3>>(x, truth, odometry);
+    } else {
+      f.factors.Emplace<BetweenFactor<Pose3>>(MakeKey('x', i - 1), x,
+                                              Pose3(Rot3(), Point3(0.5, 0.0, 0.0)), odometry);
+    }
+    for (int j = 0; j < points; ++j) {
+      const Key l = MakeKey('l', j);
+      if (i == 0) EXPECT_TRUE(f.values.Insert(l, Point3(world[j] + jitter(0.2))).ok());
+      f.factors.Emplace<RelativePointFactor<Pose3, Point3>>(
+          x, l, truth.TransformTo(world[j]) + jitter(0.1), seen);
+    }
+  }
+  return frames;
+}
+
+// The largest clique (frontal and separator scalars) any step left in the tree, and the final
+// estimate after settling.
+int LargestClique(const std::vector<Frame>& frames, int max_landmarks_last, Values* settled) {
+  auto isam =
+      Isam2::Create({.relinearization = {.skip = 1}, .max_landmarks_last = max_landmarks_last})
+          .value();
+  int largest = 0;
+  for (const Frame& f : frames) {
+    const Isam2Result r = isam->Update(f.factors, f.values);
+    EXPECT_TRUE(r.status.ok()) << r.status.ToString();
+    const BayesTree& tree = isam->tree();
+    for (int id = 0; id < tree.NumSlots(); ++id) {
+      if (!tree.IsLive(id)) continue;
+      const Clique& c = tree.clique(id);
+      largest = std::max(largest, c.FrontalDim() + c.SeparatorDim());
+    }
+  }
+  for (int k = 0; k < 10; ++k) EXPECT_TRUE(isam->Update({}, {}, {.force_full = true}).status.ok());
+  *settled = isam->CalculateEstimate();
+  return largest;
+}
+
+TEST(Isam2OrderingTest, AFramesManyLandmarksStayOutOfTheRootClique) {
+  const std::vector<Frame> frames = VisualStream(12, 30, 1);
+  Values free, last;
+  const int largest_free = LargestClique(frames, 8, &free);   // 30 landmarks a frame: not last
+  const int largest_last = LargestClique(frames, 30, &last);  // all of them last
+  // Ordered last, the 30 points (90 scalars) share the root with the poses; otherwise each point
+  // is eliminated before the poses that see it (here all 12 of them: 72 scalars) and no clique
+  // holds more than one point.
+  EXPECT_GE(largest_last, 90 + 6);
+  EXPECT_LE(largest_free, 6 * 12 + 3) << largest_free << " against " << largest_last;
+  FactorGraph all;
+  Values initial;
+  for (const Frame& f : frames) {
+    for (const FactorPtr& factor : f.factors) all.Add(factor);
+    for (int slot = 0; slot < static_cast<int>(f.values.size()); ++slot) {
+      ASSERT_TRUE(initial.Insert(f.values.KeyAt(slot), f.values.VariableAt(slot)).ok());
+    }
+  }
+  const BatchResult batch = Optimize(all, initial, {.relative_tolerance = 1e-12});
+  ASSERT_TRUE(batch.status.ok()) << batch.status.ToString();
+  EXPECT_LT(testing::MaxDifference(free, batch.values), 1e-6);
+  EXPECT_LT(testing::MaxDifference(last, batch.values), 1e-6);
+}
+
+}  // namespace
+}  // namespace slamd::core
