@@ -284,6 +284,12 @@ void RegisterBench(CLI::App& app) {
                   "this angle (degrees) between their rays")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  cmd->add_option("--drop-parallax", opt->drop_parallax_deg,
+                  "isam2 on a reconstruction: a point leaves the graph (its observations dropped) "
+                  "once its rays at the estimate are closer than this (degrees) or it is behind "
+                  "a camera; 0: never")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   cmd->add_flag("--fixed-intrinsics", opt->fixed_intrinsics,
                 "isam2 and ba on a reconstruction: hold every calibration at the file's values "
                 "(otherwise ba refines focal lengths and distortion, each intrinsics once however "

@@ -37,6 +37,7 @@ struct BenchOptions {
   int marginals_every = 1;
   int threads = 2;  // isam2 (Isam2Params::threads) and ba
   double min_parallax_deg = 1.0;  // isam2 on a reconstruction: when a point enters
+  double drop_parallax_deg = 0.0;  // isam2 on a reconstruction: when a point leaves (0: never)
   bool fixed_intrinsics = false;  // isam2 and ba on a reconstruction: calibrations held
   // ba
   std::string linear_solver = "auto";

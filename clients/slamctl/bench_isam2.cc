@@ -21,6 +21,7 @@
 #include "core/base/memory_usage.h"
 #include "core/base/timing.h"
 #include "core/batch/batch_solver.h"
+#include "core/factors/prior_factor.h"
 #include "core/io/dataset_stream.h"
 #include "core/io/sfm_io.h"
 #include "core/isam/isam2.h"
@@ -300,6 +301,58 @@ void RunIsam2(const BenchOptions& opt) {
 // points entering once two views see them with parallax. Costs are Ceres's (½ Σ ρ, pixels²) of
 // the whole graph (the anchors' priors add ~0); `batch_cost` is the batch optimum of the same
 // graph (--compare-batch).
+// The largest angle [deg] between the rays from `images`' camera centres to `point` at the
+// estimate, or -1 when the point is at or behind one of them.
+double RayParallaxDeg(const core::Isam2& isam, const core::ReconstructionStream& stream, int point,
+                      const std::vector<int>& images) {
+  const core::Point3 X =
+      std::get<core::Point3>(isam.CalculateEstimate(stream.keys().points[point]));
+  std::vector<core::Vector3> rays;
+  for (int i : images) {
+    const core::Pose3 pose = std::get<core::Pose3>(isam.CalculateEstimate(stream.keys().images[i]));
+    if (pose.TransformTo(X).z() <= 0.0) return -1.0;
+    rays.push_back((X - pose.translation()).normalized());
+  }
+  double min_cos = 1.0;
+  for (size_t a = 0; a < rays.size(); ++a) {
+    for (size_t c = a + 1; c < rays.size(); ++c) min_cos = std::min(min_cos, rays[a].dot(rays[c]));
+  }
+  return std::acos(std::clamp(min_cos, -1.0, 1.0)) * 180.0 / M_PI;
+}
+
+// Takes `point` out of the solver, `graph` and `initial`: its factors removed (a weak prior
+// holding it meanwhile), then the variable, which then has nothing to summarise. Adds the
+// observations removed to *removed.
+core::Status DropPoint(int point, core::ReconstructionStream* stream, core::Isam2* isam,
+                       core::FactorGraph* graph, core::Values* initial, int* removed) {
+  const core::Key key = stream->keys().points[point];
+  std::vector<int> indices;
+  const std::vector<core::FactorPtr>& slots = isam->factor_slots();
+  for (int f = 0; f < static_cast<int>(slots.size()); ++f) {
+    if (!slots[f]) continue;
+    const core::KeyVector& keys = slots[f]->keys();
+    if (std::find(keys.begin(), keys.end(), key) != keys.end()) indices.push_back(f);
+  }
+  core::FactorGraph hold;
+  hold.Emplace<core::PriorFactor<core::Point3>>(
+      key, std::get<core::Point3>(isam->CalculateEstimate(key)),
+      core::NoiseModel::Isotropic(3, 1e3).value());
+  const core::Isam2Result update = isam->Update(hold, {}, {.remove_factors = indices});
+  SLAMD_RETURN_IF_ERROR(update.status);
+  *removed += static_cast<int>(indices.size());
+  const core::Key keys[] = {key};
+  SLAMD_RETURN_IF_ERROR(isam->RemoveVariables(keys).status);
+  core::FactorGraph kept;
+  for (const core::FactorPtr& f : *graph) {
+    const core::KeyVector& k = f->keys();
+    if (std::find(k.begin(), k.end(), key) == k.end()) kept.Add(f);
+  }
+  *graph = std::move(kept);
+  SLAMD_RETURN_IF_ERROR(initial->Erase(key));
+  stream->Drop(point);
+  return core::Status::Ok();
+}
+
 void RunIsam2Reconstruction(const BenchOptions& opt) {
   core::Stopwatch read_timer;
   core::Result<core::Reconstruction> r = core::ReadReconstruction(opt.dataset);
@@ -317,7 +370,7 @@ void RunIsam2Reconstruction(const BenchOptions& opt) {
   core::FactorGraph graph;  // every factor the solver took, for the batch reference
   core::Values initial;
   std::vector<double> step_ms;
-  int observations_in = 0;
+  int observations_in = 0, observations_removed = 0;  // entered; taken out with dropped points
   std::string failure;
   std::FILE* csv = nullptr;
   if (!opt.step_times.empty()) {
@@ -339,12 +392,29 @@ void RunIsam2Reconstruction(const BenchOptions& opt) {
     if (!step.images_entered.empty()) {  // the newest camera's estimate
       (void)isam.CalculateEstimate(stream->keys().images[step.images_entered.back()]);
     }
-    step_ms.push_back(timer.Seconds() * 1e3);
-    observations_in += step.observations_entered;
     for (const core::FactorPtr& f : step.factors) graph.Add(f);
     for (int s = 0; s < static_cast<int>(step.values.size()); ++s) {
       (void)initial.Insert(step.values.KeyAt(s), step.values.VariableAt(s));
     }
+    // Points whose rays at the estimate have become nearly parallel (run off along them) or that
+    // went behind a camera: out before their depth becomes indeterminate.
+    std::string drop_failure;
+    if (opt.drop_parallax_deg > 0.0) {
+      for (int j = 0; j < static_cast<int>(r->points.size()) && drop_failure.empty(); ++j) {
+        if (!stream->Droppable(j)) continue;
+        const double parallax = RayParallaxDeg(isam, *stream, j, stream->ImagesSeeing(j));
+        if (parallax >= opt.drop_parallax_deg) continue;
+        const core::Status dropped =
+            DropPoint(j, &*stream, &isam, &graph, &initial, &observations_removed);
+        if (!dropped.ok()) drop_failure = dropped.ToString();
+      }
+    }
+    if (!drop_failure.empty()) {
+      failure = "dropping a point after image " + std::to_string(i) + ": " + drop_failure;
+      break;
+    }
+    step_ms.push_back(timer.Seconds() * 1e3);
+    observations_in += step.observations_entered;
     if (csv) {
       core::Stopwatch untimed;
       std::fprintf(csv, "%d,%d,%d,%.6f,%d,%d,%.10g\n", i, step.points_entered,
@@ -376,8 +446,10 @@ void RunIsam2Reconstruction(const BenchOptions& opt) {
         .Add("steps", step_ms.size())
         .Add("failed_updates", failed_updates)
         .Add("observations", r->observations.size())
-        .Add("observations_in_graph", observations_in)
-        .Add("points_in_graph", stream->points_in())
+        .Add("observations_in_graph", observations_in - observations_removed)
+        .Add("points_in_graph", stream->points_in() - stream->dropped_points())
+        .Add("points_dropped", stream->dropped_points())
+        .Add("observations_dropped", observations_removed + stream->dropped_observations())
         .Add("images_in_graph", r->images.size() - stream->held_images())
         .Add("read_s", read_s)
         .Add("total_s", total_s)
@@ -397,8 +469,12 @@ void RunIsam2Reconstruction(const BenchOptions& opt) {
         "isam2 camera by camera: %zu steps in %.3f s (step p50 %.2f ms, p99 %.2f ms, max "
         "%.2f ms), %d of %zu observations, %d points and %zu images in the graph\n",
         step_ms.size(), total_s, Percentile(step_ms, 0.5), Percentile(step_ms, 0.99),
-        Percentile(step_ms, 1.0), observations_in, r->observations.size(), stream->points_in(),
-        r->images.size() - stream->held_images());
+        Percentile(step_ms, 1.0), observations_in - observations_removed, r->observations.size(),
+        stream->points_in() - stream->dropped_points(), r->images.size() - stream->held_images());
+    if (stream->dropped_points() > 0) {
+      std::printf("dropped: %d points whose rays became parallel, %d observations\n",
+                  stream->dropped_points(), observations_removed + stream->dropped_observations());
+    }
     std::printf("cost (½Σρ, px²) after the last step %.10g, settled %.10g", cost, settled_cost);
     if (opt.compare_batch) std::printf(", batch optimum %.10g", batch_cost);
     std::printf("; peak RSS %.1f MB\n", PeakRssMb());

@@ -34,11 +34,14 @@ ReconstructionStream::ReconstructionStream(Reconstruction r, ReconstructionStrea
       keys_(ReconstructionKeys(r_, params.refine_intrinsics)),
       pixel_noise_(std::move(pixel_noise)) {
   observations_of_image_.resize(r_.images.size());
+  observations_of_point_.resize(r_.points.size());
   for (std::size_t o = 0; o < r_.observations.size(); ++o) {
     observations_of_image_[r_.observations[o].image].push_back(static_cast<int>(o));
+    observations_of_point_[r_.observations[o].point].push_back(static_cast<int>(o));
   }
   held_.resize(r_.points.size());
   point_in_.assign(r_.points.size(), 0);
+  image_in_.assign(r_.images.size(), 0);
   intrinsics_in_.assign(r_.intrinsics.size(), 0);
 }
 
@@ -71,7 +74,7 @@ bool ReconstructionStream::Registrable(int image) const {
   int points = 0;
   for (int o : observations_of_image_[image]) {
     const int j = r_.observations[o].point;
-    if (point_in_[j]) {
+    if (point_in_[j] == 1) {
       ++points;
     } else if (!scale_fixed_) {  // the first pair: the points it would determine
       points += Determined(j, ViewsNeeded(), o) ? 1 : 0;
@@ -82,6 +85,7 @@ bool ReconstructionStream::Registrable(int image) const {
 
 void ReconstructionStream::Register(int i, ReconstructionStep* step) {
   step->images_entered.push_back(i);
+  image_in_[i] = 1;
   const int views = ViewsNeeded();  // before a point of this image fixes the scale
   const SfmImage& image = r_.images[i];
   const Key pose = keys_.images[i];
@@ -114,6 +118,10 @@ void ReconstructionStream::Register(int i, ReconstructionStep* step) {
   };
   for (int o : observations_of_image_[i]) {
     const int j = r_.observations[o].point;
+    if (point_in_[j] == 2) {
+      ++dropped_observations_;
+      continue;
+    }
     if (point_in_[j]) {
       add_observation(o);
       continue;
@@ -129,6 +137,7 @@ void ReconstructionStream::Register(int i, ReconstructionStep* step) {
     held_[j].clear();
     if (!scale_fixed_) {  // the range from image 0
       scale_fixed_ = true;
+      scale_point_ = j;
       const Vector3 u = (X - r_.images[0].pose.translation()).normalized();
       const Matrix3 information =
           u * u.transpose() / (params_.anchor_sigma * params_.anchor_sigma) +
@@ -161,6 +170,22 @@ int ReconstructionStream::held_observations() const {
   for (const std::vector<int>& h : held_) held += static_cast<int>(h.size());
   for (int image : held_images_) held += static_cast<int>(observations_of_image_[image].size());
   return held;
+}
+
+void ReconstructionStream::Drop(int point) {
+  SLAMD_CHECK(Droppable(point)) << "ReconstructionStream::Drop: point " << point
+                                << " is not in the graph or fixes the scale";
+  point_in_[point] = 2;
+  ++dropped_points_;
+}
+
+std::vector<int> ReconstructionStream::ImagesSeeing(int point) const {
+  std::vector<int> out;
+  for (int o : observations_of_point_[point]) {
+    const int i = r_.observations[o].image;
+    if (image_in_[i]) out.push_back(i);
+  }
+  return out;
 }
 
 int ReconstructionStream::held_images() const { return static_cast<int>(held_images_.size()); }

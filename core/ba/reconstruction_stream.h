@@ -11,7 +11,9 @@
 // centres); its observations are held
 // until then and enter with it, its initial value the reconstruction's. A point seen by fewer
 // views, or along nearly parallel rays, would leave the incremental system indeterminate
-// (GTSAM's "indeterminant linear system").
+// (GTSAM's "indeterminant linear system"). A point in the graph can be dropped (Drop: its later
+// observations are left out, counted), e.g. by a caller that finds its rays nearly parallel at
+// the estimate (it ran off along them) before its depth becomes indeterminate.
 //
 // Gauge: image 0's pose and (when refined) calibration have priors (sigma anchor_sigma); the scale
 // is fixed by a prior on the first point that enters along its ray from image 0 only (information
@@ -65,6 +67,14 @@ class ReconstructionStream {
   int held_observations() const;
   int held_images() const;  // images not (yet) registered
   int points_in() const { return points_in_; }
+  // Takes `point` (in the graph) out of the replay: its later observations are dropped, not
+  // added (the caller removes it from the solver). Not the point that fixes the scale.
+  void Drop(int point);
+  bool Droppable(int point) const { return point_in_[point] == 1 && point != scale_point_; }
+  int dropped_points() const { return dropped_points_; }
+  int dropped_observations() const { return dropped_observations_; }
+  // Images in the graph that observe `point` (for a caller judging its geometry).
+  std::vector<int> ImagesSeeing(int point) const;
   // The graph's keys (ReconstructionKeys), e.g. for UpdateReconstruction.
   const ReconstructionGraph& keys() const { return keys_; }
 
@@ -87,10 +97,14 @@ class ReconstructionStream {
   NoiseModel pixel_noise_;
   int next_ = 0;
   int points_in_ = 0;
+  int dropped_points_ = 0, dropped_observations_ = 0;
+  int scale_point_ = -1;
   bool scale_fixed_ = false;
   std::vector<std::vector<int>> observations_of_image_;  // indices into r_.observations
+  std::vector<std::vector<int>> observations_of_point_;
   std::vector<std::vector<int>> held_;                   // per point, its held observations
-  std::vector<char> point_in_, intrinsics_in_;
+  std::vector<char> point_in_, intrinsics_in_;           // point_in_: 1 in the graph, 2 dropped
+  std::vector<char> image_in_;
   std::vector<int> held_images_;  // not yet registered, in order
 };
 

@@ -348,6 +348,22 @@ TEST(BenchTest, ReconstructionAsAGraphForBatchAndIsam2) {
   const double batch = JsonNumber(isam2.out, "batch_cost");
   EXPECT_NEAR(JsonNumber(isam2.out, "settled_cost"), batch, 1e-6 * batch);
   EXPECT_GE(JsonNumber(isam2.out, "final_cost"), batch * (1 - 1e-9));
+
+  // Points whose rays are closer than 60 degrees at the estimate leave: every update succeeds,
+  // every observation is in the graph or counted as dropped, and the rest settles at its batch
+  // optimum.
+  const SlamctlRun dropping = RunSlamctl("bench " + bal +
+                                         " --solver isam2 --drop-parallax 60 --settle 5 "
+                                         "--compare-batch --json");
+  ASSERT_EQ(dropping.exit_code, 0) << dropping.out;
+  EXPECT_EQ(JsonNumber(dropping.out, "failed_updates"), 0.0);
+  EXPECT_GT(JsonNumber(dropping.out, "points_dropped"), 0.0);
+  EXPECT_EQ(JsonNumber(dropping.out, "observations_in_graph") +
+                JsonNumber(dropping.out, "observations_dropped"),
+            JsonNumber(dropping.out, "observations"));
+  const double rest = JsonNumber(dropping.out, "batch_cost");
+  EXPECT_LT(rest, batch);
+  EXPECT_NEAR(JsonNumber(dropping.out, "settled_cost"), rest, 1e-6 * rest);
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <set>
 
 #include "core/batch/batch_solver.h"
@@ -173,6 +174,51 @@ TEST(ReconstructionStreamTest, ACameraWhoseScaleNothingFixesWaitsUntilPointsInFi
   ASSERT_TRUE(batch.status.ok()) << batch.status.ToString();
   const double settled = graph.Cost((*isam)->CalculateEstimate());
   EXPECT_NEAR(settled, batch.summary.final_cost, 1e-6 * (1.0 + batch.summary.final_cost));
+}
+
+// A dropped point's later observations are counted, not emitted; the point that fixes the scale
+// cannot be dropped; ImagesSeeing lists only images in the graph.
+TEST(ReconstructionStreamTest, ADroppedPointsLaterObservationsAreLeftOut) {
+  const Reconstruction r = World();
+  Result<ReconstructionStream> stream = ReconstructionStream::Create(r);
+  ASSERT_TRUE(stream.ok());
+  int step_index = 0, scale_point = -1;
+  while (stream->points_in() == 0) {
+    const ReconstructionStep step = stream->Next();
+    ++step_index;
+    for (const FactorPtr& f : step.factors) {
+      if (f->keys().size() == 1 && KeySymbol(f->keys()[0]) == 'l') {  // the range prior
+        scale_point = static_cast<int>(KeyIndex(f->keys()[0]));
+      }
+    }
+  }
+  ASSERT_GE(scale_point, 0);
+  EXPECT_FALSE(stream->Droppable(scale_point));
+  int dropped = -1;
+  for (int j = 0; j < static_cast<int>(r.points.size()) && dropped < 0; ++j) {
+    if (stream->Droppable(j)) dropped = j;
+  }
+  ASSERT_GE(dropped, 0);
+  EXPECT_EQ(static_cast<int>(stream->ImagesSeeing(dropped).size()), step_index);
+  stream->Drop(dropped);
+  EXPECT_FALSE(stream->Droppable(dropped));
+  int later = 0;  // the point's observations by the images still to come
+  for (const SfmObservation& o : r.observations)
+    later += o.point == dropped && o.image >= step_index;
+  ASSERT_GT(later, 0);
+  while (step_index < stream->num_steps()) {
+    const ReconstructionStep step = stream->Next();
+    ++step_index;
+    for (const FactorPtr& f : step.factors) {
+      for (Key key : f->keys()) EXPECT_NE(key, stream->keys().points[dropped]);
+    }
+  }
+  EXPECT_EQ(stream->dropped_points(), 1);
+  EXPECT_EQ(stream->dropped_observations(), later);
+  EXPECT_EQ(
+      static_cast<int>(stream->ImagesSeeing(dropped).size()),
+      static_cast<int>(std::count_if(r.observations.begin(), r.observations.end(),
+                                     [&](const SfmObservation& o) { return o.point == dropped; })));
 }
 
 TEST(ReconstructionStreamTest, FixedIntrinsicsAddNoCalibrationVariables) {
