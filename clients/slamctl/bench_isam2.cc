@@ -14,6 +14,7 @@
 // not for slamd.
 #include <algorithm>
 #include <cstdio>
+#include <set>
 
 #include "clients/slamctl/bench.h"
 #include "clients/slamctl/json_writer.h"
@@ -301,8 +302,13 @@ void RunIsam2(const BenchOptions& opt) {
 // points entering once two views see them with parallax. Costs are Ceres's (½ Σ ρ, pixels²) of
 // the whole graph (the anchors' priors add ~0); `batch_cost` is the batch optimum of the same
 // graph (--compare-batch).
+// A point more than 80° off a camera's optical axis that observes it has left its field of view
+// (a pixel measured there would be far outside the image): its projection's derivatives grow
+// without bound towards 90°.
+constexpr double kMinCosFromAxis = 0.17;
+
 // The largest angle [deg] between the rays from `images`' camera centres to `point` at the
-// estimate, or -1 when the point is at or behind one of them.
+// estimate, or -1 when the point is behind one of them or more than 80° off its axis.
 double RayParallaxDeg(const core::Isam2& isam, const core::ReconstructionStream& stream, int point,
                       const std::vector<int>& images) {
   const core::Point3 X =
@@ -310,7 +316,8 @@ double RayParallaxDeg(const core::Isam2& isam, const core::ReconstructionStream&
   std::vector<core::Vector3> rays;
   for (int i : images) {
     const core::Pose3 pose = std::get<core::Pose3>(isam.CalculateEstimate(stream.keys().images[i]));
-    if (pose.TransformTo(X).z() <= 0.0) return -1.0;
+    const core::Point3 in_camera = pose.TransformTo(X);
+    if (in_camera.z() <= kMinCosFromAxis * in_camera.norm()) return -1.0;
     rays.push_back((X - pose.translation()).normalized());
   }
   double min_cos = 1.0;
@@ -320,36 +327,40 @@ double RayParallaxDeg(const core::Isam2& isam, const core::ReconstructionStream&
   return std::acos(std::clamp(min_cos, -1.0, 1.0)) * 180.0 / M_PI;
 }
 
-// Takes `point` out of the solver, `graph` and `initial`: its factors removed (a weak prior
-// holding it meanwhile), then the variable, which then has nothing to summarise. Adds the
+// Takes `points` out of the solver, `graph` and `initial`: their factors removed (weak priors
+// holding them meanwhile), then the variables, which then have nothing to summarise. Adds the
 // observations removed to *removed.
-core::Status DropPoint(int point, core::ReconstructionStream* stream, core::Isam2* isam,
-                       core::FactorGraph* graph, core::Values* initial, int* removed) {
-  const core::Key key = stream->keys().points[point];
+core::Status DropPoints(const std::vector<int>& points, core::ReconstructionStream* stream,
+                        core::Isam2* isam, core::FactorGraph* graph, core::Values* initial,
+                        int* removed) {
+  std::set<core::Key> keys;
+  for (int j : points) keys.insert(stream->keys().points[j]);
+  const auto touches = [&](const core::FactorPtr& f) {
+    return std::any_of(f->keys().begin(), f->keys().end(),
+                       [&](core::Key k) { return keys.count(k) > 0; });
+  };
   std::vector<int> indices;
   const std::vector<core::FactorPtr>& slots = isam->factor_slots();
   for (int f = 0; f < static_cast<int>(slots.size()); ++f) {
-    if (!slots[f]) continue;
-    const core::KeyVector& keys = slots[f]->keys();
-    if (std::find(keys.begin(), keys.end(), key) != keys.end()) indices.push_back(f);
+    if (slots[f] && touches(slots[f])) indices.push_back(f);
   }
   core::FactorGraph hold;
-  hold.Emplace<core::PriorFactor<core::Point3>>(
-      key, std::get<core::Point3>(isam->CalculateEstimate(key)),
-      core::NoiseModel::Isotropic(3, 1e3).value());
-  const core::Isam2Result update = isam->Update(hold, {}, {.remove_factors = indices});
-  SLAMD_RETURN_IF_ERROR(update.status);
+  for (core::Key key : keys) {
+    hold.Emplace<core::PriorFactor<core::Point3>>(
+        key, std::get<core::Point3>(isam->CalculateEstimate(key)),
+        core::NoiseModel::Isotropic(3, 1e3).value());
+  }
+  SLAMD_RETURN_IF_ERROR(isam->Update(hold, {}, {.remove_factors = indices}).status);
   *removed += static_cast<int>(indices.size());
-  const core::Key keys[] = {key};
-  SLAMD_RETURN_IF_ERROR(isam->RemoveVariables(keys).status);
+  const core::KeyVector removed_keys(keys.begin(), keys.end());
+  SLAMD_RETURN_IF_ERROR(isam->RemoveVariables(removed_keys).status);
   core::FactorGraph kept;
   for (const core::FactorPtr& f : *graph) {
-    const core::KeyVector& k = f->keys();
-    if (std::find(k.begin(), k.end(), key) == k.end()) kept.Add(f);
+    if (!touches(f)) kept.Add(f);
   }
   *graph = std::move(kept);
-  SLAMD_RETURN_IF_ERROR(initial->Erase(key));
-  stream->Drop(point);
+  for (core::Key key : keys) SLAMD_RETURN_IF_ERROR(initial->Erase(key));
+  for (int j : points) stream->Drop(j);
   return core::Status::Ok();
 }
 
@@ -400,12 +411,16 @@ void RunIsam2Reconstruction(const BenchOptions& opt) {
     // went behind a camera: out before their depth becomes indeterminate.
     std::string drop_failure;
     if (opt.drop_parallax_deg > 0.0) {
-      for (int j = 0; j < static_cast<int>(r->points.size()) && drop_failure.empty(); ++j) {
-        if (!stream->Droppable(j)) continue;
-        const double parallax = RayParallaxDeg(isam, *stream, j, stream->ImagesSeeing(j));
-        if (parallax >= opt.drop_parallax_deg) continue;
+      std::vector<int> degenerate;
+      for (int j = 0; j < static_cast<int>(r->points.size()); ++j) {
+        if (stream->Droppable(j) &&
+            RayParallaxDeg(isam, *stream, j, stream->ImagesSeeing(j)) < opt.drop_parallax_deg) {
+          degenerate.push_back(j);
+        }
+      }
+      if (!degenerate.empty()) {
         const core::Status dropped =
-            DropPoint(j, &*stream, &isam, &graph, &initial, &observations_removed);
+            DropPoints(degenerate, &*stream, &isam, &graph, &initial, &observations_removed);
         if (!dropped.ok()) drop_failure = dropped.ToString();
       }
     }
