@@ -287,7 +287,7 @@ void RegisterBench(CLI::App& app) {
   cmd->add_option("--drop-parallax", opt->drop_parallax_deg,
                   "isam2 on a reconstruction: a point leaves the graph (its observations dropped) "
                   "once its rays at the estimate are closer than this (degrees) or it is behind "
-                  "a camera; 0: never")
+                  "or more than 80 degrees off the axis of a camera that sees it; 0: never")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd->add_flag("--fixed-intrinsics", opt->fixed_intrinsics,
