@@ -138,9 +138,9 @@ void RegisterBench(CLI::App& app) {
                   "Dataset: a pose graph (g2o 2D/3D, TORO .graph, iSAM .txt) for batch and isam2; "
                   "a BAL file or a COLMAP text model (a directory with cameras.txt, images.txt, "
                   "points3D.txt) for ba, for batch as a factor graph (projection factors refining "
-                  "every calibration) and for isam2 camera by camera (an image enters once it sees "
-                  "5 points in the graph, a point once two views see it with --min-parallax; "
-                  "camera 0 and the scale anchored)")
+                  "the calibrations whose model can write every parameter back) and for isam2 "
+                  "camera by camera (an image enters once it sees 5 points in the graph, a point "
+                  "once two views see it with --min-parallax; camera 0 and the scale anchored)")
       ->required()
       ->check(CLI::ExistingPath);
   cmd->add_option("--solver", opt->solver,
