@@ -6,7 +6,7 @@
 #include <numeric>
 #include <variant>
 
-#include "core/ba/ba_problem.h"
+#include "core/ba/border_elimination.h"
 #include "core/ba/problem_dispatch.h"
 #include "core/base/timing.h"
 #include "core/base/worker_pool.h"
@@ -15,7 +15,6 @@
 namespace slamd::core {
 namespace {
 
-using internal::BaProblem;
 using internal::CalibrationBorder;
 using internal::ReducedCameraMatrix;
 
@@ -161,7 +160,7 @@ double StateNorm(const State& x) {
 
 template <typename Cal, bool kRefineCal>
 Result<BundleAdjusterSummary> Adjust(const BundleAdjusterParams& params, Reconstruction* rec) {
-  using Problem = BaProblem<Cal, kRefineCal>;
+  using Problem = internal::BaBorderedProblem<Cal, kRefineCal>;
   constexpr int kD = Problem::kD;
   const Stopwatch total;
   // Calibrations refined but not per camera: some intrinsics are shared by several images.

@@ -4,14 +4,13 @@
 #include <algorithm>
 #include <string>
 
-#include "core/ba/ba_problem.h"
+#include "core/ba/border_elimination.h"
 #include "core/ba/problem_dispatch.h"
 #include "core/base/worker_pool.h"
 
 namespace slamd::core {
 namespace {
 
-using internal::BaProblem;
 using internal::CalibrationBorder;
 using internal::ReducedCameraMatrix;
 
@@ -39,7 +38,7 @@ Result<Eigen::MatrixXd> InverseWithout(const Eigen::MatrixXd& a, const std::vect
 template <typename Cal, bool kRefineCal>
 Result<CameraCovariances> Estimate(const Reconstruction& r, const BundleAdjusterParams& params,
                                    double pixel_sigma, int max_dense_dim) {
-  using Problem = BaProblem<Cal, kRefineCal>;
+  using Problem = internal::BaBorderedProblem<Cal, kRefineCal>;
   constexpr int kD = Problem::kD, kC = Cal::kDim;
   const int n = static_cast<int>(r.images.size());
   CameraCovariances out{.block_dim = kD};

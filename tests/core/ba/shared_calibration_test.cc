@@ -7,7 +7,7 @@
 
 #include <Eigen/Dense>
 
-#include "core/ba/ba_problem.h"
+#include "core/ba/border_elimination.h"
 #include "core/ba/bundle_adjuster.h"
 #include "core/ba/calibration_border.h"
 #include "core/ba/camera_covariance.h"
@@ -59,7 +59,7 @@ Eigen::MatrixXd SharedNumericalJacobian(const Reconstruction& r, Eigen::VectorXd
 
 TEST(SharedCalibrationTest, BorderedStepEqualsDenseSolveOfTheFullSystem) {
   const Reconstruction r = TwoCameraWorld(5, 3, 1);
-  using Problem = internal::BaProblem<Cal3Bundler, false>;
+  using Problem = internal::BaBorderedProblem<Cal3Bundler, false>;
   WorkerPool pool(1);  // two chunks: each sums its own part of the border
   Problem problem(r, RobustKernel(), {3, 0, 4, 1, 2}, &pool, {.shared = true});
   ASSERT_EQ(problem.shared_dim(), 6);
