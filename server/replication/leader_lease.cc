@@ -94,13 +94,22 @@ core::Status LeaderLease::Release() {
   return NatsStatus("cannot release the lease", kvStore_Delete(kv_, options_.key.c_str()));
 }
 
+// Read through the stream leader's get API, not kvStore_Get: the bucket allows direct gets,
+// which any replica answers, so a follower that has not applied the latest write yet would say
+// nobody holds a lease that was just taken.
 core::Result<std::string> LeaderLease::Holder() {
-  kvEntry* e = nullptr;
-  const natsStatus s = kvStore_Get(&e, kv_, options_.key.c_str());
+  natsMsg* msg = nullptr;
+  const std::string stream = "KV_" + options_.bucket;
+  const std::string subject = "$KV." + options_.bucket + "." + options_.key;
+  const natsStatus s = js_GetLastMsg(&msg, client_->jetstream(), stream.c_str(), subject.c_str(),
+                                     nullptr, nullptr);
   if (s == NATS_NOT_FOUND) return std::string();
   if (s != NATS_OK) return NatsStatus("cannot read the lease", s);
-  std::string holder = kvEntry_ValueString(e);
-  kvEntry_Destroy(e);
+  const char* operation = nullptr;  // "DEL" or "PURGE" for a released lease
+  const bool removed = natsMsgHeader_Get(msg, "KV-Operation", &operation) == NATS_OK;
+  std::string holder =
+      removed ? std::string() : std::string(natsMsg_GetData(msg), natsMsg_GetDataLength(msg));
+  natsMsg_Destroy(msg);
   return holder;
 }
 
