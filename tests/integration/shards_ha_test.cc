@@ -4,11 +4,15 @@
 // summaries over NATS. Every robot's poses from its shard end within 1 mm of the unsharded
 // slamd's, and the shards sent summaries. Shards on two buses (two channel prefixes) with
 // shards.forward_queries answer a query, a map request and a bad query for the other shard's
-// robot on the asker's bus, exactly as the owner answers on its own.
+// robot on the asker's bus, exactly as the owner answers on its own. A shard that is a replicated
+// pair loses its leader half-way and still ends at the unsharded estimate.
 #include <gtest/gtest.h>
+#include <signal.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <random>
 #include <string>
@@ -236,6 +240,75 @@ void RunShards(int n) {
 
 TEST(ShardsHaTest, TwoShardsOverNatsEndAtOneServersEstimate) { RunShards(2); }
 TEST(ShardsHaTest, FourShardsOverNatsEndAtOneServersEstimate) { RunShards(4); }
+
+// Shard S1 of two is a replicated pair on a three-server JetStream cluster. Its leader is killed
+// (SIGKILL) half-way through the stream; the standby, which kept S0's summaries and the robots'
+// messages it heard, takes over, sends S1's summaries, and the shards end at the one server's
+// estimate as before.
+TEST(ShardsHaTest, AShardThatIsAReplicatedPairFailsOverAndEndsAtOneServersEstimate) {
+  ASSERT_TRUE(testing::OnlyLoopback()) << testing::kNotInNetns;
+  if (!testing::HaveNatsServer()) GTEST_SKIP() << "nats-server is not installed";
+  testing::TempDir tmp("ha_shards_pair");
+  testing::NatsCluster nats(tmp.str() + "/nats", 3);
+  ASSERT_NO_FATAL_FAILURE(nats.StartAll());
+  ASSERT_TRUE(nats.WaitForJetStream(30.0));
+  Client client(kUrl, "robot0");
+  const auto server = [&](const std::string& prefix, const std::string& name) {
+    return Server{.prefix = prefix,
+                  .data_dir = tmp.str() + "/" + name,
+                  .log = tmp.str() + "/" + name + ".log"};
+  };
+  Server central = server("CENTRAL_", "central");
+  std::vector<Server> procs;  // S0, then S1's leader and standby (not copyable: no push_back)
+  procs.reserve(3);
+  for (const char* name : {"s0", "s1a", "s1b"}) procs.push_back(server("SLAMD_", name));
+  const testing::KillOnExit cleanup({&central, &procs[0], &procs[1], &procs[2]});
+  std::ofstream(tmp.str() + "/central.textproto") << kConfig;
+  std::ofstream(tmp.str() + "/s0.textproto") << ShardConfig(2, 0, nats.Urls());
+  std::ofstream(tmp.str() + "/s1.textproto")
+      << ShardConfig(2, 1, nats.Urls()) << "replication { servers: \"" << nats.Urls()
+      << "\" ack_timeout_ms: 500 lease_ttl_ms: 1000 }\n";
+  ASSERT_NO_FATAL_FAILURE(testing::Launch(tmp.str() + "/central.textproto", client, &central));
+  ASSERT_NO_FATAL_FAILURE(testing::Launch(tmp.str() + "/s0.textproto", client, &procs[0]));
+  ASSERT_NO_FATAL_FAILURE(testing::Launch(tmp.str() + "/s1.textproto", client, &procs[1]));
+  client.Attach(&procs[0]);
+  for (Server* s : {&central, &procs[0], &procs[1]}) {
+    ASSERT_TRUE(testing::WaitForLog(client, *s, "slamd running", 30.0)) << s->log;
+  }
+  ASSERT_NO_FATAL_FAILURE(testing::Launch(tmp.str() + "/s1.textproto", client, &procs[2]));
+  ASSERT_TRUE(testing::WaitForLog(client, procs[2], "standby, following", 30.0)) << procs[2].log;
+
+  testing::StepMessages step;
+  for (auto& [suffix, bytes] : World()) step.push_back({suffix, std::move(bytes), nullptr});
+  for (std::size_t k = 0; k < step.size(); k += 40) {
+    if (k == step.size() / 80 * 40) {  // half-way: S1's leader dies
+      client.Drain(200);  // S0's summaries of the first half are out
+      ASSERT_NO_FATAL_FAILURE(testing::Kill(&procs[1], SIGKILL));
+    }
+    const testing::StepMessages burst(step.begin() + k,
+                                      step.begin() + std::min(step.size(), k + 40));
+    client.Send(central, burst);
+    client.Send(procs[0], burst);
+    client.Drain(5);
+  }
+  ASSERT_TRUE(testing::WaitForLog(client, procs[2], "took over as leader", 30.0)) << procs[2].log;
+  Asker asker;
+  double gap = 1e9;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (gap > 1e-3 && std::chrono::steady_clock::now() < deadline) {
+    client.Drain(300);
+    gap = Gap(asker);
+  }
+  EXPECT_LT(gap, 1e-3) << "logs in " << tmp.str();
+  EXPECT_EQ(procs[0].other_rejects, 0);
+  // The new leader sent S1's summaries (it says how many when it stops).
+  ASSERT_NO_FATAL_FAILURE(testing::Kill(&procs[2], SIGTERM));
+  std::ifstream in(procs[2].log);
+  const std::string log{std::istreambuf_iterator<char>(in), {}};
+  const std::size_t at = log.rfind("shard 'S1': ");  // the stop line
+  ASSERT_NE(at, std::string::npos) << procs[2].log;
+  EXPECT_GT(std::atoi(log.c_str() + at + 12), 0) << log.substr(at, 80);
+}
 
 // Two shards, each on its own bus (prefixes A_ and B_: neither hears the other's channels), both
 // sent the whole world (each takes its robots'). Asked on A_, S0 forwards robot2's and robot3's
