@@ -282,7 +282,7 @@ TEST(ShardsHaTest, AShardThatIsAReplicatedPairFailsOverAndEndsAtOneServersEstima
   for (auto& [suffix, bytes] : World()) step.push_back({suffix, std::move(bytes), nullptr});
   for (std::size_t k = 0; k < step.size(); k += 40) {
     if (k == step.size() / 80 * 40) {  // half-way: S1's leader dies
-      client.Drain(200);  // S0's summaries of the first half are out
+      client.Drain(200);               // S0's summaries of the first half are out
       ASSERT_NO_FATAL_FAILURE(testing::Kill(&procs[1], SIGKILL));
     }
     const testing::StepMessages burst(step.begin() + k,
