@@ -60,6 +60,52 @@ std::vector<double> QueuedLatencies(const std::vector<double>& step_ms,
   return latency;
 }
 
+// Where the bytes are after the stream (before settling and the marginals' cache), and at rest:
+// after what the server's idle time gives back (Isam2::TrimMemory, done here).
+struct MemoryFigures {
+  core::Isam2Memory solver;
+  double rss = 0.0, trimmed_solver = 0.0, trimmed_rss = 0.0;  // [bytes]
+  double n = 1.0;                                             // variables
+
+  static MemoryFigures Measure(core::Isam2* isam) {
+    MemoryFigures m{
+        .solver = isam->MemoryUse(),
+        .rss = static_cast<double>(core::ResidentBytes()),
+        .n = static_cast<double>(std::max<std::size_t>(1, isam->linearization_point().size()))};
+    isam->TrimMemory();
+    m.trimmed_solver = static_cast<double>(isam->MemoryUse().Total());
+    m.trimmed_rss = static_cast<double>(core::ResidentBytes());
+    return m;
+  }
+  JsonWriter PerVariable() const {
+    JsonWriter out;
+    out.Add("linearization_point", solver.linearization_point / n)
+        .Add("variables", solver.variables / n)
+        .Add("factor_lists", solver.factor_lists / n)
+        .Add("linearizations", solver.linearizations / n)
+        .Add("variable_index", solver.variable_index / n)
+        .Add("tree", solver.tree / n)
+        .Add("tree_free", solver.tree_free / n)
+        .Add("scratch", solver.scratch / n)
+        .Add("solver_total", solver.Total() / n)
+        .Add("rss", rss / n)
+        .Add("solver_total_trimmed", trimmed_solver / n)
+        .Add("rss_trimmed", trimmed_rss / n);
+    return out;
+  }
+  void Print() const {
+    std::printf(
+        "memory per variable after the stream [bytes]: RSS %.0f, solver %.0f = theta %.0f, "
+        "per-variable arrays %.0f, factor lists %.0f, linearisations %.0f, index %.0f, tree %.0f "
+        "(+ %.0f free), scratch %.0f\n",
+        rss / n, solver.Total() / n, solver.linearization_point / n, solver.variables / n,
+        solver.factor_lists / n, solver.linearizations / n, solver.variable_index / n,
+        solver.tree / n, solver.tree_free / n, solver.scratch / n);
+    std::printf("  at rest (Isam2::TrimMemory): RSS %.0f, solver %.0f\n", trimmed_rss / n,
+                trimmed_solver / n);
+  }
+};
+
 }  // namespace
 
 void RunIsam2(const BenchOptions& opt) {
@@ -142,26 +188,7 @@ void RunIsam2(const BenchOptions& opt) {
   }
   const double total_s = total.Seconds();
   if (csv && std::fclose(csv) != 0) Fail(kExitFailure, "cannot write " + opt.step_times);
-  // Where the bytes are after the stream (before settling and the marginals' cache), per variable.
-  const core::Isam2Memory memory = isam.MemoryUse();
-  const double rss_bytes = static_cast<double>(core::ResidentBytes());
-  const double n = static_cast<double>(std::max<std::size_t>(1, isam.linearization_point().size()));
-  JsonWriter per_variable;
-  per_variable.Add("linearization_point", memory.linearization_point / n)
-      .Add("variables", memory.variables / n)
-      .Add("factor_lists", memory.factor_lists / n)
-      .Add("linearizations", memory.linearizations / n)
-      .Add("variable_index", memory.variable_index / n)
-      .Add("tree", memory.tree / n)
-      .Add("tree_free", memory.tree_free / n)
-      .Add("scratch", memory.scratch / n)
-      .Add("solver_total", memory.Total() / n)
-      .Add("rss", rss_bytes / n);
-  // ... and at rest: what the server's idle time gives back (Isam2::TrimMemory).
-  isam.TrimMemory();
-  const double trimmed_solver = static_cast<double>(isam.MemoryUse().Total());
-  const double trimmed_rss = static_cast<double>(core::ResidentBytes());
-  per_variable.Add("solver_total_trimmed", trimmed_solver / n).Add("rss_trimmed", trimmed_rss / n);
+  const MemoryFigures memory = MemoryFigures::Measure(&isam);
   const double chi2_before_settle = isam.Chi2();
   double final_chi2 = chi2_before_settle;
   double settle_used_s = 0.0;
@@ -242,7 +269,7 @@ void RunIsam2(const BenchOptions& opt) {
         .Add("read_s", read_s)
         .Add("worst_step", worst_step)
         .Add("peak_rss_mb", PeakRssMb())
-        .Add("memory_bytes_per_variable", per_variable);
+        .Add("memory_bytes_per_variable", memory.PerVariable());
     if (opt.compare_batch) out.Add("batch_chi2", batch_chi2);
     if (opt.rate_hz > 0) {
       out.Add("rate_hz", opt.rate_hz).Add("queued_ms", percentiles(queued_ms));
@@ -286,15 +313,7 @@ void RunIsam2(const BenchOptions& opt) {
     std::printf("slowest step %s\n", worst_step.c_str());
     std::printf("relinearized %lld variables, re-eliminated %lld; peak RSS %.1f MB\n", relinearized,
                 reeliminated, PeakRssMb());
-    std::printf(
-        "memory per variable after the stream [bytes]: RSS %.0f, solver %.0f = theta %.0f, "
-        "per-variable arrays %.0f, factor lists %.0f, linearisations %.0f, index %.0f, tree %.0f "
-        "(+ %.0f free), scratch %.0f\n",
-        rss_bytes / n, memory.Total() / n, memory.linearization_point / n, memory.variables / n,
-        memory.factor_lists / n, memory.linearizations / n, memory.variable_index / n,
-        memory.tree / n, memory.tree_free / n, memory.scratch / n);
-    std::printf("  at rest (Isam2::TrimMemory): RSS %.0f, solver %.0f\n", trimmed_rss / n,
-                trimmed_solver / n);
+    memory.Print();
   }
 }
 
@@ -441,6 +460,7 @@ void RunIsam2Reconstruction(const BenchOptions& opt) {
   const double total_s = total.Seconds() - untimed_s;
   if (csv && std::fclose(csv) != 0) Fail(kExitFailure, "cannot write " + opt.step_times);
   const double cost = 0.5 * graph.Cost(isam.CalculateEstimate());
+  const MemoryFigures memory = MemoryFigures::Measure(&isam);
   double settled_cost = cost;
   if (opt.settle_s > 0.0 && failure.empty()) {
     (void)isam.Refine(opt.settle_s);
@@ -473,7 +493,8 @@ void RunIsam2Reconstruction(const BenchOptions& opt) {
         .Add("step_ms_max", Percentile(step_ms, 1.0))
         .Add("final_cost", cost)
         .Add("settled_cost", settled_cost)
-        .Add("peak_rss_mb", PeakRssMb());
+        .Add("peak_rss_mb", PeakRssMb())
+        .Add("memory_bytes_per_variable", memory.PerVariable());
     if (opt.compare_batch) out.Add("batch_cost", batch_cost);
     std::printf("%s\n", out.str().c_str());
   } else {
@@ -493,6 +514,7 @@ void RunIsam2Reconstruction(const BenchOptions& opt) {
     std::printf("cost (½Σρ, px²) after the last step %.10g, settled %.10g", cost, settled_cost);
     if (opt.compare_batch) std::printf(", batch optimum %.10g", batch_cost);
     std::printf("; peak RSS %.1f MB\n", PeakRssMb());
+    memory.Print();
   }
   if (!failure.empty()) Fail(kExitFailure, failure);
 }

@@ -5,6 +5,12 @@
 #include "core/base/check.h"
 
 namespace slamd::core {
+namespace {
+
+// A std::set node of the free list: the pair and the red-black links (glibc's allocation).
+constexpr std::size_t kSetNodeBytes = 48;
+
+}  // namespace
 
 BayesTree::BayesTree(const BayesTree& other)
     : free_(other.free_), roots_(other.roots_), var_clique_(other.var_clique_) {
@@ -27,11 +33,13 @@ std::vector<int> BayesTree::TopDownOrder() const {
   return order;
 }
 
-int BayesTree::NewClique() {
+int BayesTree::NewClique(std::size_t doubles) {
   int id;
   if (!free_.empty()) {
-    id = free_.back();
-    free_.pop_back();
+    auto fit = free_.lower_bound({doubles, 0});
+    if (fit == free_.end()) fit = free_.begin();
+    id = fit->second;
+    free_.erase(fit);
   } else {
     id = NumSlots();
     cliques_.push_back(std::make_unique<Clique>());
@@ -54,7 +62,7 @@ void BayesTree::FreeClique(int id) {
     if (CliqueOf(v) == id) var_clique_[v] = kNone;
   }
   c.live_ = false;
-  free_.push_back(id);
+  AddFree(id);
 }
 
 void BayesTree::Attach(int child, int parent) {
@@ -146,7 +154,7 @@ void BayesTree::RestoreRemoved() {
 }
 
 void BayesTree::ReleaseRemoved() {
-  for (const Removed& r : removed_) free_.push_back(r.id);
+  for (const Removed& r : removed_) AddFree(r.id);
   removed_.clear();
   removed_children_.clear();
 }
@@ -160,7 +168,7 @@ void BayesTree::Clear() {
     c.parent_ = kNone;
     c.root_slot_ = kNone;
     c.children_.clear();
-    free_.push_back(id);
+    AddFree(id);
   }
   roots_.clear();
   var_clique_.clear();
@@ -203,7 +211,8 @@ void BayesTree::RenumberVariables(std::span<const int> new_id, int num_vars) {
 
 void BayesTree::StorageBytes(std::size_t* live, std::size_t* free) const {
   *live = cliques_.capacity() * sizeof(cliques_[0]) + var_clique_.capacity() * sizeof(int) +
-          roots_.capacity() * sizeof(int) + free_.capacity() * sizeof(int);
+          roots_.capacity() * sizeof(int);
+  *live += free_.size() * kSetNodeBytes;
   *free = 0;
   for (const std::unique_ptr<Clique>& c : cliques_) {
     (c->live_ ? *live : *free) += c->StorageBytes() + (c->live_ ? sizeof(Clique) : 0);
@@ -219,6 +228,9 @@ void BayesTree::TrimStorage() {
       c->ReleaseStorage();
     }
   }
+  std::set<std::pair<std::size_t, int>> released;  // every freed slot now holds nothing
+  for (const auto& [unused, id] : free_) released.emplace(0, id);
+  free_ = std::move(released);
 }
 
 }  // namespace slamd::core

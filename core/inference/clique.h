@@ -91,6 +91,13 @@ class Clique {
     return index_.capacity() * sizeof(int) + conditional_.capacity() * sizeof(double) +
            cached_.StorageBytes() + children_.capacity() * sizeof(int);
   }
+  // Doubles its matrices ([R S d] and the cached factor) can hold without allocating: what a
+  // freed slot offers the next clique (BayesTree::NewClique).
+  std::size_t MatrixCapacity() const { return conditional_.capacity() + cached_.DataCapacity(); }
+  // The doubles ResetForElimination needs for these dims (nf frontal, ns separator scalars).
+  static std::size_t MatrixDoubles(int nf, int ns) {
+    return static_cast<std::size_t>(nf) * (nf + ns + 1) + HessianFactor::DataDoubles(ns);
+  }
   // Gives back the capacity beyond what it holds (a clique in use), or all of it (a freed one:
   // its next Reset allocates afresh).
   void ShrinkStorage();

@@ -240,16 +240,20 @@ Status Eliminator::Eliminate(const EliminationProblem& problem, BayesTree* tree,
   // 3. Numeric phase into cliques created up front (so that threads only fill them), children
   //    before parents; then the links, in creation order.
   const int num = forest_.NumCliques();
+  CliqueDims(problem);
   tree_id_.resize(num);
-  for (int c = 0; c < num; ++c) tree_id_[c] = tree->NewClique();
-  const bool parallel = threads_ > 1 && EstimateWork(problem) >= kParallelMinWork;
+  for (int c = 0; c < num; ++c) {
+    tree_id_[c] = tree->NewClique(Clique::MatrixDoubles(clique_nf_[c], clique_ns_[c]));
+  }
+  const bool parallel = threads_ > 1 && EstimateWork() >= kParallelMinWork;
   if (parallel && EliminateParallel(problem, tree, result)) {
     result->threads_used = threads_;
   } else {
     status = EliminateSerial(problem, tree, result);
   }
   if (!status.ok()) {
-    // Freed in reverse creation order, which gives back the tree's free list as it was.
+    // Freed again: the tree's free list holds the same slots as before (their storage may have
+    // grown).
     for (int c = num - 1; c >= 0; --c) tree->FreeClique(tree_id_[c]);
     std::fill(result->hessian_cliques.begin(), result->hessian_cliques.end(), BayesTree::kNone);
     ResetPositions(problem.ordering);
@@ -281,7 +285,21 @@ Status Eliminator::EliminateSerial(const EliminationProblem& problem, BayesTree*
   return Status::Ok();
 }
 
-double Eliminator::EstimateWork(const EliminationProblem& problem) {
+void Eliminator::CliqueDims(const EliminationProblem& problem) {
+  const int num = forest_.NumCliques();
+  clique_nf_.assign(num, 0);
+  clique_ns_.assign(num, 0);
+  for (int c = 0; c < num; ++c) {
+    for (int p = forest_.first_frontal[c]; p != -1; p = forest_.next_frontal[p]) {
+      clique_nf_[c] += problem.var_dims[problem.ordering[p]];
+    }
+    for (int i = forest_.sep_begin[c]; i < forest_.sep_end[c]; ++i) {
+      clique_ns_[c] += problem.var_dims[problem.ordering[forest_.sep_data[i]]];
+    }
+  }
+}
+
+double Eliminator::EstimateWork() {
   // Per clique: partial Cholesky nf·(nf²/3 + nf·ns + ns²) plus assembling its share of the
   // parent, ns² (nf, ns: frontal and separator dims). Subtree sums in creation order.
   const int num = forest_.NumCliques();
@@ -289,13 +307,7 @@ double Eliminator::EstimateWork(const EliminationProblem& problem) {
   subtree_work_.assign(num, 0.0);
   double total = 0.0;
   for (int c = 0; c < num; ++c) {
-    double nf = 0.0, ns = 0.0;
-    for (int p = forest_.first_frontal[c]; p != -1; p = forest_.next_frontal[p]) {
-      nf += problem.var_dims[problem.ordering[p]];
-    }
-    for (int i = forest_.sep_begin[c]; i < forest_.sep_end[c]; ++i) {
-      ns += problem.var_dims[problem.ordering[forest_.sep_data[i]]];
-    }
+    const double nf = clique_nf_[c], ns = clique_ns_[c];
     work_[c] = nf * (nf * nf / 3.0 + nf * ns + ns * ns) + ns * ns;
     subtree_work_[c] += work_[c];
     total += work_[c];

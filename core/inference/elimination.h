@@ -162,8 +162,10 @@ class Eliminator {
   // so that the failure named is the first in creation order, as with one thread).
   bool EliminateParallel(const EliminationProblem& problem, BayesTree* tree,
                          EliminationResult* result);
-  // Fills work_ and subtree_work_ of the forest; returns the total.
-  double EstimateWork(const EliminationProblem& problem);
+  // Fills clique_nf_ and clique_ns_: each clique's frontal and separator dimension.
+  void CliqueDims(const EliminationProblem& problem);
+  // Fills work_ and subtree_work_ of the forest (after CliqueDims); returns the total.
+  double EstimateWork();
   // Fills owner_: the thread that eliminates each clique, or -1 for the top (see the .cc).
   void AssignSubtrees();
   void ResetPositions(std::span<const int> ordering);
@@ -178,6 +180,7 @@ class Eliminator {
   std::vector<int> cursor_, structure_cursor_;                // CSR fill cursors
   std::vector<int> structure_ptr_, structure_pos_;            // their variables' positions
   std::vector<int> tree_id_;                                  // symbolic clique -> tree id
+  std::vector<int> clique_nf_, clique_ns_;                    // per clique: dims
   std::vector<double> work_, subtree_work_;                   // per clique: estimated work
   std::vector<int> owner_;                                    // per clique: thread or -1
   std::vector<int> roots_;                                    // cliques without a parent

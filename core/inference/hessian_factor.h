@@ -54,6 +54,11 @@ class HessianFactor {
   std::size_t StorageBytes() const {
     return index_.capacity() * sizeof(int) + data_.capacity() * sizeof(double);
   }
+  // Doubles its storage holds without allocating, and the doubles a factor of dimension D needs.
+  std::size_t DataCapacity() const { return data_.capacity(); }
+  static std::size_t DataDoubles(int D) {
+    return static_cast<std::size_t>(D + 1) * (D + 1) + static_cast<std::size_t>(D);
+  }
   // Gives back the capacity beyond what it holds (Reset/Reshape keep up to 4x for reuse).
   void ShrinkStorage() {
     index_.shrink_to_fit();

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <set>
 #include <span>
+#include <vector>
 
 #include "core/inference/consistency_check.h"
 #include "tests/core/inference/random_linear_system.h"
@@ -154,6 +155,35 @@ TEST(BayesTreeTest, ClearKeepsSlotsForReuse) {
   ASSERT_NO_FATAL_FAILURE(EliminateAll(s, NaturalOrder(s.NumVars()), &tree, &result));
   EXPECT_EQ(tree.NumSlots(), slots);
   EXPECT_TRUE(CheckConsistency(tree).ok());
+}
+
+// A new clique takes the freed slot whose storage fits it most tightly, else the smallest one
+// (LIFO reuse gave small cliques large storage and large cliques new storage).
+TEST(BayesTreeTest, NewCliqueTakesTheFreedStorageThatFitsBest) {
+  BayesTree tree;
+  // Three cliques of one 3-dim frontal on separators of 1, 4 and 10 3-dim variables.
+  const auto make = [&](int separator_vars) {
+    const int id = tree.NewClique();
+    std::vector<int> sep(separator_vars), dims(separator_vars, 3);
+    for (int k = 0; k < separator_vars; ++k) sep[k] = 100 + k;
+    const std::vector<int> frontal{id}, frontal_dims{3};
+    tree.mutable_clique(id).ResetForElimination(frontal, frontal_dims, sep, dims);
+    EXPECT_GE(tree.clique(id).MatrixCapacity(), Clique::MatrixDoubles(3, 3 * separator_vars));
+    return id;
+  };
+  const int small = make(1), medium = make(4), large = make(10);
+  for (int id : {medium, large, small}) tree.FreeClique(id);  // LIFO would give `small` first
+  // Fits `medium`, which is not the smallest freed slot, nor the last freed.
+  EXPECT_EQ(tree.NewClique(Clique::MatrixDoubles(3, 9)), medium);
+  // Larger than any: the smallest freed slot (whose storage is worth least) is the one to grow.
+  EXPECT_EQ(tree.NewClique(Clique::MatrixDoubles(6, 60)), small);
+  EXPECT_EQ(tree.NewClique(), large);
+  EXPECT_EQ(tree.NumSlots(), 3);
+  // Trimmed, freed slots hold nothing and are taken in id order.
+  for (int id : {large, small}) tree.FreeClique(id);
+  tree.TrimStorage();
+  EXPECT_LE(tree.clique(small).MatrixCapacity(), 1u);  // an empty factor's constant
+  EXPECT_EQ(tree.NewClique(Clique::MatrixDoubles(3, 3)), std::min(small, large));
 }
 
 }  // namespace
