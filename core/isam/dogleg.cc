@@ -27,8 +27,9 @@ void Gather(const Clique& c, std::span<const int> var_offsets, const Eigen::Vect
 void TreeGradient(const BayesTree& tree, std::span<const int> var_offsets, Eigen::VectorXd* g,
                   std::vector<double>* scratch) {
   g->setZero(var_offsets.back());
-  for (int id = 0; id < tree.NumSlots(); ++id) {
-    if (!tree.IsLive(id)) continue;
+  // Top down, not by slot id: a variable's entries are summed in an order fixed by the tree's
+  // shape, whichever slots its cliques took (that depends on the free list's history).
+  for (int id : tree.TopDownOrder()) {
     const Clique& c = tree.clique(id);
     const int nf = c.FrontalDim();
     scratch->resize(nf + c.SeparatorDim());
@@ -51,8 +52,7 @@ void TreeGradient(const BayesTree& tree, std::span<const int> var_offsets, Eigen
 TreeModelTerms ModelTerms(const BayesTree& tree, std::span<const int> var_offsets,
                           const Eigen::VectorXd& v, std::vector<double>* scratch) {
   TreeModelTerms terms;
-  for (int id = 0; id < tree.NumSlots(); ++id) {
-    if (!tree.IsLive(id)) continue;
+  for (int id : tree.TopDownOrder()) {  // as TreeGradient
     const Clique& c = tree.clique(id);
     const int nf = c.FrontalDim();
     const int n = nf + c.SeparatorDim();
