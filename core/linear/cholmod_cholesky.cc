@@ -31,6 +31,8 @@
 #include <string>
 #include <vector>
 
+#include "core/linear/blas_lock.h"
+
 namespace slamd::core::internal {
 namespace {
 
@@ -150,7 +152,11 @@ class CholmodCholesky final : public SparseCholesky {
 
     // 3. Numeric factorization into the existing factor object.
     cholmod_sparse a = Wrap(n, col_ptr, row_idx, values);
-    const int ok = cholmod_factorize(&a, factor_, c);
+    int ok = 0;
+    {
+      const std::unique_lock<std::mutex> blas = LockBlas();  // supernodal: the BLAS and LAPACK
+      ok = cholmod_factorize(&a, factor_, c);
+    }
     if (c->status == CHOLMOD_NOT_POSDEF) {
       // L->minor is a column of the (postordered) factor; report it in the caller's numbering.
       const size_t minor = factor_->minor;
@@ -188,8 +194,12 @@ class CholmodCholesky final : public SparseCholesky {
     rhs.x = const_cast<double*>(b);  // CHOLMOD reads B only
     rhs.xtype = CHOLMOD_REAL;
     rhs.dtype = CHOLMOD_DOUBLE;
-    if (!cholmod_solve2(CHOLMOD_A, factor_, &rhs, nullptr, &x_, nullptr, &y_, &e_, c) ||
-        c->status != CHOLMOD_OK) {
+    int solved = 0;
+    {
+      const std::unique_lock<std::mutex> blas = LockBlas();  // supernodal: dtrsm/dgemm
+      solved = cholmod_solve2(CHOLMOD_A, factor_, &rhs, nullptr, &x_, nullptr, &y_, &e_, c);
+    }
+    if (!solved || c->status != CHOLMOD_OK) {
       SetMessage(message, "cholmod_solve2 failed: " + cholmod_message);
       return LinearSolverTermination::kFatal;
     }

@@ -10,6 +10,8 @@ extern "C" {
 #include <algorithm>
 #include <cmath>
 
+#include "core/linear/blas_lock.h"
+
 namespace slamd::core::internal {
 namespace {
 
@@ -131,6 +133,7 @@ int PartialCholeskyLower(double* M, int n, int ld, int k, double* ref, double to
     double* trailing_data = M + static_cast<long>(c1) * ld + c1;
     const double* panel_data = M + static_cast<long>(c0) * ld + c1;
     if (rest >= kBlasMinSize) {
+      const std::unique_lock<std::mutex> blas = LockBlas();
       cblas_dsyrk(CblasColMajor, CblasLower, CblasNoTrans, rest, c1 - c0, -1.0, panel_data, ld, 1.0,
                   trailing_data, ld);
       continue;

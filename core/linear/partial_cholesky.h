@@ -23,7 +23,9 @@
 // Cost: k²(n − k/3)-ish flops; small matrices use a plain unblocked loop (no Eigen call
 // overhead), larger ones a blocked panel + rank-update scheme, whose wide rank updates go to the
 // BLAS (dsyrk: OpenBLAS chooses AVX2/AVX-512 kernels at run time, where this build targets the
-// x86-64 baseline). Rate: `build/tests/core_kernels_bench --benchmark_filter=PartialCholesky`.
+// x86-64 baseline), one call at a time in the process (blas_lock.h: Debian's serial OpenBLAS is
+// not safe for concurrent calls). Rate: `build/tests/core_kernels_bench
+// --benchmark_filter=PartialCholesky`.
 #pragma once
 
 namespace slamd::core::internal {
