@@ -186,6 +186,18 @@ double Gap(Asker& asker) {
   return gap;
 }
 
+// Gap() once the shards have settled (within 1 mm), or after 60 s.
+double SettledGap(Client& client) {
+  Asker asker;
+  double gap = 1e9;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (gap > 1e-3 && std::chrono::steady_clock::now() < deadline) {
+    client.Drain(300);
+    gap = Gap(asker);
+  }
+  return gap;
+}
+
 void RunShards(int n) {
   ASSERT_TRUE(testing::OnlyLoopback()) << testing::kNotInNetns;
   if (!testing::HaveNatsServer()) GTEST_SKIP() << "nats-server is not installed";
@@ -224,13 +236,7 @@ void RunShards(int n) {
     client.Send(shards[0], burst);
     client.Drain(5);
   }
-  Asker asker;
-  double gap = 1e9;
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-  while (gap > 1e-3 && std::chrono::steady_clock::now() < deadline) {
-    client.Drain(300);
-    gap = Gap(asker);
-  }
+  const double gap = SettledGap(client);
   EXPECT_LT(gap, 1e-3) << "shard logs in " << tmp.str();
   client.Drain(300);
   EXPECT_GT(shards[0].status.shard_summaries_sent, 0);
@@ -292,13 +298,7 @@ TEST(ShardsHaTest, AShardThatIsAReplicatedPairFailsOverAndEndsAtOneServersEstima
     client.Drain(5);
   }
   ASSERT_TRUE(testing::WaitForLog(client, procs[2], "took over as leader", 30.0)) << procs[2].log;
-  Asker asker;
-  double gap = 1e9;
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-  while (gap > 1e-3 && std::chrono::steady_clock::now() < deadline) {
-    client.Drain(300);
-    gap = Gap(asker);
-  }
+  const double gap = SettledGap(client);
   EXPECT_LT(gap, 1e-3) << "logs in " << tmp.str();
   EXPECT_EQ(procs[0].other_rejects, 0);
   // The new leader sent S1's summaries (it says how many when it stops).
