@@ -7,15 +7,17 @@
 namespace slamd::core {
 namespace {
 
-// A std::set node of the free list: the pair and the red-black links (glibc's allocation).
+// About what a std::set node of the free list takes: the pair and the red-black links.
 constexpr std::size_t kSetNodeBytes = 48;
 
 }  // namespace
 
 BayesTree::BayesTree(const BayesTree& other)
-    : free_(other.free_), roots_(other.roots_), var_clique_(other.var_clique_) {
+    : roots_(other.roots_), var_clique_(other.var_clique_) {
   cliques_.reserve(other.cliques_.size());
   for (const auto& c : other.cliques_) cliques_.push_back(std::make_unique<Clique>(*c));
+  // Keyed by what the copies hold (a copied vector's capacity is its size).
+  for (const auto& [unused, id] : other.free_) AddFree(id);
 }
 
 BayesTree& BayesTree::operator=(const BayesTree& other) {
