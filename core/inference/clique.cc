@@ -46,11 +46,10 @@ void Clique::ResetImpl(std::span<const int> frontals, std::span<const int> front
   index_[2 * num_frontals_] = offset;
   if (zero) {
     cached_.Reset(separator, separator_dims);
-    AssignReusingStorage(&conditional_, static_cast<size_t>(offset) * (offset + cached_.Dim() + 1),
-                         0.0);
+    AssignReusingStorage(&conditional_, ConditionalDoubles(offset, cached_.Dim()), 0.0);
   } else {
     cached_.Reshape(separator, separator_dims);
-    ResizeReusingStorage(&conditional_, static_cast<size_t>(offset) * (offset + cached_.Dim() + 1));
+    ResizeReusingStorage(&conditional_, ConditionalDoubles(offset, cached_.Dim()));
   }
 }
 

@@ -96,7 +96,11 @@ class Clique {
   std::size_t MatrixCapacity() const { return conditional_.capacity() + cached_.DataCapacity(); }
   // The doubles ResetForElimination needs for these dims (nf frontal, ns separator scalars).
   static std::size_t MatrixDoubles(int nf, int ns) {
-    return static_cast<std::size_t>(nf) * (nf + ns + 1) + HessianFactor::DataDoubles(ns);
+    return ConditionalDoubles(nf, ns) + HessianFactor::DataDoubles(ns);
+  }
+  // [R S d]: nf rows of nf + ns + 1 columns.
+  static std::size_t ConditionalDoubles(int nf, int ns) {
+    return static_cast<std::size_t>(nf) * (nf + ns + 1);
   }
   // Gives back the capacity beyond what it holds (a clique in use), or all of it (a freed one:
   // its next Reset allocates afresh).

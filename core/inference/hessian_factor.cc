@@ -75,7 +75,7 @@ void HessianFactor::Reshape(std::span<const int> vars, std::span<const int> dims
     offset += dims[k];
   }
   index_[2 * num_vars_] = offset;
-  ResizeReusingStorage(&data_, static_cast<size_t>(offset + 1) * (offset + 1) + offset);
+  ResizeReusingStorage(&data_, DataDoubles(offset));
 }
 
 void HessianFactor::SetReferenceToDiagonal() {

@@ -24,13 +24,11 @@ void Gather(const Clique& c, std::span<const int> var_offsets, const Eigen::Vect
 
 }  // namespace
 
-void TreeGradient(const BayesTree& tree, std::span<const int> var_offsets, Eigen::VectorXd* g,
-                  std::vector<double>* scratch) {
+void TreeGradient(const TopDownCliques& cliques, std::span<const int> var_offsets,
+                  Eigen::VectorXd* g, std::vector<double>* scratch) {
   g->setZero(var_offsets.back());
-  // Top down, not by slot id: a variable's entries are summed in an order fixed by the tree's
-  // shape, whichever slots its cliques took (that depends on the free list's history).
-  for (int id : tree.TopDownOrder()) {
-    const Clique& c = tree.clique(id);
+  for (int id : cliques.order) {
+    const Clique& c = cliques.tree.clique(id);
     const int nf = c.FrontalDim();
     scratch->resize(nf + c.SeparatorDim());
     Eigen::Map<Eigen::VectorXd> out(scratch->data(), nf + c.SeparatorDim());
@@ -49,11 +47,11 @@ void TreeGradient(const BayesTree& tree, std::span<const int> var_offsets, Eigen
   }
 }
 
-TreeModelTerms ModelTerms(const BayesTree& tree, std::span<const int> var_offsets,
+TreeModelTerms ModelTerms(const TopDownCliques& cliques, std::span<const int> var_offsets,
                           const Eigen::VectorXd& v, std::vector<double>* scratch) {
   TreeModelTerms terms;
-  for (int id : tree.TopDownOrder()) {  // as TreeGradient
-    const Clique& c = tree.clique(id);
+  for (int id : cliques.order) {
+    const Clique& c = cliques.tree.clique(id);
     const int nf = c.FrontalDim();
     const int n = nf + c.SeparatorDim();
     scratch->resize(n + nf);

@@ -22,9 +22,18 @@
 
 namespace slamd::core {
 
+// A tree's cliques top down (BayesTree::TopDownOrder), taken once for all the sums of a step.
+// The sums run in this order, fixed by the tree's shape, not by which slots the cliques took
+// (that depends on the free list's history), so their rounding does not depend on it either.
+struct TopDownCliques {
+  explicit TopDownCliques(const BayesTree& t) : tree(t), order(t.TopDownOrder()) {}
+  const BayesTree& tree;
+  const std::vector<int> order;
+};
+
 // g = Rᵀd over the stacked δ layout (var_offsets as in back_substitution.h).
-void TreeGradient(const BayesTree& tree, std::span<const int> var_offsets, Eigen::VectorXd* g,
-                  std::vector<double>* scratch);
+void TreeGradient(const TopDownCliques& cliques, std::span<const int> var_offsets,
+                  Eigen::VectorXd* g, std::vector<double>* scratch);
 
 // For a vector v in the stacked layout: |R v|² and dᵀ R v.
 struct TreeModelTerms {
@@ -33,7 +42,7 @@ struct TreeModelTerms {
   // The decrease of m from 0 to v.
   double Decrease() const { return 2.0 * linear - quadratic; }
 };
-TreeModelTerms ModelTerms(const BayesTree& tree, std::span<const int> var_offsets,
+TreeModelTerms ModelTerms(const TopDownCliques& cliques, std::span<const int> var_offsets,
                           const Eigen::VectorXd& v, std::vector<double>* scratch);
 
 // The point of the dog-leg path 0 → cauchy → gauss_newton at distance `radius` from 0 (or

@@ -231,10 +231,11 @@ Isam2Result::TrustRegion Isam2::TrustRegionStep() {
   const int n = offsets_.back();
   gauss_newton_ = delta_.head(n);
   const Eigen::VectorXd& gauss_newton = gauss_newton_;
-  TreeGradient(tree_, offsets_, &gradient_, &dogleg_scratch_);
+  const TopDownCliques cliques(tree_);  // for every sum over cliques below
+  TreeGradient(cliques, offsets_, &gradient_, &dogleg_scratch_);
   const double g2 = gradient_.squaredNorm();
-  const double rg2 = ModelTerms(tree_, offsets_, gradient_, &dogleg_scratch_).quadratic;
-  const double gain = ModelTerms(tree_, offsets_, gauss_newton, &dogleg_scratch_).Decrease();
+  const double rg2 = ModelTerms(cliques, offsets_, gradient_, &dogleg_scratch_).quadratic;
+  const double gain = ModelTerms(cliques, offsets_, gauss_newton, &dogleg_scratch_).Decrease();
   const double cost_theta = SumAt(nullptr, true);
   out.radius = radius_;
   // θ at the model's minimum (g = 0), or nothing to gain beyond round-off: the Gauss-Newton step,
@@ -248,7 +249,7 @@ Isam2Result::TrustRegion Isam2::TrustRegionStep() {
   while (true) {
     DoglegPoint(gauss_newton, cauchy_, radius_, &step_);
     ++out.attempts;
-    const double predicted = ModelTerms(tree_, offsets_, step_, &dogleg_scratch_).Decrease();
+    const double predicted = ModelTerms(cliques, offsets_, step_, &dogleg_scratch_).Decrease();
     const double actual = cost_theta - SumAt(&step_, true);
     const double rho = predicted > 0.0 ? actual / predicted : -1.0;
     const double step_norm = step_.norm();

@@ -68,7 +68,8 @@ TEST(DoglegTest, GradientAndModelTermsAreThoseOfTheDenseSystem) {
   }
   std::vector<double> scratch;
   Eigen::VectorXd g;
-  TreeGradient(isam->tree(), offsets, &g, &scratch);
+  const TopDownCliques cliques(isam->tree());
+  TreeGradient(cliques, offsets, &g, &scratch);
   const Eigen::VectorXd expected_g = a.transpose() * (a * delta);
   EXPECT_LT((g - expected_g).norm(), 1e-8 * expected_g.norm());
 
@@ -76,14 +77,14 @@ TEST(DoglegTest, GradientAndModelTermsAreThoseOfTheDenseSystem) {
   std::normal_distribution<double> normal;
   Eigen::VectorXd v(n);
   for (int j = 0; j < n; ++j) v[j] = normal(rng);
-  const TreeModelTerms terms = ModelTerms(isam->tree(), offsets, v, &scratch);
+  const TreeModelTerms terms = ModelTerms(cliques, offsets, v, &scratch);
   EXPECT_NEAR(terms.quadratic, (a * v).squaredNorm(), 1e-8 * terms.quadratic);
   const double linear = (a * delta).dot(a * v);
   EXPECT_NEAR(terms.linear, linear, 1e-8 * std::abs(linear) + 1e-9);
   // The model's decrease is largest at the Gauss-Newton step, where it is |Rδ|².
-  const TreeModelTerms at_gn = ModelTerms(isam->tree(), offsets, delta, &scratch);
+  const TreeModelTerms at_gn = ModelTerms(cliques, offsets, delta, &scratch);
   EXPECT_NEAR(at_gn.Decrease(), (a * delta).squaredNorm(), 1e-8 * at_gn.quadratic);
-  EXPECT_GT(at_gn.Decrease(), ModelTerms(isam->tree(), offsets, 0.5 * delta, &scratch).Decrease());
+  EXPECT_GT(at_gn.Decrease(), ModelTerms(cliques, offsets, 0.5 * delta, &scratch).Decrease());
 }
 
 // Which slots the cliques take depends on the free list's history (trimmed at rest or not); the
@@ -105,11 +106,13 @@ TEST(DoglegTest, TheStepDoesNotDependOnWhichSlotsTheCliquesTook) {
     DenseJacobian(*plain, &offsets);  // for the offsets
     std::vector<double> scratch;
     Eigen::VectorXd g_plain, g_trimmed;
-    TreeGradient(plain->tree(), offsets, &g_plain, &scratch);
-    TreeGradient(trimmed->tree(), offsets, &g_trimmed, &scratch);
+    TreeGradient(TopDownCliques(plain->tree()), offsets, &g_plain, &scratch);
+    TreeGradient(TopDownCliques(trimmed->tree()), offsets, &g_trimmed, &scratch);
     ASSERT_EQ((g_plain - g_trimmed).cwiseAbs().maxCoeff(), 0.0) << plain->num_updates();
-    const TreeModelTerms m_plain = ModelTerms(plain->tree(), offsets, g_plain, &scratch);
-    const TreeModelTerms m_trimmed = ModelTerms(trimmed->tree(), offsets, g_plain, &scratch);
+    const TreeModelTerms m_plain =
+        ModelTerms(TopDownCliques(plain->tree()), offsets, g_plain, &scratch);
+    const TreeModelTerms m_trimmed =
+        ModelTerms(TopDownCliques(trimmed->tree()), offsets, g_plain, &scratch);
     ASSERT_EQ(m_plain.quadratic, m_trimmed.quadratic);
     ASSERT_EQ(m_plain.linear, m_trimmed.linear);
     const Values a = plain->CalculateEstimate(), b = trimmed->CalculateEstimate();
