@@ -40,14 +40,18 @@ struct RandomBlockProblem {
     b->setZero(Dim());
     for (int f = 0; f < incidence.NumFactors(); ++f) {
       const RandomFactor& factor = factors[f];
-      const int m = static_cast<int>(factor.error.size());
-      Eigen::MatrixXd j = Eigen::MatrixXd::Zero(m, Dim());
-      for (int k = 0; k < incidence.offsets[f + 1] - incidence.offsets[f]; ++k) {
-        const int v = incidence.vars[incidence.offsets[f] + k];
-        j.middleCols(off[v], dims[v]) = factor.jacobians[k];
+      // The factor's rows of J touch only its variables' columns: their products, block by
+      // block (a dense m x Dim row block per factor made this reference quadratic in Dim).
+      const int begin = incidence.offsets[f], n = incidence.offsets[f + 1] - begin;
+      for (int k = 0; k < n; ++k) {
+        const int v = incidence.vars[begin + k];
+        b->segment(off[v], dims[v]) -= factor.jacobians[k].transpose() * factor.error;
+        for (int l = 0; l < n; ++l) {
+          const int w = incidence.vars[begin + l];
+          h->block(off[v], off[w], dims[v], dims[w]) +=
+              factor.jacobians[k].transpose() * factor.jacobians[l];
+        }
       }
-      *h += j.transpose() * j;
-      *b -= j.transpose() * factor.error;
     }
   }
   // Assembles all factors into `system` (after SetZero).
