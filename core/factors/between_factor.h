@@ -59,4 +59,11 @@ class BetweenFactor : public TypedFactor<BetweenFactor<T>, T::kDim, T, T> {
   T measured_;
 };
 
+// Compiled once, in between_factor.cc (with the library's optimisation: code that includes this
+// header, e.g. a test at -O0, calls that copy instead of making one of its own).
+extern template class TypedFactor<BetweenFactor<Pose2>, Pose2::kDim, Pose2, Pose2>;
+extern template class TypedFactor<BetweenFactor<Pose3>, Pose3::kDim, Pose3, Pose3>;
+extern template class BetweenFactor<Pose2>;
+extern template class BetweenFactor<Pose3>;
+
 }  // namespace slamd::core
