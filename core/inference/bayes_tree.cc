@@ -1,6 +1,7 @@
 #include "core/inference/bayes_tree.h"
 
 #include <algorithm>
+#include <utility>
 
 #include "core/base/check.h"
 
@@ -230,9 +231,8 @@ void BayesTree::TrimStorage() {
       c->ReleaseStorage();
     }
   }
-  std::set<std::pair<std::size_t, int>> released;  // every freed slot now holds nothing
-  for (const auto& [unused, id] : free_) released.emplace(0, id);
-  free_ = std::move(released);
+  // Rekeyed by what the released slots now hold (as the copy constructor does).
+  for (const auto& [unused, id] : std::exchange(free_, {})) AddFree(id);
 }
 
 }  // namespace slamd::core

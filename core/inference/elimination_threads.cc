@@ -1,5 +1,6 @@
-// Eliminator's scheduling: which cliques each thread eliminates (disjoint subtrees on the
-// helpers, the top after them on the calling thread), and the serial path. The numeric work of
+// Eliminator's scheduling: each clique's dims and estimated work, which cliques each thread
+// eliminates (disjoint subtrees on the helpers, the top after them on the calling thread), and
+// the serial path. The numeric work of
 // one clique is in elimination.cc.
 #include <algorithm>
 
