@@ -50,15 +50,18 @@ core::Result<std::pair<RelativePose, core::NoiseModel>> Reversed(const RelativeP
 }
 
 // The landmark message of a pose-landmark factor; false for other factor types.
-bool LandmarkOf(const core::Factor& f, std::int64_t utime, const std::string& robot,
+bool LandmarkOf(const core::Factor& f, std::int64_t utime, const DatasetMessageOptions& options,
                 slamd::landmark_observation_t* out) {
   server::LandmarkMeasurement m{.utime = utime,
-                                .robot = robot,
+                                .robot = options.robot,
                                 .pose_index = core::KeyIndex(f.keys()[0]),
                                 .landmark_id = core::KeyIndex(f.keys()[1]),
                                 .kind = server::LandmarkKind::kBearingRange2,
                                 .measured = server::BearingRange{},
-                                .noise = f.noise_model()};
+                                .noise = f.noise_model(),
+                                .landmark_namespace = options.shared_landmarks
+                                                          ? server::LandmarkNamespace::kMap
+                                                          : server::LandmarkNamespace::kRobot};
   // The landmark message kinds by the factor type they become (server/ingest/conversion.h).
   const std::string_view type = f.Name();
   std::vector<double> measured;
@@ -180,7 +183,7 @@ core::Result<std::vector<StepMessages>> MakeDatasetMessages(const core::Dataset&
         continue;
       }
       slamd::landmark_observation_t msg;
-      if (!LandmarkOf(*f, utime, options.robot, &msg)) {
+      if (!LandmarkOf(*f, utime, options, &msg)) {
         return core::InvalidArgument("step " + std::to_string(k) + " (" +
                                      core::KeyToString(step.pose) + "): factor " + f->Name() +
                                      " has no slamd message form");

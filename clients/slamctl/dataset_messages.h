@@ -19,7 +19,9 @@
 // (first order; slamd's odometry_t must go from a known pose to the new one). Loop closures keep
 // the dataset's direction. Robust kernels of between factors are kept.
 //
-// Pose indices and landmark ids are the dataset's ids (KeyIndex), in the robot's namespace.
+// Pose indices and landmark ids are the dataset's ids (KeyIndex); landmark ids in the robot's
+// namespace, or in the map namespace all robots share (shared_landmarks: datasets of several
+// robots that number one world's landmarks alike, as `slamctl sim` writes them).
 // utime of step k's messages = utime_start_us + k * utime_step_us (deterministic, so the same
 // dataset always gives the same bytes).
 // Errors: InvalidArgument for a factor type with no message form (the message names it and its
@@ -56,6 +58,7 @@ struct DatasetMessageOptions {
   double anchor_sigma = 1e-3;
   std::int64_t utime_start_us = 0;    // utime of step 0's messages [µs], >= 0
   std::int64_t utime_step_us = 1000;  // utime increment per step [µs], >= 0
+  bool shared_landmarks = false;      // landmark ids name the shared map's landmarks
 };
 
 struct StepMessages {

@@ -186,6 +186,10 @@ class Exporter {
       Skip("3D landmark observations");
       return;
     }
+    if (m.landmark_namespace == server::LandmarkNamespace::kMap) {  // ties robots together
+      Skip("observations of the shared map's landmarks");
+      return;
+    }
     if (!Dims(m.robot, false)) return;
     server::LandmarkMeasurement point = m;  // as a relative point: g2o has no bearing-range
     if (const auto* br = std::get_if<server::BearingRange>(&m.measured)) {
@@ -257,6 +261,8 @@ class Exporter {
       case server::RemoveTarget::kPrior:
         id = {server::PriorSpec::kIdentity, r.robot_a, r.index_a, "", 0, r.kind};
         break;
+      case server::RemoveTarget::kMapLandmarkObservation:
+        return;  // the shared map's observations are not exported
     }
     const auto it = live_.find(id);
     if (it == live_.end()) return;  // the estimator rejected it (kUnknownFactor)

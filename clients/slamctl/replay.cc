@@ -106,7 +106,9 @@ std::vector<ReplayItem> DatasetItems(const ReplayOptions& opt, std::set<std::str
     core::Result<core::Dataset> dataset = core::ReadDataset(opt.sources[i], read);
     if (!dataset.ok()) Failure(dataset.status().ToString());
     core::Result<std::vector<StepMessages>> steps = MakeDatasetMessages(
-        *dataset, DatasetMessageOptions{.robot = name, .anchor_sigma = opt.anchor_sigma});
+        *dataset, DatasetMessageOptions{.robot = name,
+                                        .anchor_sigma = opt.anchor_sigma,
+                                        .shared_landmarks = opt.shared_landmarks});
     if (!steps.ok()) Failure(opt.sources[i] + ": " + steps.status().message());
     datasets.push_back(RobotDataset{name, std::move(steps).value()});
   }
@@ -200,6 +202,10 @@ void RegisterReplay(CLI::App& app) {
                   "How iSAM-format noise columns are read: sqrt-information or covariance")
       ->check(CLI::IsMember({"sqrt-information", "covariance"}))
       ->capture_default_str();
+  cmd->add_flag("--shared-landmarks", opt->shared_landmarks,
+                "Datasets: their landmark ids name the landmarks of one map all robots share "
+                "(as `slamctl sim --robots N` numbers them), sent in the map namespace; default: "
+                "each robot's own");
   cmd->add_flag("--json", opt->json, "Print the summary as one JSON object on stdout");
   cmd->add_flag("-q,--quiet", opt->quiet, "No progress output");
   AddConnectionOptions(cmd, &opt->connection);

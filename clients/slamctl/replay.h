@@ -36,6 +36,7 @@ struct ReplayOptions {
   double wait_server_s = 2.0;   // wait for a first status_t before sending
   double anchor_sigma = 1e-3;
   std::string isam_noise = "sqrt-information";
+  bool shared_landmarks = false;  // --shared-landmarks: datasets' landmark ids name one map
   bool json = false;
   bool quiet = false;
   ConnectionOptions connection;

@@ -335,7 +335,8 @@ void Estimator::CommitCamerasAndTracks(ProcessResult* result) {
     ++counters_.landmarks_dropped;
     const bool full = track.waited <= params_.landmark_max_wait_updates;
     const FrameObservations& first = track.observations.front();
-    const std::string name = LandmarkName(first, first.features[0].landmark_id);
+    const std::string name =
+        LandmarkName(first.landmark_namespace, first.robot, first.features[0].landmark_id);
     Reject(Inbound{.measurement = std::move(track.observations.front())},
            RejectReason::kOutOfOrderTimeout,
            "frame_observations_t: " + name + " dropped with its " +

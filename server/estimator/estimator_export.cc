@@ -145,7 +145,8 @@ core::Result<std::unique_ptr<Estimator>> Estimator::Restore(const EstimatorParam
           "snapshot: a landmark track observation is not a one-feature "
           "frame_observations_t of a known robot and camera");
     }
-    e->tracks_.Restore(LandmarkKey(*o, o->features[0].landmark_id, *id), *o, h.waited);
+    e->tracks_.Restore(LandmarkKey(o->landmark_namespace, o->features[0].landmark_id, *id), *o,
+                       h.waited);
   }
   e->counters_ = state.counters;
   e->sequence_ = state.update_sequence;

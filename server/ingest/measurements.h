@@ -12,6 +12,7 @@
 #include <variant>
 #include <vector>
 
+#include "core/base/key.h"
 #include "core/factors/noise_model.h"
 #include "core/factors/robust_kernel.h"
 #include "core/geometry/pose2.h"
@@ -31,9 +32,27 @@ enum class RemoveTarget : std::int8_t {
   kOdometry = 1,
   kLandmarkObservation = 2,
   kLoopClosure = 3,
-  kPrior = 4
+  kPrior = 4,
+  kMapLandmarkObservation = 5
 };
 enum class KeyKind : std::int8_t { kPose = 1, kLandmark = 2, kMapLandmark = 3 };
+
+// Whose landmark ids a message names: its robot's (key 'l' id of that robot) or the map's,
+// shared by all robots (key 'm' id of robot id 0, which no robot has).
+enum class LandmarkNamespace : std::int8_t { kRobot = 0, kMap = 1 };
+inline constexpr char kMapLandmarkSymbol = 'm';
+inline core::Key MapLandmarkKey(std::uint64_t id) {
+  return core::MakeKey(kMapLandmarkSymbol, id, 0);
+}
+inline core::Key LandmarkKey(LandmarkNamespace ns, std::uint64_t id, std::uint8_t robot) {
+  return ns == LandmarkNamespace::kMap ? MapLandmarkKey(id) : core::MakeKey('l', id, robot);
+}
+// "landmark 17 of robot 'a'" or "map landmark 17", for messages.
+inline std::string LandmarkName(LandmarkNamespace ns, const std::string& robot, std::uint64_t id) {
+  return ns == LandmarkNamespace::kMap
+             ? "map landmark " + std::to_string(id)
+             : "landmark " + std::to_string(id) + " of robot '" + robot + "'";
+}
 
 // A relative pose: Pose2 for 2D messages, Pose3 for 3D ones.
 using RelativePose = std::variant<core::Pose2, core::Pose3>;

@@ -247,17 +247,6 @@ void ToLcm(const FrameObservations& m, slamd::frame_observations_t* out) {
   out->robust_parameter = m.robust.parameter();
 }
 
-Key LandmarkKey(const FrameObservations& m, std::uint64_t landmark_id, std::uint8_t robot) {
-  return m.landmark_namespace == LandmarkNamespace::kMap ? MapLandmarkKey(landmark_id)
-                                                         : core::MakeKey('l', landmark_id, robot);
-}
-
-std::string LandmarkName(const FrameObservations& m, std::uint64_t landmark_id) {
-  return m.landmark_namespace == LandmarkNamespace::kMap
-             ? "map landmark " + std::to_string(landmark_id)
-             : "landmark " + std::to_string(landmark_id) + " of robot '" + m.robot + "'";
-}
-
 FrameObservations OneFeature(const FrameObservations& m, std::size_t k) {
   FrameObservations one{.utime = m.utime,
                         .robot = m.robot,
@@ -324,7 +313,7 @@ Outcome FrameObservationsSpec::Apply(const Value& m, GraphBuilder& g, Verdict* v
                  std::to_string(camera->width) + "x" + std::to_string(camera->height) + " image");
       continue;
     }
-    const Key landmark = LandmarkKey(m, f.landmark_id, *id);
+    const Key landmark = LandmarkKey(m.landmark_namespace, f.landmark_id, *id);
     if (g.Known(landmark)) {
       const core::Variable l = g.Estimate(landmark);
       if (!std::holds_alternative<core::Point3>(l)) {

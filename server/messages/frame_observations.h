@@ -31,8 +31,6 @@
 
 namespace slamd::server {
 
-enum class LandmarkNamespace : std::int8_t { kRobot = 0, kMap = 1 };
-
 struct FrameFeature {
   std::uint64_t landmark_id;
   core::Vector2 uv;        // pixel (the left image's for stereo)
@@ -60,15 +58,6 @@ Checked<FrameObservations> Convert(const slamd::frame_observations_t& msg,
                                    const Limits& limits = {});
 void ToLcm(const FrameObservations& m, slamd::frame_observations_t* out);
 
-// The landmark key of a feature of `m` (robot: the id of m.robot).
-core::Key LandmarkKey(const FrameObservations& m, std::uint64_t landmark_id, std::uint8_t robot);
-// Landmark `id` of the map namespace: symbol 'm' of robot id 0, which no robot has.
-inline constexpr char kMapLandmarkSymbol = 'm';
-inline core::Key MapLandmarkKey(std::uint64_t id) {
-  return core::MakeKey(kMapLandmarkSymbol, id, 0);
-}
-// "landmark 17 of robot 'a'" or "map landmark 17", for messages.
-std::string LandmarkName(const FrameObservations& m, std::uint64_t landmark_id);
 // m with only feature `k` (a track's observation; a rejection naming that feature).
 FrameObservations OneFeature(const FrameObservations& m, std::size_t k);
 

@@ -15,6 +15,8 @@ using L = ::slamd::landmark_observation_t;
 static_assert(static_cast<int>(LandmarkKind::kBearingRange2) == L::KIND_BEARING_RANGE_2D);
 static_assert(static_cast<int>(LandmarkKind::kRelativePoint2) == L::KIND_RELATIVE_POINT_2D);
 static_assert(static_cast<int>(LandmarkKind::kRelativePoint3) == L::KIND_RELATIVE_POINT_3D);
+static_assert(static_cast<int>(LandmarkNamespace::kRobot) == L::NAMESPACE_ROBOT);
+static_assert(static_cast<int>(LandmarkNamespace::kMap) == L::NAMESPACE_MAP);
 
 using internal::CheckIndex;
 using internal::CheckKindRange;
@@ -39,6 +41,9 @@ Verdict Validate(const slamd::landmark_observation_t& msg, const Limits& limits,
   SLAMD_RETURN_IF_REJECTED(CheckKindRange("landmark_observation_t.kind", msg.kind,
                                           M::KIND_BEARING_RANGE_2D, M::KIND_RELATIVE_POINT_3D,
                                           kLandmarkKinds));
+  SLAMD_RETURN_IF_REJECTED(CheckKindRange("landmark_observation_t.landmark_namespace",
+                                          msg.landmark_namespace, M::NAMESPACE_ROBOT,
+                                          M::NAMESPACE_MAP, "0 (robot), 1 (map)"));
   static constexpr Layout kLayouts[] = {
       {2, 2, false, "kind 1 (bearing, range)"},
       {2, 2, false, "kind 2 (x, y)"},
@@ -74,13 +79,15 @@ Checked<LandmarkMeasurement> Convert(const slamd::landmark_observation_t& msg,
       measured = core::Point3(v[0], v[1], v[2]);
       break;
   }
-  return LandmarkMeasurement{.utime = msg.utime,
-                             .robot = msg.robot,
-                             .pose_index = static_cast<std::uint64_t>(msg.pose_index),
-                             .landmark_id = static_cast<std::uint64_t>(msg.landmark_id),
-                             .kind = kind,
-                             .measured = measured,
-                             .noise = std::move(*noise)};
+  return LandmarkMeasurement{
+      .utime = msg.utime,
+      .robot = msg.robot,
+      .pose_index = static_cast<std::uint64_t>(msg.pose_index),
+      .landmark_id = static_cast<std::uint64_t>(msg.landmark_id),
+      .kind = kind,
+      .measured = measured,
+      .noise = std::move(*noise),
+      .landmark_namespace = static_cast<LandmarkNamespace>(msg.landmark_namespace)};
 }
 
 void ToLcm(const LandmarkMeasurement& m, slamd::landmark_observation_t* out) {
@@ -89,6 +96,7 @@ void ToLcm(const LandmarkMeasurement& m, slamd::landmark_observation_t* out) {
   out->pose_index = static_cast<std::int64_t>(m.pose_index);
   out->landmark_id = static_cast<std::int64_t>(m.landmark_id);
   out->kind = static_cast<std::int8_t>(m.kind);
+  out->landmark_namespace = static_cast<std::int8_t>(m.landmark_namespace);
   std::vector<double> values = std::visit(
       [](const auto& v) -> std::vector<double> {
         if constexpr (std::is_same_v<std::decay_t<decltype(v)>, BearingRange>) {
@@ -123,7 +131,7 @@ Outcome LandmarkObservationSpec::Apply(const Value& m, GraphBuilder& g, Verdict*
   }
   const core::Key pose = core::MakeKey('x', m.pose_index, *id);
   if (!g.Known(pose)) return Outcome::kHeld;
-  const core::Key landmark = core::MakeKey('l', m.landmark_id, *id);
+  const core::Key landmark = LandmarkKey(m.landmark_namespace, m.landmark_id, *id);
   const core::Variable x = g.Estimate(pose);
   const bool needs3d = m.kind == LandmarkKind::kRelativePoint3;
   if (std::holds_alternative<core::Pose3>(x) != needs3d) {
@@ -133,9 +141,10 @@ Outcome LandmarkObservationSpec::Apply(const Value& m, GraphBuilder& g, Verdict*
   }
   const bool known = g.Known(landmark);
   if (known && (std::holds_alternative<core::Point3>(g.Estimate(landmark)) != needs3d)) {
-    *v = {RejectReason::kBadMeasurement, "landmark_observation_t.kind: landmark " +
-                                             std::to_string(m.landmark_id) +
-                                             " has the other dimension"};
+    *v = {RejectReason::kBadMeasurement,
+          "landmark_observation_t.kind: " +
+              LandmarkName(m.landmark_namespace, m.robot, m.landmark_id) +
+              " has the other dimension"};
     return Outcome::kRejected;
   }
   g.FirstTime({kIdentity, pose, landmark, static_cast<int>(m.kind)});

@@ -3,7 +3,7 @@
 //
 // Applied: a BearingRangeFactor or RelativePointFactor; a new landmark is placed by this first
 // observation from the pose's estimate. Held while the pose is unknown. Landmark ids are in the
-// observing robot's namespace.
+// observing robot's namespace or in the map namespace all robots share.
 #pragma once
 
 #include <cstdint>
@@ -23,12 +23,13 @@ struct LandmarkMeasurement {
   std::int64_t utime;
   std::string robot;
   std::uint64_t pose_index;
-  std::uint64_t landmark_id;  // in `robot`'s namespace
+  std::uint64_t landmark_id;  // in `landmark_namespace`
   LandmarkKind kind;
   // kBearingRange2 -> BearingRange (BearingRangeFactor); kRelativePoint2 -> Point2,
   // kRelativePoint3 -> Point3 (RelativePointFactor), in the pose's frame.
   std::variant<BearingRange, core::Point2, core::Point3> measured;
   core::NoiseModel noise;  // dim 2, 2 or 3
+  LandmarkNamespace landmark_namespace = LandmarkNamespace::kRobot;
 };
 
 Verdict Validate(const slamd::landmark_observation_t& msg, const Limits& limits = {},

@@ -18,6 +18,8 @@ static_assert(static_cast<int>(RemoveTarget::kLandmarkObservation) ==
               R::TARGET_LANDMARK_OBSERVATION);
 static_assert(static_cast<int>(RemoveTarget::kLoopClosure) == R::TARGET_LOOP_CLOSURE);
 static_assert(static_cast<int>(RemoveTarget::kPrior) == R::TARGET_PRIOR);
+static_assert(static_cast<int>(RemoveTarget::kMapLandmarkObservation) ==
+              R::TARGET_MAP_LANDMARK_OBSERVATION);
 
 using internal::CheckIndex;
 using internal::CheckKindRange;
@@ -34,9 +36,10 @@ using internal::Reject;
 Verdict Validate(const slamd::remove_factor_t& msg, const Limits& limits) {
   using M = slamd::remove_factor_t;
   SLAMD_RETURN_IF_REJECTED(CheckUtime("remove_factor_t.utime", msg.utime));
-  SLAMD_RETURN_IF_REJECTED(
-      CheckKindRange("remove_factor_t.target", msg.target, M::TARGET_ODOMETRY, M::TARGET_PRIOR,
-                     "1 (odometry), 2 (landmark observation), 3 (loop closure), 4 (prior)"));
+  SLAMD_RETURN_IF_REJECTED(CheckKindRange(
+      "remove_factor_t.target", msg.target, M::TARGET_ODOMETRY, M::TARGET_MAP_LANDMARK_OBSERVATION,
+      "1 (odometry), 2 (landmark observation), 3 (loop closure), 4 (prior), "
+      "5 (map landmark observation)"));
   SLAMD_RETURN_IF_REJECTED(
       CheckName("remove_factor_t.robot_a", msg.robot_a, limits.max_robot_name_length));
   SLAMD_RETURN_IF_REJECTED(CheckIndex("remove_factor_t.index_a", msg.index_a));
@@ -51,6 +54,7 @@ Verdict Validate(const slamd::remove_factor_t& msg, const Limits& limits) {
       }
       return {};
     case M::TARGET_LANDMARK_OBSERVATION:
+    case M::TARGET_MAP_LANDMARK_OBSERVATION:
       SLAMD_RETURN_IF_REJECTED(
           MustBeEmpty("remove_factor_t.robot_b", msg.robot_b, "landmark observations"));
       SLAMD_RETURN_IF_REJECTED(CheckIndex("remove_factor_t.index_b", msg.index_b));
@@ -107,8 +111,13 @@ std::optional<MeasurementId> RemoveFactorSpec::Identity(const Value& r, const Gr
     case RemoveTarget::kOdometry:
       return MeasurementId{OdometrySpec::kIdentity, pose, core::MakeKey('x', r.index_b, *a), 0};
     case RemoveTarget::kLandmarkObservation:
-      return MeasurementId{LandmarkObservationSpec::kIdentity, pose,
-                           core::MakeKey('l', r.index_b, *a), r.kind};
+    case RemoveTarget::kMapLandmarkObservation: {
+      const LandmarkNamespace ns = r.target == RemoveTarget::kMapLandmarkObservation
+                                       ? LandmarkNamespace::kMap
+                                       : LandmarkNamespace::kRobot;
+      return MeasurementId{LandmarkObservationSpec::kIdentity, pose, LandmarkKey(ns, r.index_b, *a),
+                           r.kind};
+    }
     case RemoveTarget::kPrior:
       return MeasurementId{PriorSpec::kIdentity, pose, 0, r.kind};
     case RemoveTarget::kLoopClosure: {

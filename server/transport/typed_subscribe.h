@@ -6,6 +6,9 @@
 //       [&](std::string_view channel, const slamd::odometry_t& msg) { ... },
 //       [&](std::string_view channel, const core::Status& error) { ... count, reject ... });
 //
+// Bytes in an older layout of Msg that slamd still reads (msgs/legacy/older_layouts.h) are
+// decoded as that layout and upgraded to Msg.
+//
 // Nothing escapes the callback the bus runs: bytes that do not decode as Msg (wrong type on the
 // channel: fingerprint mismatch; truncated, trailing or corrupt bytes; hostile counts, which the
 // hardened generated decoder refuses) reach `on_error` with DataLoss, and an exception thrown by
@@ -26,6 +29,7 @@
 #include <utility>
 #include <vector>
 
+#include "msgs/legacy/older_layouts.h"
 #include "server/transport/bus.h"
 
 namespace slamd::server {
@@ -36,27 +40,9 @@ using ErrorCallback = std::function<void(std::string_view channel, const core::S
 
 namespace internal {
 
-// Decodes `bytes` as Msg into *msg; never throws. DataLoss naming the type on failure.
-template <typename Msg>
-core::Status DecodeAs(std::span<const std::uint8_t> bytes, Msg* msg) {
-  const std::string type = std::string("slamd.") + Msg::getTypeName();
-  if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max())) {
-    return core::DataLoss(type + ": message of " + std::to_string(bytes.size()) +
-                          " bytes is too large");
-  }
-  if (bytes.size() < sizeof(std::int64_t)) {
-    return core::DataLoss(type + ": " + std::to_string(bytes.size()) +
-                          " bytes, shorter than the 8-byte type fingerprint");
-  }
-  // LCM writes the fingerprint big-endian first: a mismatch means another type on this channel.
-  std::uint64_t fingerprint = 0;
-  for (int i = 0; i < 8; ++i) fingerprint = (fingerprint << 8) | bytes[i];
-  if (fingerprint != static_cast<std::uint64_t>(Msg::getHash())) {
-    std::ostringstream out;
-    out << type << ": fingerprint 0x" << std::hex << fingerprint << " is not this type's 0x"
-        << static_cast<std::uint64_t>(Msg::getHash()) << " (another type on this channel?)";
-    return core::DataLoss(out.str());
-  }
+// Decodes the bytes after a matching fingerprint as T; DataLoss naming `type` on failure.
+template <typename T>
+core::Status DecodeBody(std::span<const std::uint8_t> bytes, const std::string& type, T* msg) {
   try {
     const int size = static_cast<int>(bytes.size());
     const int used = msg->decode(bytes.data(), 0, size);
@@ -72,6 +58,40 @@ core::Status DecodeAs(std::span<const std::uint8_t> bytes, Msg* msg) {
     return core::DataLoss(type + ": decoding failed: " + e.what());
   }
   return core::Status::Ok();
+}
+
+// Decodes `bytes` as Msg into *msg, or as an older layout of Msg that slamd still reads
+// (msgs/legacy/older_layouts.h), upgraded; never throws. DataLoss naming the type on failure.
+template <typename Msg>
+core::Status DecodeAs(std::span<const std::uint8_t> bytes, Msg* msg) {
+  const std::string type = std::string("slamd.") + Msg::getTypeName();
+  if (bytes.size() > static_cast<size_t>(std::numeric_limits<int>::max())) {
+    return core::DataLoss(type + ": message of " + std::to_string(bytes.size()) +
+                          " bytes is too large");
+  }
+  if (bytes.size() < sizeof(std::int64_t)) {
+    return core::DataLoss(type + ": " + std::to_string(bytes.size()) +
+                          " bytes, shorter than the 8-byte type fingerprint");
+  }
+  // LCM writes the fingerprint big-endian first: a mismatch means another type on this channel.
+  std::uint64_t fingerprint = 0;
+  for (int i = 0; i < 8; ++i) fingerprint = (fingerprint << 8) | bytes[i];
+  if (fingerprint == static_cast<std::uint64_t>(Msg::getHash())) {
+    return DecodeBody(bytes, type, msg);
+  }
+  if constexpr (kHasOlderLayout<Msg>) {
+    using Old = typename OlderLayout<Msg>::Type;
+    if (fingerprint == static_cast<std::uint64_t>(Old::getHash())) {
+      Old old;
+      const core::Status s = DecodeBody(bytes, type + " (older layout)", &old);
+      if (s.ok()) OlderLayout<Msg>::Upgrade(std::move(old), msg);
+      return s;
+    }
+  }
+  std::ostringstream out;
+  out << type << ": fingerprint 0x" << std::hex << fingerprint << " is not this type's 0x"
+      << static_cast<std::uint64_t>(Msg::getHash()) << " (another type on this channel?)";
+  return core::DataLoss(out.str());
 }
 
 }  // namespace internal

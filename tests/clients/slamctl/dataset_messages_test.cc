@@ -187,6 +187,13 @@ TEST(DatasetMessagesTest, BearingRangeBecomesALandmarkObservation) {
   EXPECT_NEAR(lm.values[0], 0.7, 1e-15);
   EXPECT_NEAR(lm.values[1], 2.3, 1e-15);
   EXPECT_TRUE(RowMajor(lm.covariance, 2).isApprox(cov, 1e-12));
+  EXPECT_EQ(lm.landmark_namespace, slamd::landmark_observation_t::NAMESPACE_ROBOT);
+  // Datasets of several robots numbering one world's landmarks name the shared map's.
+  auto shared = MakeDatasetMessages(d, {.shared_landmarks = true});
+  ASSERT_TRUE(shared.ok());
+  const auto& map = std::get<slamd::landmark_observation_t>((*shared)[1].messages[1]);
+  EXPECT_EQ(map.landmark_namespace, slamd::landmark_observation_t::NAMESPACE_MAP);
+  EXPECT_EQ(map.landmark_id, 4);
 }
 
 TEST(DatasetMessagesTest, OptionsAndUnsupportedFactors) {

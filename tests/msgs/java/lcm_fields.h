@@ -96,7 +96,7 @@ inline void Put(Fields& f, const std::string& path, const slamd::frame_observati
   PUT(sigmas), PUT(num_covariance), PUT(covariance), PUT(robust_kernel), PUT(robust_parameter);
 }
 inline void Put(Fields& f, const std::string& path, const slamd::landmark_observation_t& m) {
-  PUT(utime), PUT(robot), PUT(pose_index), PUT(landmark_id), PUT(kind);
+  PUT(utime), PUT(robot), PUT(pose_index), PUT(landmark_id), PUT(kind), PUT(landmark_namespace);
   PUT(num_values), PUT(values), PUT(num_covariance), PUT(covariance);
 }
 inline void Put(Fields& f, const std::string& path, const slamd::loop_closure_t& m) {

@@ -180,6 +180,7 @@ TEST(SpyDecodeNetnsTest, JavaDecoderAgreesWithSlamdOnEveryMessage) {
   landmark.pose_index = 3;
   landmark.landmark_id = 7;
   landmark.kind = slamd::landmark_observation_t::KIND_BEARING_RANGE_2D;
+  landmark.landmark_namespace = slamd::landmark_observation_t::NAMESPACE_ROBOT;
   landmark.values = {0.5, 2.0};
   landmark.num_values = 2;
   landmark.covariance = Diagonal({0.01, 0.05});

@@ -191,6 +191,43 @@ TEST(EstimatorTest, LandmarkPlacedByFirstObservationAndHeldForUnknownPose) {
   EXPECT_EQ(OnlyRejection(e->Process({Landmark("r", 0, 3, 0.0, 2.5)})), RejectReason::kDuplicate);
 }
 
+// Two robots observing landmark 7 of the shared map namespace observe one variable, which ties
+// their maps; landmark 7 of a robot's own namespace is another. Each observation is retracted
+// by the target of its namespace.
+TEST(EstimatorTest, MapNamespaceLandmarksAreOneVariableForAllRobots) {
+  constexpr auto kMap = LandmarkNamespace::kMap;
+  auto e = Make();
+  ASSERT_TRUE(
+      e->Process({Prior("r", 0, Pose2(0, 0, 0)), Prior("s", 0, Pose2(5, 0, M_PI))}).status.ok());
+  ProcessResult r =
+      e->Process({Landmark("r", 0, 7, 0.0, 2.0, kMap), Landmark("s", 0, 7, 0.0, 3.0, kMap),
+                  Landmark("r", 0, 7, 0.0, 4.0)});
+  ASSERT_TRUE(r.status.ok());
+  EXPECT_TRUE(r.rejections.empty());
+  EXPECT_EQ(r.applied, 3);
+  const std::optional<core::Key> shared =
+      e->KeyOf({.robot = "", .kind = KeyKind::kMapLandmark, .index = 7});
+  const std::optional<core::Key> own =
+      e->KeyOf({.robot = "r", .kind = KeyKind::kLandmark, .index = 7});
+  ASSERT_TRUE(shared && own);
+  EXPECT_EQ(*shared, MapLandmarkKey(7));
+  EXPECT_EQ(e->KeyOf({.robot = "s", .kind = KeyKind::kLandmark, .index = 7}), std::nullopt);
+  EXPECT_EQ(e->snapshot()->num_variables, 4);  // two poses, the map's landmark, r's own
+  const core::Values est = e->solver().CalculateEstimate();
+  EXPECT_NEAR(est.At<core::Point2>(*shared).x(), 2.0, 1e-6);  // both observations agree
+  EXPECT_NEAR(est.At<core::Point2>(*own).x(), 4.0, 1e-6);
+  // The same observation again is held already; the robot's own namespace does not name it.
+  EXPECT_TRUE(e->Process({Landmark("s", 0, 7, 0.0, 3.0, kMap)}).rejections.empty());
+  const auto kind = static_cast<std::int8_t>(LandmarkKind::kBearingRange2);
+  EXPECT_EQ(
+      OnlyRejection(e->Process({Remove(RemoveTarget::kLandmarkObservation, "s", 0, "", 7, kind)})),
+      RejectReason::kUnknownFactor);
+  const int factors = e->snapshot()->num_factors;
+  r = e->Process({Remove(RemoveTarget::kMapLandmarkObservation, "s", 0, "", 7, kind)});
+  EXPECT_TRUE(r.rejections.empty());
+  EXPECT_EQ(e->snapshot()->num_factors, factors - 1);
+}
+
 TEST(EstimatorTest, PositionPriorOnUnknownPoseIsHeldThenApplied) {
   auto e = Make();
   ASSERT_TRUE(e->Process({Prior("r", 0, Pose2())}).status.ok());

@@ -28,9 +28,9 @@ inline Inbound Prior(const std::string& robot, std::uint64_t index, const Pose2&
   return {PriorMeasurement{3, robot, index, PriorKind::kPose2, p, Noise(3, 0.01)}, 0};
 }
 inline Inbound Landmark(const std::string& robot, std::uint64_t pose, std::uint64_t id, double b,
-                        double r) {
+                        double r, LandmarkNamespace ns = LandmarkNamespace::kRobot) {
   return {LandmarkMeasurement{4, robot, pose, id, LandmarkKind::kBearingRange2, BearingRange{b, r},
-                              Noise(2, 0.05)},
+                              Noise(2, 0.05), ns},
           0};
 }
 

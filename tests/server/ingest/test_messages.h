@@ -77,6 +77,7 @@ inline slamd::landmark_observation_t Landmark(int kind) {
   m.pose_index = 5;
   m.landmark_id = 17;
   m.kind = static_cast<int8_t>(kind);
+  m.landmark_namespace = slamd::landmark_observation_t::NAMESPACE_ROBOT;
   if (kind == 1) SetArrays({0.3, 4.0}, 2, &m);
   if (kind == 2) SetArrays({3.0, -1.5}, 2, &m);
   if (kind == 3) SetArrays({3.0, -1.5, 0.7}, 3, &m);

@@ -9,6 +9,7 @@
 #include <type_traits>
 
 #include "server/messages/inbound_codec.h"
+#include "slamd_legacy/landmark_observation_v1_t.hpp"
 #include "tests/server/ingest/test_messages.h"
 
 namespace slamd::server {
@@ -85,6 +86,47 @@ TEST(InboundCodec, EveryTypeRoundTripsThroughItsSpec) {
   }
   EXPECT_EQ(types.size(), InboundTypeNames().size());  // every type in the list
   EXPECT_EQ(DecodeInbound("nonsense_t", {}).status().code(), core::StatusCode::kDataLoss);
+}
+
+// Journals, snapshots and logs written before landmark_observation_t had landmark_namespace
+// still decode: as the robot's namespace, the only one that layout had.
+TEST(InboundCodec, TheLandmarkLayoutBeforeNamespacesIsReadAsTheRobotsNamespace) {
+  const slamd::landmark_observation_t now = t::Landmark(2);
+  slamd_legacy::landmark_observation_v1_t old;
+  old.utime = now.utime;
+  old.robot = now.robot;
+  old.pose_index = now.pose_index;
+  old.landmark_id = now.landmark_id;
+  old.kind = now.kind;
+  old.num_values = now.num_values;
+  old.values = now.values;
+  old.num_covariance = now.num_covariance;
+  old.covariance = now.covariance;
+  ASSERT_NE(old.getHash(), now.getHash());
+  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(old.getEncodedSize()));
+  ASSERT_EQ(old.encode(bytes.data(), 0, static_cast<int>(bytes.size())),
+            static_cast<int>(bytes.size()));
+
+  core::Result<Inbound> decoded = DecodeInbound("landmark_observation_t", bytes);
+  ASSERT_TRUE(decoded.ok()) << decoded.status().ToString();
+  const auto* m = std::get_if<LandmarkMeasurement>(&decoded->measurement);
+  ASSERT_NE(m, nullptr);
+  EXPECT_EQ(m->landmark_namespace, LandmarkNamespace::kRobot);
+  EXPECT_EQ(m->robot, now.robot);
+  EXPECT_EQ(m->landmark_id, 17u);
+  EXPECT_EQ(m->kind, LandmarkKind::kRelativePoint2);
+  EXPECT_EQ(std::get<core::Point2>(m->measured), core::Point2(3.0, -1.5));
+  // Re-encoded, it is the current layout.
+  std::string type;
+  const std::vector<std::uint8_t> again = EncodeInbound(*decoded, &type);
+  EXPECT_EQ(again.size(), bytes.size() + 1);  // the namespace byte
+  EXPECT_TRUE(DecodeInbound(type, again).ok());
+
+  // Broken bytes of the old layout are a decode error naming it.
+  bytes.pop_back();
+  const core::Status truncated = DecodeInbound("landmark_observation_t", bytes).status();
+  EXPECT_EQ(truncated.code(), core::StatusCode::kDataLoss);
+  EXPECT_NE(truncated.message().find("older layout"), std::string::npos) << truncated.message();
 }
 
 }  // namespace

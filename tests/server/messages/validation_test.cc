@@ -117,6 +117,12 @@ std::vector<Case> LandmarkCases() {
       Make<M>(
           "Kind4", br, [](M& m) { m.kind = 4; }, R::kBadKind, "landmark_observation_t.kind: 4"),
       Make<M>(
+          "Namespace2", p2, [](M& m) { m.landmark_namespace = 2; }, R::kBadKind,
+          "landmark_observation_t.landmark_namespace: 2"),
+      Make<M>(
+          "NamespaceNegative", br, [](M& m) { m.landmark_namespace = -1; }, R::kBadKind,
+          "landmark_observation_t.landmark_namespace: -1"),
+      Make<M>(
           "ValuesForKind", p3,
           [](M& m) {
             m.values.pop_back();
@@ -275,7 +281,14 @@ std::vector<Case> RemoveFactorCases() {
       Make<M>(
           "Target0", odo, [](M& m) { m.target = 0; }, R::kBadKind, "remove_factor_t.target: 0"),
       Make<M>(
-          "Target5", odo, [](M& m) { m.target = 5; }, R::kBadKind, "remove_factor_t.target: 5"),
+          "Target6", odo, [](M& m) { m.target = 6; }, R::kBadKind, "remove_factor_t.target: 6"),
+      Make<M>(
+          "MapLandmarkRobotBSet", lm,
+          [](M& m) {
+            m.target = M::TARGET_MAP_LANDMARK_OBSERVATION;
+            m.robot_b = "alpha";
+          },
+          R::kUnusedFieldSet, "remove_factor_t.robot_b"),
       Make<M>(
           "RobotAEmpty", lm, [](M& m) { m.robot_a = ""; }, R::kBadName, "remove_factor_t.robot_a"),
       Make<M>(
