@@ -47,6 +47,7 @@ std::string OptionOf(const std::string& message) {
                                             {"robots", "--robots"},
                                             {"landmarks", "--landmarks"},
                                             {"side", "--side"},
+                                            {"patrol", "--patrol"},
                                             {"cameras", "--cameras"},
                                             {"points", "--points"},
                                             {"width", "--image-size"},
@@ -256,6 +257,12 @@ void RegisterSim(CLI::App& app) {
                   "manhattan, landmarks: side of the square world in metres (>= 4); default grows "
                   "with --steps so the robots cover it about twice")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--patrol", p.patrol,
+                  "manhattan, landmarks: each robot random-walks this many steps, goes back to "
+                  "its start, and then drives that closed route again and again; 0: random "
+                  "walks throughout")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   cmd->add_option("--sensor-range", p.sensor_range, "landmarks: sensor range, metres (> 0)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();

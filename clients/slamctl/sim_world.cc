@@ -2,6 +2,7 @@
 #include "clients/slamctl/sim_world.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -74,6 +75,7 @@ core::Status SimParams::Validate() const {
   SLAMD_PARAM_CHECK(SimParams, outliers, <=, 1.0);
   SLAMD_PARAM_CHECK(SimParams, landmarks, >=, 0);
   SLAMD_PARAM_CHECK(SimParams, side, >=, 0);
+  SLAMD_PARAM_CHECK(SimParams, patrol, >=, 0);
   SLAMD_PARAM_CHECK(SimParams, sensor_range, >, 0.0);
   SLAMD_PARAM_CHECK(SimParams, sigma_bearing, >=, 0.0);
   SLAMD_PARAM_CHECK(SimParams, sigma_range, >=, 0.0);
@@ -175,6 +177,7 @@ class Generator {
  private:
   struct GridState {
     int cx = 0, cy = 0, heading = 0;  // heading: 0 = +x, 1 = +y, 2 = -x, 3 = -y
+    std::vector<std::array<int, 3>> route;  // patrol: (cx, cy, heading) of each step so far
   };
   struct PoseRef {
     int robot, idx;
@@ -201,7 +204,14 @@ class Generator {
   // random, and back only when both are blocked.
   Pose2 GridStep(int t, GridState* s, std::int64_t* node, std::vector<std::int64_t>* candidates) {
     static constexpr int kDx[4] = {1, 0, -1, 0}, kDy[4] = {0, 1, 0, -1};
-    if (t > 0) {
+    const int patrol = p_.patrol;
+    if (patrol > 0 && t > patrol) {  // the closed route, again and again
+      if (t == patrol + 1) CloseRoute(s);
+      const std::array<int, 3>& at = s->route[static_cast<std::size_t>(t) % s->route.size()];
+      s->cx = at[0];
+      s->cy = at[1];
+      s->heading = at[2];
+    } else if (t > 0) {
       const double u = rng_.Uniform();
       int h = u < 0.15 ? (s->heading + 1) % 4 : u < 0.3 ? (s->heading + 3) % 4 : s->heading;
       const int side_turn = rng_.Uniform() < 0.5 ? 1 : 3;
@@ -215,9 +225,37 @@ class Generator {
       s->cx += kDx[h];
       s->cy += kDy[h];
     }
+    if (patrol > 0 && t <= patrol) s->route.push_back({s->cx, s->cy, s->heading});
     *node = CellNode(s->cx, s->cy);
     *candidates = {*node};
     return Pose2(s->cx, s->cy, s->heading * kPi / 2);
+  }
+
+  // Patrol: the walk so far (steps 0..patrol) plus the way back to its start, x first, then y,
+  // so that step t of the route is route[t % size] (the last cell is next to the start).
+  void CloseRoute(GridState* s) {
+    const std::array<int, 3> start = s->route.front();
+    int cx = s->route.back()[0], cy = s->route.back()[1];
+    if (cx == start[0] && cy == start[1]) {  // the walk ended where it began
+      s->route.front()[2] = s->route.back()[2];
+      s->route.pop_back();
+      return;
+    }
+    while (cx != start[0] || cy != start[1]) {
+      int heading;
+      if (cx != start[0]) {
+        heading = cx < start[0] ? 0 : 2;
+        cx += cx < start[0] ? 1 : -1;
+      } else {
+        heading = cy < start[1] ? 1 : 3;
+        cy += cy < start[1] ? 1 : -1;
+      }
+      if (cx == start[0] && cy == start[1]) {  // back at the start: step 0 of the next lap,
+        s->route.front()[2] = heading;         // heading as it arrives
+        break;
+      }
+      s->route.push_back({cx, cy, heading});
+    }
   }
 
   // Sphere: ring r = g / n, column c; helix: turn g / n. g = t (+ the robot's offset).
@@ -296,7 +334,11 @@ class Generator {
     for (const std::int64_t node : candidates) {
       const auto it = by_node_.find(node);
       if (it == by_node_.end()) continue;
-      for (const PoseRef& ref : it->second) {
+      const std::vector<PoseRef>& visits = it->second;
+      for (std::size_t i = 0; i < visits.size(); ++i) {
+        // Patrols close loops with the latest visits (the last laps), random walks with the
+        // first ones.
+        const PoseRef& ref = visits[p_.patrol > 0 ? visits.size() - 1 - i : i];
         if (ref.robot == k && ref.idx >= t - 1) continue;
         if (added >= max_loops || rng_.Uniform() >= p_.loop_probability) continue;
         ++added;

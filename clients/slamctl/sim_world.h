@@ -7,10 +7,11 @@
 //
 // Worlds (units: metres and radians; a pose maps body to world coordinates):
 //   kManhattan  2D pose graph like Olson's M3500: the robot moves one metre per step on a unit
-//               grid inside a square box, turning left/right at random (and at the walls). When it
+//               grid inside a square box, turning left/right at random (and at the walls; or on
+//               a patrol route, SimParams::patrol). When it
 //               enters a cell some earlier pose occupied (any robot), each such earlier pose gives
 //               a loop closure with probability loop_probability (at most kMaxLoopsPerPose per
-//               pose).
+//               pose; the earliest poses first, on patrols the latest).
 //   kLandmarks  the same robot motion plus point landmarks, uniform in the box; every pose observes
 //               each landmark within sensor_range (bearing-range or relative-point). Landmarks no
 //               pose observes are dropped; the rest are numbered 0.. in generation order.
@@ -86,6 +87,13 @@ struct SimParams {
   // with the poses so that the robots cover it about twice. Fixed, the robots revisit it for as
   // long as they drive (lifelong runs).
   int side = 0;
+  // Grid worlds: steps of each robot's patrol route (>= 0). 0: the robots random-walk for as
+  // long as they drive. Above 0: each robot random-walks this many steps, goes back to its
+  // start along the grid (x first, then y), and from then on drives that closed route again
+  // and again: a fleet that has mapped its area and keeps driving through it (lifelong runs).
+  // A patrol's loop closures go to the latest earlier visits of a place (a front end matching
+  // recent keyframes), a random walk's to the first ones.
+  int patrol = 0;
   // Landmark worlds.
   int landmarks = 0;          // landmarks generated (>= 0); 0 = box area / 4
   double sensor_range = 3.0;  // m, > 0

@@ -372,6 +372,45 @@ TEST(SimWorld, FixedSideKeepsEveryPoseInTheSquare) {
   EXPECT_EQ(SimParams{.side = -1}.Validate().message(), "SimParams::side = -1; violates >= 0");
 }
 
+// A patrol: each robot walks `patrol` steps, goes back to its start, and then drives that
+// closed route again and again, one metre per step and inside the square.
+TEST(SimWorld, PatrolRepeatsOneClosedRoute) {
+  constexpr int kPatrol = 60, kSteps = 700;
+  const SimWorld w = MustGenerate({.world = WorldKind::kLandmarks,
+                                   .seed = 9,
+                                   .steps = kSteps,
+                                   .robots = 3,
+                                   .side = 30,
+                                   .patrol = kPatrol});
+  for (const std::vector<core::Variable>& robot : w.truth) {
+    std::vector<core::Vector2> at;
+    for (const core::Variable& v : robot) at.push_back(std::get<core::Pose2>(v).translation());
+    for (int t = 1; t < kSteps; ++t) {
+      EXPECT_NEAR((at[t] - at[t - 1]).norm(), 1.0, 1e-12) << t;
+      EXPECT_LE(at[t].cwiseAbs().maxCoeff(), 15.0);
+    }
+    // The route's length: the first step after the walk that is back at the start.
+    int length = kPatrol + 1;
+    while (length < kSteps && at[length] != at[0]) ++length;
+    ASSERT_LT(length, kPatrol + 2 * 30);  // at most the way back across the square
+    for (int t = kPatrol + 1; t < kSteps; ++t) {
+      EXPECT_EQ(at[t], at[t % length]) << t;
+      if (t > length) {  // later laps: the same poses, heading included (but at the start,
+                         // where it arrives from the way back)
+        EXPECT_EQ(std::get<core::Pose2>(robot[t]).theta(),
+                  std::get<core::Pose2>(robot[t - length]).theta())
+            << t;
+      }
+    }
+  }
+  // Random walks never repeat like that.
+  const SimWorld walk = MustGenerate(
+      {.world = WorldKind::kLandmarks, .seed = 9, .steps = kSteps, .robots = 3, .side = 30});
+  EXPECT_NE(std::get<core::Pose2>(walk.truth[0][kSteps - 1]).translation(),
+            std::get<core::Pose2>(w.truth[0][kSteps - 1]).translation());
+  EXPECT_EQ(SimParams{.patrol = -1}.Validate().message(), "SimParams::patrol = -1; violates >= 0");
+}
+
 TEST(SimWorld, ValidateNamesTheField) {
   SimParams p;
   p.sigma_translation = -1;
