@@ -478,14 +478,13 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
   }
   CommitCamerasAndTracks(&result);
   shard_boundary_.Grow(s.factors, s.ids);
+  CommitReduced(&s);  // first: the numbers of the factors it replaced go to the new ones
   for (const auto& [position, id, first] : s.ids) {
-    applied_[id] = static_cast<int>(solver_index_.size());
-    applied_factors_.push_back({id, first, s.factors[position]->dim()});
-    solver_index_.push_back(update.new_factor_indices[position]);
+    applied_[id] =
+        NumberFactor({id, first, s.factors[position]->dim()}, update.new_factor_indices[position]);
   }
   num_factors_ += static_cast<std::int64_t>(s.factors.size());
   for (const core::FactorPtr& f : s.factors.factors()) residual_dimension_ += f->dim();
-  CommitReduced(&s);
   result.applied += static_cast<int>(applied.size());
   for (size_t i : applied) result.applied_received_us.push_back(pending[i].message.received_us);
   counters_.applied += static_cast<std::int64_t>(applied.size());
@@ -494,6 +493,25 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
   PublishSnapshot(true);
   LogForRebuild(s.factors, s.values, update, options.remove_factors);
   AfterUpdateOnceSolved(update.relinearization_deferred);
+}
+
+int Estimator::NumberFactor(const AppliedFactor& f, int slot) {
+  if (free_numbers_.empty()) {
+    applied_factors_.push_back(f);
+    solver_index_.push_back(slot);
+    return static_cast<int>(solver_index_.size()) - 1;
+  }
+  const int n = free_numbers_.back();
+  free_numbers_.pop_back();
+  applied_factors_[n] = f;
+  solver_index_[n] = slot;
+  return n;
+}
+
+void Estimator::ReleaseNumber(int n) {
+  solver_index_[n] = -1;
+  applied_factors_[n] = {};
+  free_numbers_.push_back(n);
 }
 
 void Estimator::Remove(const Inbound& in, ProcessResult* result) {
@@ -531,7 +549,7 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
   }
   --num_factors_;
   residual_dimension_ -= applied_factors_[it->second].dim;
-  solver_index_[it->second] = -1;
+  ReleaseNumber(it->second);
   applied_.erase(it);
   ++result->applied;
   result->applied_received_us.push_back(in.received_us);

@@ -166,6 +166,8 @@ class Estimator {
   const RobotRegistry& registry() const { return registry_; }
   const core::Isam2& solver() const { return *isam_; }
   int held_messages() const { return static_cast<int>(held_.size()); }
+  // Factor numbers, used and free: the graph's largest size, however many factors were replaced.
+  std::size_t factor_numbers() const { return solver_index_.size(); }
   // Cameras (camera_info_t) and the held observations of landmarks not determined yet.
   const CameraTable& cameras() const { return cameras_; }
   const LandmarkTracks& tracks() const { return tracks_; }
@@ -249,6 +251,8 @@ class Estimator {
   void CommitReduced(Staged* s);
   // The newest pose of every anchored robot (its anchor when an alias): what updates touch next.
   std::vector<core::Key> NewestPoses(const Staged* s = nullptr) const;
+  int NumberFactor(const AppliedFactor& f, int slot);  // a free number or a new one
+  void ReleaseNumber(int n);                           // its factor is gone from the solver
   // Logs a successful live update for the rebuild in flight (if any).
   void LogForRebuild(const core::FactorGraph& factors, const core::Values& values,
                      const core::Isam2Result& update, std::span<const int> removed);
@@ -260,12 +264,14 @@ class Estimator {
   RobotState robots_[256];
   // Applied (not removed) measurements -> their factor number (indexes the two vectors below).
   std::map<MeasurementId, int> applied_;
-  // Per factor number: the measurement. A vector, not the map's values, so that a snapshot's
-  // export walks it in one pass (walking the map took 75-140 ms at 375k factors in the soak).
+  // Per factor number: the measurement. A vector, so that a snapshot's export walks it in one
+  // pass (walking the map took 75-140 ms at 375k factors in the soak).
   std::vector<AppliedFactor> applied_factors_;
-  // Per factor number: its Isam2 factor index, -1 once removed. A rebuilt solver numbers its
-  // factors anew; this vector is all that changes then.
+  // Per factor number: its Isam2 factor index, -1 once removed; removed numbers wait in
+  // free_numbers_ for new measurements (a run that keeps replacing factors, as the reduced
+  // graph's fusion does, stays the size of its graph). A rebuild changes only this vector.
   std::vector<int> solver_index_;
+  std::vector<int> free_numbers_;
   int marginals_threads_;  // Isam2Params::threads as configured (a rebuilt solver has 1)
   std::unique_ptr<core::Isam2Marginals> marginals_;
   std::unique_ptr<BackgroundRebuild> rebuild_;
@@ -273,8 +279,8 @@ class Estimator {
   std::thread retire_thread_;    // frees the solver a rebuild replaced
   std::vector<int> last_swap_rounds_;
   bool replaying_ = false;  // SetReplaying
-  // Process(batch, true) is running (its updates may finish later), and what the update left
-  // for FinishUpdate reported as deferred relinearisation (AfterUpdate's argument).
+  // Process(batch, true) is running (its updates may finish later); what the update left for
+  // FinishUpdate reported as deferred relinearisation (AfterUpdate's argument).
   bool finish_later_ = false;
   int pending_deferred_ = 0;
   std::deque<Held> held_;
@@ -289,8 +295,7 @@ class Estimator {
   std::int64_t residual_dimension_ = 0;
   bool settled_ = true;
   std::shared_ptr<const EstimateSnapshot> snapshot_;
-  // The latest status chi2 and the update sequence it describes (-1: none yet); computed here
-  // or handed over by a rebuild (FinishRebuild).
+  // The latest status chi2 and its update sequence (-1: none yet), here or from a rebuild.
   double chi2_ = 0.0;
   std::int64_t chi2_sequence_ = -1;
   std::chrono::steady_clock::time_point chi2_time_;  // when chi2_ was last computed

@@ -264,7 +264,7 @@ bool Estimator::NearNode(const Variable& at, const EstimatorParams::ReducedGraph
 void Estimator::CommitReduced(Staged* s) {
   for (int n : s->reduced.replaced) {
     residual_dimension_ -= applied_factors_[n].dim;
-    solver_index_[n] = -1;
+    ReleaseNumber(n);
     --num_factors_;
   }
   for (auto& [key, alias] : s->reduced.aliases) {

@@ -129,9 +129,9 @@ core::Status Estimator::RemoveChunk(std::span<const core::Key> keys) {
   for (int f : r.removed_factors) {
     const int n = number_of[f];
     if (n < 0) continue;
-    solver_index_[n] = -1;
     const auto it = applied_.find(applied_factors_[n].id);
     if (it != applied_.end() && it->second == n) applied_.erase(it);
+    ReleaseNumber(n);
   }
   // Aliases anchored at a removed pose go with it.
   const std::set<core::Key> gone(keys.begin(), keys.end());

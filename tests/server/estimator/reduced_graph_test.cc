@@ -197,17 +197,21 @@ TEST(ReducedGraphTest, RevisitingAMappedAreaAddsNoNodes) {
   const Circle c = DriveCircle(3, 0.0, 0.0, 1);
   auto e = Make(Reduced(2.0));
   std::int64_t variables_after_lap1 = 0, factors_after_lap2 = 0;
+  std::size_t numbers_after_lap2 = 0;
   for (std::size_t i = 0; i < c.steps.size(); ++i) {
     const ProcessResult r = e->Process(c.steps[i]);
     ASSERT_TRUE(r.status.ok()) << r.status.ToString();
     ASSERT_TRUE(r.rejections.empty()) << r.rejections[0].verdict.message;
     if (i == 36) variables_after_lap1 = e->snapshot()->num_variables;
     if (i == 72) factors_after_lap2 = e->snapshot()->num_factors;
+    if (i == 72) numbers_after_lap2 = e->factor_numbers();
   }
   const auto& snap = *e->snapshot();
   EXPECT_LT(variables_after_lap1, 8 + 36);  // nodes ~2 m apart, plus the landmarks
   EXPECT_EQ(snap.num_variables, variables_after_lap1);
   EXPECT_EQ(snap.num_factors, factors_after_lap2);
+  // The fused factors of the third lap replaced the second's under the same numbers.
+  EXPECT_EQ(e->factor_numbers(), numbers_after_lap2);
   EXPECT_GT(snap.counters.merged_poses, 36 * 2);
   for (std::uint64_t i = 0; i < c.truth.size(); i += 7) {
     ExpectNear(PoseOf(*e, "r", i), c.truth[i], 1e-6);
