@@ -185,6 +185,7 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
     if (in.has_distance_m()) out->distance_m = in.distance_m();
     if (in.has_angle_deg()) out->angle_deg = in.angle_deg();
     if (in.has_keep_aliases()) out->keep_aliases = in.keep_aliases();
+    if (in.has_link_mapped_landmarks()) out->link_mapped_landmarks = in.link_mapped_landmarks();
   };
   if (e.has_reduced()) read_reduced(e.reduced(), &p->estimator.reduced);
   for (const auto& r : e.robot_reduced()) {
@@ -359,6 +360,9 @@ std::string DefaultConfigText() {
       << "  # ... and turned this little [deg]\n"
       << "    keep_aliases: " << d.estimator.reduced.keep_aliases
       << "  # each robot's newest such poses that later messages may name\n"
+      << "    link_mapped_landmarks: "
+      << (d.estimator.reduced.link_mapped_landmarks ? "true" : "false")
+      << "  # false: revisits add no factors to mapped landmarks\n"
       << "  }\n"
       << "  # robot_reduced { robot: \"car\" reduced { distance_m: 2 } }  # one robot's\n"
       << "}\n\n"

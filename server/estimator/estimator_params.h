@@ -128,10 +128,16 @@ struct EstimatorParams {
   // closure to a recent pose); older ones are forgotten (such a message is rejected as
   // naming an unknown pose). Use it with isam2.trust_region: Gauss-Newton diverged on the weak
   // composed factors of long dead-reckoned stretches in the lifelong soak (BENCHMARKS.md).
+  // link_mapped_landmarks: an alias's observation of a landmark already in the map, composed
+  // onto the alias's node, is fused into that node's factor to the landmark, or, when there is
+  // none, adds one (true) or is left out (false: a revisit then adds no factors, so a fleet
+  // driving through its mapped area for days keeps the graph and memory flat; the
+  // observations left out do not inform the map).
   struct ReducedGraph {
     double distance_m = 0.0;
     double angle_deg = 30.0;
     int keep_aliases = 2000;
+    bool link_mapped_landmarks = true;
   };
   ReducedGraph reduced = {};
   // Per robot (by name): its own distance_m and angle_deg in place of reduced's.

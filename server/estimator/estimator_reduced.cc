@@ -160,7 +160,9 @@ Outcome Estimator::AddReduced(core::FactorPtr factor, Key first, const Measureme
   if (IsRelativePoint(*factor) && aliased.size() == 1 && aliased[0] == keys[0]) {
     const ComposedMeasurement point =
         ComposePoint(resolve(keys[0]), {*factor->Measured(), factor->noise_model().Covariance()});
-    if (!AddComposed(resolve(keys[0]).anchor, keys[1], 1, point, factor->robust_kernel(), s)) {
+    const bool link = ReducedFor(core::KeyRobot(keys[0]))->link_mapped_landmarks;
+    if (!AddComposed(resolve(keys[0]).anchor, keys[1], 1, point, factor->robust_kernel(), s,
+                     link)) {
       return fail("the composed point's covariance is not positive definite");
     }
     s->reduced.merged.emplace_back(id, std::move(factor));
@@ -193,13 +195,7 @@ bool Estimator::Promote(Key pose, Staged* s) {
 }
 
 bool Estimator::AddComposed(Key a, Key b, int kind, ComposedMeasurement m,
-                            const core::RobustKernel& robust, Staged* s) {
-  if (!robust.is_none()) {  // a robust term is not a Gaussian to fuse: kept on its own
-    core::FactorPtr f = ComposedFactor(a, b, m, robust);
-    if (!f) return false;
-    s->factors.Add(std::move(f));
-    return true;
-  }
+                            const core::RobustKernel& robust, Staged* s, bool link) {
   const MeasurementId id{'r', std::min(a, b), std::max(a, b), kind};
   std::optional<std::size_t> staged;
   for (const auto& [position, staged_id, staged_first] : s->ids) {
@@ -212,6 +208,16 @@ bool Estimator::AddComposed(Key a, Key b, int kind, ComposedMeasurement m,
   } else if (const auto it = applied_.find(id); it != applied_.end()) {
     number = it->second;
     existing = isam_->factor_slots()[solver_index_[number]];
+  }
+  if (!link && (!existing || !robust.is_none()) &&
+      (isam_->linearization_point().Contains(b) || s->values.Contains(b))) {
+    return true;  // a mapped landmark: no new factor (link_mapped_landmarks)
+  }
+  if (!robust.is_none()) {  // a robust term is not a Gaussian to fuse: kept on its own
+    core::FactorPtr f = ComposedFactor(a, b, m, robust);
+    if (!f) return false;
+    s->factors.Add(std::move(f));
+    return true;
   }
   Key from = a, to = b;
   if (existing) {

@@ -153,13 +153,15 @@ journal { segment_bytes: 1048576 delete_covered_segments: false })");
 TEST(ConfigLoaderTest, ReducedPoseGraph) {
   const core::Result<ServerParams> p = ParseConfigText(R"(
 estimator {
-  reduced { distance_m: 1.5 angle_deg: 20 keep_aliases: 50 }
-  robot_reduced { robot: "car" reduced { distance_m: 4 } }
+  reduced { distance_m: 1.5 angle_deg: 20 keep_aliases: 50 link_mapped_landmarks: false }
+  robot_reduced { robot: "car" reduced { distance_m: 4 link_mapped_landmarks: true } }
 })");
   ASSERT_TRUE(p.ok()) << p.status().ToString();
   EXPECT_EQ(p->estimator.ReducedOf("bike").distance_m, 1.5);
   EXPECT_EQ(p->estimator.ReducedOf("bike").angle_deg, 20.0);
   EXPECT_EQ(p->estimator.ReducedOf("bike").keep_aliases, 50);
+  EXPECT_FALSE(p->estimator.ReducedOf("bike").link_mapped_landmarks);
+  EXPECT_TRUE(p->estimator.ReducedOf("car").link_mapped_landmarks);
   EXPECT_EQ(p->estimator.ReducedOf("car").distance_m, 4.0);
   EXPECT_EQ(p->estimator.ReducedOf("car").angle_deg, 20.0);
   const core::Result<ServerParams> q =

@@ -274,6 +274,45 @@ TEST(ReducedGraphTest, AccuracyCloseToTheFullGraph) {
   EXPECT_LT(worst_newest, 0.35);  // about the map's own error; 2.6 m without re-anchoring
 }
 
+// link_mapped_landmarks false: an alias's observation of a landmark the map has adds no new
+// (node, landmark) factor (it is fused where its node has a composed one); a new landmark
+// still enters.
+TEST(ReducedGraphTest, MappedLandmarksGainNoFactorsFromAliasesUnlessLinked) {
+  const Pose2 step(1, 0, 0);
+  std::vector<Inbound> drive = {Prior("r", 0, Pose2()), Point("r", 0, 7, Point2(3, 1), 0.05)};
+  for (std::uint64_t i = 0; i < 3; ++i) drive.push_back(Odo("r", i, i + 1, step));
+  // x1 is an alias of x0, x2 a node (2 m on), x3 an alias of x2.
+  const std::vector<Inbound> seen = {
+      Point("r", 1, 7, Point2(2, 1), 0.05),    // onto x0, which saw l7 itself (not composed)
+      Point("r", 3, 7, Point2(0, 1), 0.05),    // onto x2
+      Point("r", 3, 8, Point2(1, -1), 0.05)};  // l8 is new: it enters either way
+  std::int64_t factors[2];
+  for (const bool link : {true, false}) {
+    EstimatorParams p = Reduced(2.0);
+    p.reduced.link_mapped_landmarks = link;
+    auto e = Make(p);
+    for (const Inbound& m : drive) ASSERT_TRUE(e->Process({m}).status.ok());
+    ASSERT_TRUE(e->KeyOf({"r", KeyKind::kPose, 2}).has_value());
+    ASSERT_FALSE(e->KeyOf({"r", KeyKind::kPose, 3}).has_value());
+    const std::int64_t before = e->snapshot()->num_factors;
+    for (const Inbound& m : seen) {
+      const ProcessResult r = e->Process({m});
+      ASSERT_TRUE(r.status.ok());
+      EXPECT_TRUE(r.rejections.empty());
+      EXPECT_EQ(r.applied, 1);
+    }
+    factors[link] = e->snapshot()->num_factors - before;
+    ASSERT_TRUE(e->KeyOf({"r", KeyKind::kLandmark, 8}).has_value());
+    const core::Values est = e->solver().CalculateEstimate();
+    EXPECT_LT((est.At<Point2>(*e->KeyOf({"r", KeyKind::kLandmark, 7})) - Point2(3, 1)).norm(),
+              1e-6);
+    EXPECT_LT((est.At<Point2>(*e->KeyOf({"r", KeyKind::kLandmark, 8})) - Point2(4, -1)).norm(),
+              1e-6);
+  }
+  EXPECT_EQ(factors[true], 3);   // composed (x0, l7), (x2, l7) and (x2, l8)
+  EXPECT_EQ(factors[false], 1);  // (x2, l8)
+}
+
 TEST(ReducedGraphTest, DuplicatesRejectionsAndExpiry) {
   const Circle c = DriveCircle(2, 0.0, 0.0, 1);
   EstimatorParams p = Reduced(2.0);
