@@ -5,10 +5,11 @@
 // helpers: BackgroundRebuild's thread, and one that frees a replaced solver).
 //
 // Keys: pose i of robot r = MakeKey('x', i, id(r)), landmark j of robot r = MakeKey('l', j, id(r))
-// (ids from RobotRegistry). Initial guesses: a new pose = estimate(from) ∘ odometry (or
-// estimate(to) ∘ odometry⁻¹ when only the to-pose is known: a robot connected mid-trajectory, or
-// estimate(a) ∘ z for a loop closure that connects an unanchored robot); a new landmark is placed
-// by its first observation from the observing pose's estimate; a pose prior places its pose.
+// or, of the map all robots share, MakeKey('m', j, 0) (ids from RobotRegistry). Initial
+// guesses: a new pose = estimate(from) ∘ odometry (or estimate(to) ∘ odometry⁻¹ when only the
+// to-pose is known: a robot connected mid-trajectory, or estimate(a) ∘ z for a loop closure that
+// connects an unanchored robot); a new landmark is placed by its first observation from the
+// observing pose's estimate; a pose prior places its pose.
 //
 // Process(batch) applies every message it can, in order, then runs ONE Isam2::Update for all of
 // them (coalescing). Per message, one of:
@@ -20,8 +21,8 @@
 //             held for more than max_hold_updates Process calls, or the oldest beyond
 //             max_held_messages, is rejected with kOutOfOrderTimeout;
 //   already held: the same measurement (type, variables, values, noise) as one applied before
-//             (a robot re-sending after a restart): nothing changes; counted apart from
-//             rejections, and its robots listed so the daemon acknowledges it with their estimates;
+//             (a robot re-sending after a restart): nothing changes; counted apart from rejections;
+//             its robots listed so the daemon acknowledges it with their estimates;
 //   rejected  with a Verdict: kDuplicate (a different measurement of the same type between the
 //             same variables as one applied before), kUnknownRobot / kUnknownPose (loop closure to
 //             a robot or pose not in the graph, unless it connects an unanchored robot),
@@ -34,9 +35,8 @@
 // (msgs/lcm/remove_factor_t.lcm); none matching is kUnknownFactor. A removed measurement may be
 // sent again. Origin anchors (kAnchorAtOrigin) cannot be removed.
 //
-// Background relinearisation (EstimatorParams::background_relinearization_above) swaps in a
-// rebuilt solver (background_rebuild.h); the reduced pose graph (EstimatorParams::reduced) holds
-// new poses in a mapped area as aliases of nodes (reduced_graph.h).
+// Background relinearisation swaps in a rebuilt solver (background_rebuild.h); the reduced pose
+// graph holds new poses in a mapped area as aliases of nodes (reduced_graph.h).
 //
 // Exactness: with refinement and background relinearisation off, each Process call is exactly one
 // Isam2::Update of the factors in message order and the values in creation order, so feeding the
@@ -268,9 +268,8 @@ class Estimator {
   // Per factor number: the measurement. A vector, so that a snapshot's export walks it in one
   // pass (walking the map took 75-140 ms at 375k factors in the soak).
   std::vector<AppliedFactor> applied_factors_;
-  // Per factor number: its Isam2 factor index, -1 once removed; removed numbers wait in
-  // free_numbers_ for new measurements (a run that keeps replacing factors, as the reduced
-  // graph's fusion does, stays the size of its graph). A rebuild changes only this vector.
+  // Per factor number: its Isam2 factor index, -1 once removed (its number then waits in
+  // free_numbers_: replacing factors does not grow these). A rebuild changes only this vector.
   std::vector<int> solver_index_;
   std::vector<int> free_numbers_;
   int marginals_threads_;  // Isam2Params::threads as configured (a rebuilt solver has 1)
