@@ -185,32 +185,36 @@ TEST(EstimatorTest, HelperCatchUpRoundsReplayBitForBit) {
 
 // The helper is ready only once it has taken everything logged: an update logged while the
 // rebuild was not ready (and rounds were left) never falls to the swap, also not one logged
-// during the helper's chi2 pass.
+// during the helper's chi2 pass. Whether the rounds take any update depends on the threads'
+// timing (on a loaded machine the helper may finish each rebuild before the next update): the
+// stream is run again, up to three times, until they have.
 TEST(EstimatorTest, SwapTakesOnlyWhatWasLoggedAfterTheRebuildWasReady) {
   const EstimatorParams params = {
       .chi2_interval_s = 1.0, .background_relinearization_above = 8, .rebuild_catch_up_rounds = 64};
-  auto e = Make(params);
   int swaps = 0, taken_by_rounds = 0;
-  size_t logged_before_ready = 0, logged = 0;
-  for (const std::vector<Inbound>& batch : CorridorBatches(1500)) {
-    const bool logs = e->Rebuilding();  // this update goes into the rebuild's log
-    ASSERT_TRUE(e->Process(batch).status.ok());
-    std::this_thread::sleep_for(std::chrono::microseconds(100));  // a stream, not one burst
-    if (!logs) continue;
-    ++logged;
-    if (!e->RebuildReady()) {
-      ++logged_before_ready;
-      continue;
+  for (int stream = 0; stream < 3 && taken_by_rounds == 0; ++stream) {
+    auto e = Make(params);
+    size_t logged_before_ready = 0, logged = 0;
+    for (const std::vector<Inbound>& batch : CorridorBatches(1500)) {
+      const bool logs = e->Rebuilding();  // this update goes into the rebuild's log
+      ASSERT_TRUE(e->Process(batch).status.ok());
+      std::this_thread::sleep_for(std::chrono::microseconds(100));  // a stream, not one burst
+      if (!logs) continue;
+      ++logged;
+      if (!e->RebuildReady()) {
+        ++logged_before_ready;
+        continue;
+      }
+      ASSERT_TRUE(e->FinishRebuild().ok());
+      const std::vector<int>& rounds = e->last_swap_rounds();
+      const size_t in_rounds = std::accumulate(rounds.begin(), rounds.end(), size_t{0});
+      ASSERT_LT(rounds.size(), 64u);  // rounds were left: the helper stopped because nothing waited
+      EXPECT_GE(in_rounds, logged_before_ready) << "swap " << swaps;
+      EXPECT_LE(in_rounds, logged) << "swap " << swaps;
+      taken_by_rounds += static_cast<int>(in_rounds);
+      ++swaps;
+      logged = logged_before_ready = 0;
     }
-    ASSERT_TRUE(e->FinishRebuild().ok());
-    const std::vector<int>& rounds = e->last_swap_rounds();
-    const size_t in_rounds = std::accumulate(rounds.begin(), rounds.end(), size_t{0});
-    ASSERT_LT(rounds.size(), 64u);  // rounds were left: the helper stopped because nothing waited
-    EXPECT_GE(in_rounds, logged_before_ready) << "swap " << swaps;
-    EXPECT_LE(in_rounds, logged) << "swap " << swaps;
-    taken_by_rounds += static_cast<int>(in_rounds);
-    ++swaps;
-    logged = logged_before_ready = 0;
   }
   EXPECT_GE(swaps, 2);
   EXPECT_GT(taken_by_rounds, 0);
