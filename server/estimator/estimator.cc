@@ -129,13 +129,7 @@ core::Result<bool> Estimator::FinishRebuild(std::span<const int> replay_rounds) 
     return finished.status();
   }
   BackgroundRebuild::Swap& r = finished.value();
-  // Each factor's index in the new solver (a pass over a vector, not over applied_).
-  for (int& index : solver_index_) {
-    if (index < 0) continue;
-    SLAMD_CHECK(static_cast<size_t>(index) < r.position.size() && r.position[index] >= 0)
-        << "applied factor " << index << " is not in the rebuilt solver";
-    index = r.position[index];
-  }
+  numbers_.Remap(r.position);  // each factor's slot in the new solver
   last_swap_rounds_ = r.rounds;
   // The old solver and its marginals are freed on a helper thread: thousands of blocks, up to
   // 3.5 ms on victoriaPark, which the next message would wait for. (The marginals first: they
@@ -180,7 +174,7 @@ void Estimator::FirstTime(const MeasurementId& id, Staged* s) {
   s->pending_id = id;
   s->pending_existing = nullptr;
   if (const auto it = applied_.find(id); it != applied_.end()) {
-    s->pending_existing = isam_->factor_slots()[solver_index_[it->second]];
+    s->pending_existing = isam_->factor_slots()[numbers_.slot(it->second)];
   } else if (const auto m = reduced_.merged.find(id); m != reduced_.merged.end()) {
     s->pending_existing = m->second;
   } else if (s->seen.count(id) != 0) {
@@ -228,7 +222,7 @@ Outcome Estimator::AddReplacing(core::FactorPtr factor, Key first, Staged* s) {
     staged_first = first;
     return Outcome::kApplied;
   }
-  if (const auto it = applied_.find(id); it != applied_.end() && solver_index_[it->second] >= 0) {
+  if (const auto it = applied_.find(id); it != applied_.end() && numbers_.slot(it->second) >= 0) {
     s->reduced.replaced.push_back(it->second);
   }
   s->ids.emplace_back(s->factors.size(), id, first);
@@ -457,7 +451,7 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
   }
   FinishUpdate();  // a removal's update earlier in this Process
   core::Isam2UpdateOptions options = ProcessUpdateOptions();
-  for (int n : s.reduced.replaced) options.remove_factors.push_back(solver_index_[n]);
+  for (int n : s.reduced.replaced) options.remove_factors.push_back(numbers_.slot(n));
   if (finish_later_) options.solve_first = NewestPoses(&s);  // with this batch's aliases
   result.updates.push_back(isam_->Update(s.factors, s.values, options));
   const core::Isam2Result& update = result.updates.back();
@@ -481,7 +475,7 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
   CommitReduced(&s);  // first: the numbers of the factors it replaced go to the new ones
   for (const auto& [position, id, first] : s.ids) {
     applied_[id] =
-        NumberFactor({id, first, s.factors[position]->dim()}, update.new_factor_indices[position]);
+        numbers_.Add({id, first, s.factors[position]->dim()}, update.new_factor_indices[position]);
   }
   num_factors_ += static_cast<std::int64_t>(s.factors.size());
   for (const core::FactorPtr& f : s.factors.factors()) residual_dimension_ += f->dim();
@@ -495,25 +489,6 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
   AfterUpdateOnceSolved(update.relinearization_deferred);
 }
 
-int Estimator::NumberFactor(const AppliedFactor& f, int slot) {
-  if (free_numbers_.empty()) {
-    applied_factors_.push_back(f);
-    solver_index_.push_back(slot);
-    return static_cast<int>(solver_index_.size()) - 1;
-  }
-  const int n = free_numbers_.back();
-  free_numbers_.pop_back();
-  applied_factors_[n] = f;
-  solver_index_[n] = slot;
-  return n;
-}
-
-void Estimator::ReleaseNumber(int n) {
-  solver_index_[n] = -1;
-  applied_factors_[n] = {};
-  free_numbers_.push_back(n);
-}
-
 void Estimator::Remove(const Inbound& in, ProcessResult* result) {
   const auto& r = std::get<RemoveFactorRequest>(in.measurement);
   Key first = 0;
@@ -522,7 +497,7 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
   const std::optional<MeasurementId> id =
       RemoveFactorSpec::Identity(r, Builder(*this, none, in), &first, &why);
   const auto it = id ? applied_.find(*id) : applied_.end();
-  if (!id || it == applied_.end() || applied_factors_[it->second].first != first) {
+  if (!id || it == applied_.end() || numbers_.entry(it->second).first != first) {
     if (id && reduced_.merged.count(*id) != 0) {
       why =
           "remove_factor_t: the measurement was composed onto other poses by the reduced pose "
@@ -538,7 +513,7 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
   }
   FinishUpdate();  // an earlier update of this Process
   core::Isam2UpdateOptions options = ProcessUpdateOptions();
-  options.remove_factors = {solver_index_[it->second]};
+  options.remove_factors = {numbers_.slot(it->second)};
   result->updates.push_back(isam_->Update({}, {}, options));
   const core::Isam2Result& update = result->updates.back();
   if (!update.status.ok()) {
@@ -548,8 +523,8 @@ void Estimator::Remove(const Inbound& in, ProcessResult* result) {
     return;
   }
   --num_factors_;
-  residual_dimension_ -= applied_factors_[it->second].dim;
-  ReleaseNumber(it->second);
+  residual_dimension_ -= numbers_.entry(it->second).dim;
+  numbers_.Release(it->second);
   applied_.erase(it);
   ++result->applied;
   result->applied_received_us.push_back(in.received_us);

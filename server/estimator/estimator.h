@@ -65,6 +65,7 @@
 #include "core/marginals/marginals.h"
 #include "server/estimator/background_rebuild.h"
 #include "server/estimator/estimator_params.h"
+#include "server/estimator/factor_numbers.h"
 #include "server/estimator/reduced_graph.h"
 #include "server/estimator/robot_registry.h"
 #include "server/estimator/shard_boundary.h"
@@ -167,7 +168,7 @@ class Estimator {
   const core::Isam2& solver() const { return *isam_; }
   int held_messages() const { return static_cast<int>(held_.size()); }
   // Factor numbers, used and free: the graph's largest size, however many factors were replaced.
-  std::size_t factor_numbers() const { return solver_index_.size(); }
+  std::size_t factor_numbers() const { return numbers_.size(); }
   // Cameras (camera_info_t) and the held observations of landmarks not determined yet.
   const CameraTable& cameras() const { return cameras_; }
   const LandmarkTracks& tracks() const { return tracks_; }
@@ -180,11 +181,6 @@ class Estimator {
   struct Held {  // a message waiting for a pose, and the Process calls it has waited through
     Inbound message;
     int waited = 0;
-  };
-  struct AppliedFactor {
-    MeasurementId id;
-    core::Key first = 0;  // the key the message named first (loop closures are directed)
-    int dim = 0;          // 0: no measurement (a factor a snapshot restored without one)
   };
   // What one batch adds; committed only when the update succeeds.
   struct Staged {
@@ -252,8 +248,6 @@ class Estimator {
   void CommitReduced(Staged* s);
   // The newest pose of every anchored robot (its anchor when an alias): what updates touch next.
   std::vector<core::Key> NewestPoses(const Staged* s = nullptr) const;
-  int NumberFactor(const AppliedFactor& f, int slot);  // a free number or a new one
-  void ReleaseNumber(int n);                           // its factor is gone from the solver
   // Logs a successful live update for the rebuild in flight (if any).
   void LogForRebuild(const core::FactorGraph& factors, const core::Values& values,
                      const core::Isam2Result& update, std::span<const int> removed);
@@ -263,15 +257,11 @@ class Estimator {
   std::unique_ptr<core::Isam2> isam_;
   RobotRegistry registry_;
   RobotState robots_[256];
-  // Applied (not removed) measurements -> their factor number (indexes the two vectors below).
+  // Applied (not removed) measurements -> their factor number in numbers_.
   std::map<MeasurementId, int> applied_;
-  // Per factor number: the measurement. A vector, so that a snapshot's export walks it in one
-  // pass (walking the map took 75-140 ms at 375k factors in the soak).
-  std::vector<AppliedFactor> applied_factors_;
-  // Per factor number: its Isam2 factor index, -1 once removed (its number then waits in
-  // free_numbers_: replacing factors does not grow these). A rebuild changes only this vector.
-  std::vector<int> solver_index_;
-  std::vector<int> free_numbers_;
+  // Per factor number: the measurement and its solver slot. A table, so that a snapshot's
+  // export walks it in one pass (walking the map took 75-140 ms at 375k factors in the soak).
+  FactorNumbers numbers_;
   int marginals_threads_;  // Isam2Params::threads as configured (a rebuilt solver has 1)
   std::unique_ptr<core::Isam2Marginals> marginals_;
   std::unique_ptr<BackgroundRebuild> rebuild_;

@@ -1,6 +1,5 @@
 // Estimator::ExportState and Estimator::Restore: an estimator as values (EstimatorState, what
 // snapshots store) and back.
-#include <numeric>
 
 #include "server/estimator/estimator.h"
 
@@ -21,9 +20,9 @@ EstimatorState Estimator::ExportState() const {
   }
   state.linearization_point = isam_->linearization_point();
   state.applied.reserve(applied_.size());
-  for (size_t n = 0; n < applied_factors_.size(); ++n) {
-    const AppliedFactor& f = applied_factors_[n];
-    const int slot = solver_index_[n];
+  for (int n = 0; n < static_cast<int>(numbers_.size()); ++n) {
+    const FactorNumbers::Entry& f = numbers_.entry(n);
+    const int slot = numbers_.slot(n);
     if (slot < 0 || f.dim == 0) continue;  // removed, or no measurement
     SLAMD_CHECK(position[slot] >= 0) << "applied measurement on a removed factor";
     const auto& [type, a, b, kind] = f.id;
@@ -74,21 +73,21 @@ core::Result<std::unique_ptr<Estimator>> Estimator::Restore(const EstimatorParam
     e->robots_[*id] = r.state;
     e->robots_[*id].received_us = 0;
   }
-  e->applied_factors_.resize(state.factors.size());  // the state's factor i is number i
+  std::vector<FactorNumbers::Entry> numbers(state.factors.size());  // state factor i: number i
   for (const EstimatorState::Applied& a : state.applied) {
     if (a.factor < 0 || a.factor >= static_cast<int>(state.factors.size())) {
       return core::DataLoss("snapshot: applied measurement names factor " +
                             std::to_string(a.factor) + " of " +
                             std::to_string(state.factors.size()));
     }
-    if (a.dim <= 0 || e->applied_factors_[a.factor].dim != 0) {
+    if (a.dim <= 0 || numbers[a.factor].dim != 0) {
       return core::DataLoss("snapshot: applied measurement on factor " + std::to_string(a.factor) +
                             " has dimension " + std::to_string(a.dim) +
                             " or is not the only one on it");
     }
     const MeasurementId id{a.type, a.a, a.b, a.kind};
     e->applied_[id] = a.factor;
-    e->applied_factors_[a.factor] = {id, a.first, a.dim};
+    numbers[a.factor] = {id, a.first, a.dim};
   }
   for (const auto& [pose, alias] : state.aliases) {
     if (!state.linearization_point.Contains(alias.anchor) ||
@@ -123,8 +122,7 @@ core::Result<std::unique_ptr<Estimator>> Estimator::Restore(const EstimatorParam
         e->isam_->Update(graph, state.linearization_point, {.order_last = e->NewestPoses()});
     if (!r.status.ok()) return core::DataLoss("snapshot: " + r.status.ToString());
   }
-  e->solver_index_.resize(state.factors.size());  // the state's factor i is the solver's i
-  std::iota(e->solver_index_.begin(), e->solver_index_.end(), 0);
+  e->numbers_.Restore(std::move(numbers));  // the state's factor i is the solver's i
   for (const EstimatorState::HeldMessage& h : state.held) e->held_.push_back({h.message, h.waited});
   for (const Inbound& in : state.cameras) {
     const auto* c = std::get_if<CameraInfo>(&in.measurement);

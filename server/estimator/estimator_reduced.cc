@@ -207,7 +207,7 @@ bool Estimator::AddComposed(Key a, Key b, int kind, ComposedMeasurement m,
     existing = s->factors[*staged];
   } else if (const auto it = applied_.find(id); it != applied_.end()) {
     number = it->second;
-    existing = isam_->factor_slots()[solver_index_[number]];
+    existing = isam_->factor_slots()[numbers_.slot(number)];
   }
   if (!link && (!existing || !robust.is_none()) &&
       (isam_->linearization_point().Contains(b) || s->values.Contains(b))) {
@@ -269,8 +269,8 @@ bool Estimator::NearNode(const Variable& at, const EstimatorParams::ReducedGraph
 
 void Estimator::CommitReduced(Staged* s) {
   for (int n : s->reduced.replaced) {
-    residual_dimension_ -= applied_factors_[n].dim;
-    ReleaseNumber(n);
+    residual_dimension_ -= numbers_.entry(n).dim;
+    numbers_.Release(n);
     --num_factors_;
   }
   for (auto& [key, alias] : s->reduced.aliases) {

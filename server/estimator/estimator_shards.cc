@@ -16,7 +16,7 @@ core::Result<std::optional<ShardSummaryMessage>> Estimator::ShardSummary(std::in
   std::set<int> received_slots;
   for (auto it = applied_.lower_bound({ShardSummarySpec::kIdentity, 0, 0, 0});
        it != applied_.end() && std::get<0>(it->first) == ShardSummarySpec::kIdentity; ++it) {
-    const int slot = solver_index_[it->second];
+    const int slot = numbers_.slot(it->second);
     if (slot < 0) continue;
     received.push_back(isam_->factor_slots()[slot]);
     received_slots.insert(slot);

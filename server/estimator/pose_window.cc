@@ -123,15 +123,15 @@ core::Status Estimator::RemoveChunk(std::span<const core::Key> keys) {
   // The measurements of the removed factors are forgotten: their variables are gone, so the same
   // measurement sent again cannot be told apart from a new one by the graph.
   std::vector<int> number_of(isam_->factor_slots().size(), -1);
-  for (std::size_t n = 0; n < solver_index_.size(); ++n) {
-    if (solver_index_[n] >= 0) number_of[solver_index_[n]] = static_cast<int>(n);
+  for (int n = 0; n < static_cast<int>(numbers_.size()); ++n) {
+    if (numbers_.slot(n) >= 0) number_of[numbers_.slot(n)] = n;
   }
   for (int f : r.removed_factors) {
     const int n = number_of[f];
     if (n < 0) continue;
-    const auto it = applied_.find(applied_factors_[n].id);
+    const auto it = applied_.find(numbers_.entry(n).id);
     if (it != applied_.end() && it->second == n) applied_.erase(it);
-    ReleaseNumber(n);
+    numbers_.Release(n);
   }
   // Aliases anchored at a removed pose go with it.
   const std::set<core::Key> gone(keys.begin(), keys.end());
