@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <string>
 
 #include "core/factors/bearing_range_factor.h"
@@ -131,6 +132,60 @@ bool SameMeasurement(const Factor& a, const Factor& b, double tolerance) {
     }
   }
   return true;
+}
+
+namespace {
+
+// splitmix64's finaliser: every input bit reaches every output bit.
+std::uint64_t Mix(std::uint64_t x) {
+  x ^= x >> 30;
+  x *= 0xbf58476d1ce4e5b9ULL;
+  x ^= x >> 27;
+  x *= 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+class Digest {
+ public:
+  void Add(std::uint64_t word) { h_ = Mix(h_ ^ Mix(word + 0x9e3779b97f4a7c15ULL)); }
+  // The entries on a grid of 2^-30 of the largest magnitude (at least 1), and their count.
+  void AddRounded(const double* x, std::size_t n) {
+    Add(n);
+    double largest = 1.0;
+    for (std::size_t i = 0; i < n; ++i) largest = std::max(largest, std::abs(x[i]));
+    const int exponent = std::ilogb(largest) + 1 - 30;
+    for (std::size_t i = 0; i < n; ++i) {
+      Add(static_cast<std::uint64_t>(std::llround(std::ldexp(x[i], -exponent))));
+    }
+  }
+  std::uint64_t value() const { return h_; }
+
+ private:
+  std::uint64_t h_ = 0;
+};
+
+}  // namespace
+
+std::uint64_t MeasurementDigest(const Factor& factor) {
+  const FactorRecord r = EncodeFactor(factor);
+  Digest d;
+  for (char c : r.type) d.Add(static_cast<unsigned char>(c));
+  d.Add(r.keys.size());
+  for (Key k : r.keys) d.Add(k);
+  d.Add(static_cast<std::uint64_t>(r.robust.kind()));
+  const double parameter = r.robust.parameter();
+  d.AddRounded(&parameter, 1);
+  d.AddRounded(r.measured.data(), r.measured.size());
+  d.Add(static_cast<std::uint64_t>(r.sqrt_information.rows()));
+  d.AddRounded(r.sqrt_information.data(), r.sqrt_information.size());
+  std::vector<double> coordinates;
+  for (const Variable& v : r.values) {
+    d.Add(v.index());
+    coordinates.clear();
+    EncodeVariable(v, &coordinates);
+    d.AddRounded(coordinates.data(), coordinates.size());
+  }
+  return d.value();
 }
 
 std::vector<std::string_view> FactorTypeNames() {

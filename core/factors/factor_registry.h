@@ -6,6 +6,7 @@
 // exact inverses (the noise model's R may be re-factored to the same information).
 #pragma once
 
+#include <cstdint>
 #include <string_view>
 #include <vector>
 
@@ -28,6 +29,13 @@ Result<FactorPtr> WithRobustKernel(const Factor& factor, const RobustKernel& ker
 // measured values and square-root information equal to `tolerance` relative to their size (a
 // re-sent message; a snapshot may have re-factored R to the same information).
 bool SameMeasurement(const Factor& a, const Factor& b, double tolerance = 1e-9);
+
+// A 64-bit digest of the measurement, for remembering one without keeping its factor (the
+// reduced pose graph's merged measurements): the type, keys and robust kernel, and the measured
+// values, square-root information and carried values each rounded to 2^-30 of their largest
+// entry (at least 1), so that factors SameMeasurement calls equal have the same digest but for
+// a value within round-off of a rounding boundary (about 1e-6 odds per entry).
+std::uint64_t MeasurementDigest(const Factor& factor);
 
 // The registered type names, in list order.
 std::vector<std::string_view> FactorTypeNames();

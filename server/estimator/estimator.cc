@@ -173,10 +173,11 @@ Variable Estimator::Estimate(Key key, const Staged& s) const {
 void Estimator::FirstTime(const MeasurementId& id, Staged* s) {
   s->pending_id = id;
   s->pending_existing = nullptr;
+  s->pending_digest.reset();
   if (const auto it = applied_.find(id); it != applied_.end()) {
     s->pending_existing = isam_->factor_slots()[numbers_.slot(it->second)];
   } else if (const auto m = reduced_.merged.find(id); m != reduced_.merged.end()) {
-    s->pending_existing = m->second;
+    s->pending_digest = m->second;
   } else if (s->seen.count(id) != 0) {
     for (const auto& [position, staged_id, first] : s->ids) {
       if (staged_id == id) s->pending_existing = s->factors[position];
@@ -193,9 +194,14 @@ Outcome Estimator::AddMeasured(core::FactorPtr factor, Key first, const char* wh
   SLAMD_CHECK(s->pending_id.has_value()) << "AddMeasured without FirstTime";
   const MeasurementId id = *s->pending_id;
   s->pending_id.reset();
-  if (const core::FactorPtr existing = std::move(s->pending_existing)) {
+  const core::FactorPtr existing = std::move(s->pending_existing);
+  const std::optional<std::uint64_t> digest = std::exchange(s->pending_digest, std::nullopt);
+  if (existing || digest) {
     s->reduced.pending_pose.reset();  // the pose it would place is not added
-    if (core::SameMeasurement(*existing, *factor)) return Outcome::kAlreadyHeld;
+    if (existing ? core::SameMeasurement(*existing, *factor)
+                 : core::MeasurementDigest(*factor) == *digest) {
+      return Outcome::kAlreadyHeld;
+    }
     *v = {RejectReason::kDuplicate, std::string(what) + ": a different measurement between " +
                                         core::KeyToString(std::get<1>(id)) + " and " +
                                         core::KeyToString(std::get<2>(id)) +
@@ -216,6 +222,7 @@ Outcome Estimator::AddReplacing(core::FactorPtr factor, Key first, Staged* s) {
   const MeasurementId id = *s->pending_id;
   s->pending_id.reset();
   s->pending_existing = nullptr;
+  s->pending_digest.reset();
   for (auto& [position, staged_id, staged_first] : s->ids) {
     if (staged_id != id) continue;
     s->factors.Replace(position, std::move(factor));  // a newer one in the same batch

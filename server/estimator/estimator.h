@@ -190,8 +190,10 @@ class Estimator {
     // (position in `factors`, id, first key) of each measured (removable) factor.
     std::vector<std::tuple<size_t, MeasurementId, core::Key>> ids;
     std::optional<MeasurementId> pending_id;  // set by FirstTime, taken by AddMeasured
-    // Set by FirstTime when that identity is applied or staged already: the factor it has.
+    // Set by FirstTime when that identity is applied or staged already: the factor it has,
+    // or the digest of the merged measurement it has (ReducedGraphState::merged).
     core::FactorPtr pending_existing;
+    std::optional<std::uint64_t> pending_digest;
     std::vector<std::pair<std::uint8_t, RobotState>> robots_before;  // for rollback
     std::vector<Rejection> parts;  // rejected parts of messages (GraphBuilder::RejectPart)
     ReducedGraphStage reduced;

@@ -47,9 +47,9 @@ EstimatorState Estimator::ExportState() const {
     }
   }
   state.aliases.assign(reduced_.aliases.begin(), reduced_.aliases.end());
-  for (const auto& [id, factor] : reduced_.merged) {
+  for (const auto& [id, digest] : reduced_.merged) {
     const auto& [type, a, b, kind] = id;
-    state.merged.push_back({type, a, b, kind, factor});
+    state.merged.push_back({type, a, b, kind, digest});
   }
   state.counters = counters_;
   state.num_factors = num_factors_;
@@ -102,7 +102,7 @@ core::Result<std::unique_ptr<Estimator>> Estimator::Restore(const EstimatorParam
   for (const EstimatorState::Merged& m : state.merged) {
     const MeasurementId id{m.type, m.a, m.b, m.kind};
     e->reduced_.merged_by_pose[e->reduced_.aliases.count(m.a) != 0 ? m.a : m.b].push_back(id);
-    e->reduced_.merged[id] = m.factor;
+    e->reduced_.merged[id] = m.digest;
   }
   // An anchored robot's newest pose is read after every update: it must be in the graph.
   for (const EstimatorState::Robot& r : state.robots) {

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "core/factors/between_factor.h"
+#include "core/factors/factor_registry.h"
 #include "core/factors/relative_point_factor.h"
 #include "server/estimator/estimator.h"
 
@@ -285,7 +286,7 @@ void Estimator::CommitReduced(Staged* s) {
   for (auto& [id, factor] : s->reduced.merged) {
     const Key a = std::get<1>(id);
     reduced_.merged_by_pose[reduced_.aliases.count(a) != 0 ? a : std::get<2>(id)].push_back(id);
-    reduced_.merged[id] = std::move(factor);
+    reduced_.merged[id] = core::MeasurementDigest(*factor);
   }
   if (reduced_.grid_sequence >= 0) {
     for (Key key : s->values.keys()) {

@@ -100,11 +100,12 @@ class NodeGrid {
 };
 
 // What the estimator keeps between updates: the aliases, the measurements merged (their
-// identity and factor, for duplicates; listed by the alias they are forgotten with), and the
+// identity and core::MeasurementDigest, for duplicates: a lifelong run merges hundreds of
+// thousands, too many to keep as factors; listed by the alias they are forgotten with), and the
 // nodes by place (positions as of when the grid was built, rebuilt every so many updates).
 struct ReducedGraphState {
   std::map<core::Key, PoseAlias> aliases;
-  std::map<MeasurementId, core::FactorPtr> merged;
+  std::map<MeasurementId, std::uint64_t> merged;
   std::map<core::Key, std::vector<MeasurementId>> merged_by_pose;
   NodeGrid grid;
   std::int64_t grid_sequence = -1;  // the update sequence it was built at (-1: not yet)

@@ -72,13 +72,13 @@ struct EstimatorState {
   std::vector<HeldMessage> track_observations = {};
 
   // The reduced pose graph: poses held as aliases, and the measurements it composed onto their
-  // anchors or absorbed (their identity and factor, for duplicates).
+  // anchors or absorbed (their identity and core::MeasurementDigest, for duplicates).
   std::vector<std::pair<core::Key, PoseAlias>> aliases = {};
   struct Merged {
     char type = 0;
     core::Key a = 0, b = 0;
     int kind = 0;
-    core::FactorPtr factor;
+    std::uint64_t digest = 0;
   };
   std::vector<Merged> merged = {};
 

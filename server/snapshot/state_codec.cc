@@ -226,7 +226,7 @@ std::string EncodeState(const EstimatorState& state, const JournalPosition& posi
     m->set_key_a(merged.a);
     m->set_key_b(merged.b);
     m->set_kind(merged.kind);
-    WriteFactor(*merged.factor, m->mutable_factor());
+    m->set_digest(merged.digest);
   }
   pb::Counters* c = out.mutable_counters();
   c->set_processed(state.counters.processed);
@@ -315,10 +315,13 @@ core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition
   }
   for (int i = 0; i < in.merged_size(); ++i) {
     const pb::MergedMeasurement& m = in.merged(i);
-    core::Result<core::FactorPtr> f = ReadFactor(m.factor(), i);
-    if (!f.ok()) return f.status();
-    state.merged.push_back(
-        {static_cast<char>(m.type()), m.key_a(), m.key_b(), m.kind(), std::move(f).value()});
+    std::uint64_t digest = m.digest();
+    if (m.has_factor()) {  // written before merged measurements were kept as digests
+      core::Result<core::FactorPtr> f = ReadFactor(m.factor(), i);
+      if (!f.ok()) return f.status();
+      digest = core::MeasurementDigest(*f.value());
+    }
+    state.merged.push_back({static_cast<char>(m.type()), m.key_a(), m.key_b(), m.kind(), digest});
   }
   const pb::Counters& c = in.counters();
   state.counters.processed = c.processed();

@@ -79,6 +79,50 @@ TEST_P(EveryFactorTest, WithRobustKernelKeepsTheMeasurement) {
   }
 }
 
+// The digest stands for the measurement: equal through a record round trip and round-off in
+// R, different for another key, noise, kernel, or for another factor altogether.
+TEST_P(EveryFactorTest, DigestTellsMeasurementsApart) {
+  std::set<std::uint64_t> digests;
+  for (const FactorExample& e : EveryFactorTypeExample(GetParam())) {
+    SCOPED_TRACE(e.factor->Name());
+    const std::uint64_t digest = MeasurementDigest(*e.factor);
+    EXPECT_TRUE(digests.insert(digest).second);
+    const FactorRecord record = EncodeFactor(*e.factor);
+    EXPECT_EQ(MeasurementDigest(*DecodeFactor(record).value()), digest);
+    const auto digest_of = [](const FactorRecord& r) {
+      Result<FactorPtr> f = DecodeFactor(r);
+      EXPECT_TRUE(f.ok()) << f.status().ToString();
+      return f.ok() ? MeasurementDigest(*f.value()) : 0;
+    };
+    const bool linear = std::string(e.factor->Name()) == "LinearContainer";
+    // R's first entry (a linear container's b: its R is the identity) changed by `relative`.
+    const auto nudged = [&](double relative) {
+      FactorRecord r = record;
+      if (linear) {
+        const Eigen::Map<const Eigen::VectorXd> m(r.measured.data(), r.measured.size());
+        r.measured[0] += relative * std::max(1.0, m.lpNorm<Eigen::Infinity>());
+      } else {
+        r.sqrt_information(0, 0) *= 1.0 + relative;
+      }
+      return r;
+    };
+    FactorRecord changed = nudged(1e-14);  // round-off: the same measurement
+    EXPECT_TRUE(SameMeasurement(*DecodeFactor(changed).value(), *e.factor));
+    EXPECT_EQ(digest_of(changed), digest);
+    changed = nudged(1e-6);
+    EXPECT_FALSE(SameMeasurement(*DecodeFactor(changed).value(), *e.factor));
+    EXPECT_NE(digest_of(changed), digest);
+    changed = record;
+    changed.keys[0] += 1000;
+    EXPECT_NE(digest_of(changed), digest);
+    if (!linear) {  // a linear container takes no kernel
+      changed = record;
+      changed.robust = RobustKernel::Create(RobustKernel::Kind::kHuber, 1.0).value();
+      EXPECT_NE(digest_of(changed), digest);
+    }
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Seeds, EveryFactorTest, ::testing::Values(1u, 2u, 3u));
 
 TEST(FactorRegistryTest, BadRecordsAreRefusedWithAReason) {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <tuple>
 
+#include "core/factors/between_factor.h"
 #include "core/factors/factor_registry.h"
 #include "core/geometry/rot3.h"
 #include "server/estimator/estimator.h"
@@ -234,6 +235,44 @@ TEST(StateCodecTest, EveryRegisteredFactorTypeRoundTrips) {
       EXPECT_EQ(a_values, b_values) << core::KeyToString(key);
     }
   }
+}
+
+// Merged measurements are written as their digest; older snapshots, which hold the factor,
+// load as the factor's digest.
+TEST(StateCodecTest, MergedMeasurementsAreDigests) {
+  const core::FactorPtr factor = std::make_shared<const core::BetweenFactor<Pose2>>(
+      core::MakeKey('x', 3), core::MakeKey('x', 4), Pose2(1, 0.5, 0.2), Noise(3, 0.1));
+  EstimatorState state;
+  state.merged.push_back(
+      {'o', factor->keys()[0], factor->keys()[1], 0, core::MeasurementDigest(*factor)});
+  snapshot::EstimatorState written;
+  ASSERT_TRUE(written.ParseFromString(EncodeState(state, {})));
+  ASSERT_EQ(written.merged_size(), 1);
+  EXPECT_FALSE(written.merged(0).has_factor());
+  EXPECT_EQ(written.merged(0).digest(), core::MeasurementDigest(*factor));
+
+  // The older layout: the factor (as WriteFactor wrote it), no digest.
+  snapshot::MergedMeasurement* old = written.mutable_merged(0);
+  old->clear_digest();
+  const core::FactorRecord r = core::EncodeFactor(*factor);
+  old->mutable_factor()->set_type_name(r.type);
+  for (core::Key k : r.keys) old->mutable_factor()->add_keys(k);
+  for (double x : r.measured) old->mutable_factor()->add_measured(x);
+  for (int row = 0; row < 3; ++row) {
+    for (int col = 0; col < 3; ++col) {
+      old->mutable_factor()->add_sqrt_information(r.sqrt_information(row, col));
+    }
+  }
+  JournalPosition position;
+  core::Result<EstimatorState> back = DecodeState(written.SerializeAsString(), &position);
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  ASSERT_EQ(back->merged.size(), 1u);
+  EXPECT_EQ(back->merged[0].digest, core::MeasurementDigest(*factor));
+  EXPECT_EQ(back->merged[0].b, core::MakeKey('x', 4));
+  // A corrupt older factor is refused as the other parts are.
+  old->mutable_factor()->set_type_name("NoSuchFactor");
+  EXPECT_EQ(DecodeState(written.SerializeAsString(), &position).status().code(),
+            core::StatusCode::kDataLoss);
 }
 
 // A snapshot written before factors and variables were stored by type name (the enums) loads.
