@@ -145,7 +145,7 @@ Isam2Result Isam2::UpdateWith(const FactorGraph& new_factors, const Values& new_
     result.seconds.total = total.Seconds();
     return result;
   }
-  tree_.ReleaseRemoved();  // the update stands: the detached top's cliques can be reused
+  ReleaseRemoved();
 
   // 8. Partial back-substitution (Alg. 7, "wildfire") from the new cliques down; all of it for
   // the trust region, whose step is measured on the whole of δ.

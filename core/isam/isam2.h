@@ -115,7 +115,9 @@ class Isam2 {
   }
   // The current factors (removed ones left out), in index order.
   FactorGraph Factors() const;
-  // Every factor by its index (Isam2Result::new_factor_indices); null once removed.
+  // Every factor by its index (Isam2Result::new_factor_indices); null once removed. A removed
+  // factor's index is given to a later factor with as many keys (after the update that removed
+  // it stands), so that a lifelong stream of replaced factors does not grow these arrays.
   const std::vector<FactorPtr>& factor_slots() const { return factors_; }
   const BayesTree& tree() const { return tree_; }
   Isam2Memory MemoryUse() const;  // O(variables + factors + cliques)
@@ -206,6 +208,9 @@ class Isam2 {
   Values RetractedBy(const Eigen::VectorXd& step) const;
   // Restores the state before the current update (after a numerical failure).
   void Rollback();
+  // The update stands: the detached top's cliques and the removed factors' slots are free for
+  // reuse.
+  void ReleaseRemoved();
   // Drops the variables `dead` (ids, in no factor and no clique) and renumbers the rest in
   // order: θ, δ, the per-variable arrays, the factors' and the tree's ids (isam2_removal.cc).
   void DropVariables(const std::vector<int>& dead);
@@ -215,6 +220,7 @@ class Isam2 {
     int num_vars = 0;  // variables and factors beyond these counts are new
     int num_factors = 0;
     std::vector<std::pair<int, FactorPtr>> removed_factors;
+    std::vector<int> reused_slots;  // slots of free_slots_ the new factors took, in order
     std::vector<std::pair<int, Variable>> theta;  // relinearised variables' old θ
     std::vector<double> delta;  // ... and their old δ, concatenated in the order of `theta`
     std::vector<int> relinearized_factors;  // re-linearised at the restored θ on rollback
@@ -223,6 +229,7 @@ class Isam2 {
       num_vars = vars;
       num_factors = factors;
       removed_factors.clear();
+      reused_slots.clear();
       theta.clear();
       delta.clear();
       relinearized_factors.clear();
@@ -242,6 +249,9 @@ class Isam2 {
   Eigen::VectorXd gauss_newton_, gradient_, cauchy_, step_;  // TrustRegionStep's vectors
   std::vector<double> dogleg_scratch_;
   std::vector<FactorPtr> factors_;          // by factor index; null once removed
+  // Null slots free for a new factor, by its number of keys (the slot's share of
+  // factor_var_ids_ is that long); each list used as a stack.
+  std::vector<std::vector<int>> free_slots_;
   std::vector<JacobianFactor> linearized_;  // cached linearisation of each factor at θ
   // Linearisation-error screen (FindStaleLinearizations): per factor κ_f, or -1 before its
   // first evaluation; per variable the |δ_v|² budget per unit of kStaleScreen x threshold

@@ -22,7 +22,8 @@ Isam2Memory Isam2::MemoryUse() const {
                 Capacity(var_types_) + Capacity(offsets_) + Capacity(budget_) +
                 Capacity(screened_norm2_);
   m.factor_lists = Capacity(factors_) + Capacity(linearized_) + Capacity(curvature_) +
-                   Capacity(factor_var_begin_) + Capacity(factor_var_ids_);
+                   Capacity(factor_var_begin_) + Capacity(factor_var_ids_) + Capacity(free_slots_);
+  for (const std::vector<int>& slots : free_slots_) m.factor_lists += Capacity(slots);
   for (const JacobianFactor& j : linearized_) m.linearizations += j.StorageBytes();
   m.variable_index = variable_index_.StorageBytes();
   tree_.StorageBytes(&m.tree, &m.tree_free);

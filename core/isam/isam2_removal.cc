@@ -38,7 +38,7 @@ Isam2RemovalResult Isam2::RemoveVariables(std::span<const Key> keys,
     removing_.clear();
     out.reeliminated_variables = step.reeliminated_variables;
     if (out.status.ok()) {
-      tree_.ReleaseRemoved();
+      ReleaseRemoved();
       BackSubstitute(new_cliques, /*full=*/false, params_.wildfire_threshold, {});
     }
   }

@@ -108,25 +108,43 @@ Status Isam2::LinearizeFactor(int index) {
 
 Status Isam2::AddFactors(const FactorGraph& new_factors, std::vector<int>* indices) {
   for (const FactorPtr& f : new_factors) {
-    const int index = static_cast<int>(factors_.size());
-    factors_.push_back(f);
-    linearized_.emplace_back();
-    curvature_.push_back(-1.0f);
-    for (Key key : f->keys()) factor_var_ids_.push_back(theta_.SlotOf(key));
-    factor_var_begin_.push_back(static_cast<int>(factor_var_ids_.size()));
+    const std::size_t arity = f->keys().size();
+    const bool reuse = arity < free_slots_.size() && !free_slots_[arity].empty();
+    int index;
+    if (reuse) {
+      index = free_slots_[arity].back();
+      free_slots_[arity].pop_back();
+      factors_[index] = f;
+      curvature_[index] = -1.0f;
+      int* ids = factor_var_ids_.data() + factor_var_begin_[index];
+      for (Key key : f->keys()) *ids++ = theta_.SlotOf(key);
+    } else {
+      index = static_cast<int>(factors_.size());
+      factors_.push_back(f);
+      linearized_.emplace_back();
+      curvature_.push_back(-1.0f);
+      for (Key key : f->keys()) factor_var_ids_.push_back(theta_.SlotOf(key));
+      factor_var_begin_.push_back(static_cast<int>(factor_var_ids_.size()));
+    }
     if (Status s = LinearizeFactor(index); !s.ok()) {
       // Not in the variable index yet: drop it here, so that Rollback removes from the index
       // only the factors that were added to it.
-      factors_.pop_back();
-      linearized_.pop_back();
-      curvature_.pop_back();
-      factor_var_begin_.pop_back();
-      factor_var_ids_.resize(factor_var_begin_.back());
+      if (reuse) {
+        factors_[index] = nullptr;
+        free_slots_[arity].push_back(index);
+      } else {
+        factors_.pop_back();
+        linearized_.pop_back();
+        curvature_.pop_back();
+        factor_var_begin_.pop_back();
+        factor_var_ids_.resize(factor_var_begin_.back());
+      }
       return s;
     }
     const Status added = variable_index_.AddFactor(index, linearized_[index].vars());
     SLAMD_CHECK(added.ok()) << added.ToString();
     for (int v : linearized_[index].vars()) budget_[v] = 0.0;  // its curvature is unknown
+    if (reuse) undo_.reused_slots.push_back(index);
     indices->push_back(index);
   }
   return Status::Ok();
@@ -283,11 +301,18 @@ int Isam2::BackSubstitute(const std::vector<int>& new_cliques, bool full, double
 }
 
 void Isam2::Rollback() {
+  // Reused slots null and free again, in the order they were taken (a stack).
+  for (auto it = undo_.reused_slots.rbegin(); it != undo_.reused_slots.rend(); ++it) {
+    const Status removed = variable_index_.RemoveFactor(*it, linearized_[*it].vars());
+    SLAMD_CHECK(removed.ok()) << removed.ToString();
+    free_slots_[factors_[*it]->keys().size()].push_back(*it);
+    factors_[*it] = nullptr;
+  }
   // θ back as it was, then the relinearised factors linearised there again (deterministic, so
   // identical to what they were; cheaper than keeping copies on every update).
   for (auto& [v, old] : undo_.theta) theta_.MutableVariableAt(v) = std::move(old);
   for (int f : undo_.relinearized_factors) {
-    if (f < undo_.num_factors)
+    if (f < undo_.num_factors && factors_[f])
       SLAMD_CHECK(LinearizeFactor(f).ok()) << "re-linearising factor " << f;
   }
   std::size_t at = 0;
@@ -324,6 +349,15 @@ void Isam2::Rollback() {
   // the orphans are detached roots). Not a re-elimination: in a new order, an ill-conditioned
   // system that eliminated before could fail now.
   if (undo_.top_removed) tree_.RestoreRemoved();
+}
+
+void Isam2::ReleaseRemoved() {
+  tree_.ReleaseRemoved();
+  for (const auto& [f, unused] : undo_.removed_factors) {
+    const std::size_t arity = FactorVars(f).size();
+    if (free_slots_.size() <= arity) free_slots_.resize(arity + 1);
+    free_slots_[arity].push_back(f);
+  }
 }
 
 }  // namespace slamd::core

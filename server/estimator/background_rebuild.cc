@@ -122,10 +122,11 @@ core::Isam2Result BackgroundRebuild::CatchUp(size_t end, core::Isam2UpdateOption
           position_[index] = -1;
           continue;
         }
-        // Added in this round: it never reaches the new solver.
-        const auto it = std::find_if(factors.begin(), factors.end(),
+        // Added in this round: it never reaches the new solver. (The last factor logged at
+        // that index: the live solver gives a removed factor's index to a later one.)
+        const auto it = std::find_if(factors.rbegin(), factors.rend(),
                                      [&](const auto& f) { return f.first == index; });
-        SLAMD_CHECK(it != factors.end()) << "removed live factor " << index << " is unknown";
+        SLAMD_CHECK(it != factors.rend()) << "removed live factor " << index << " is unknown";
         it->second = nullptr;
       }
     }
