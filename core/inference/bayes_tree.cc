@@ -1,6 +1,7 @@
 #include "core/inference/bayes_tree.h"
 
 #include <algorithm>
+#include <iterator>
 #include <utility>
 
 #include "core/base/check.h"
@@ -14,7 +15,9 @@ constexpr std::size_t kSetNodeBytes = 48;
 }  // namespace
 
 BayesTree::BayesTree(const BayesTree& other)
-    : roots_(other.roots_), var_clique_(other.var_clique_) {
+    : recent_top_doubles_(other.recent_top_doubles_),
+      roots_(other.roots_),
+      var_clique_(other.var_clique_) {
   cliques_.reserve(other.cliques_.size());
   for (const auto& c : other.cliques_) cliques_.push_back(std::make_unique<Clique>(*c));
   // Keyed by what the copies hold (a copied vector's capacity is its size).
@@ -42,6 +45,7 @@ int BayesTree::NewClique(std::size_t doubles) {
     auto fit = free_.lower_bound({doubles, 0});
     if (fit == free_.end()) fit = free_.begin();
     id = fit->second;
+    free_doubles_ -= fit->first;
     free_.erase(fit);
   } else {
     id = NumSlots();
@@ -157,9 +161,33 @@ void BayesTree::RestoreRemoved() {
 }
 
 void BayesTree::ReleaseRemoved() {
-  for (const Removed& r : removed_) AddFree(r.id);
+  if (removed_.empty()) return;
+  double top = 0.0;
+  for (const Removed& r : removed_) {
+    top += static_cast<double>(cliques_[r.id]->MatrixCapacity());
+    AddFree(r.id);
+  }
   removed_.clear();
   removed_children_.clear();
+  recent_top_doubles_ = std::max(top, kFreeDecay * recent_top_doubles_);
+  BoundFree(2.0 * recent_top_doubles_ + static_cast<double>(kMinFreeDoubles));
+}
+
+void BayesTree::AddFree(int id) {
+  const std::size_t capacity = cliques_[id]->MatrixCapacity();
+  free_.emplace(capacity, id);
+  free_doubles_ += capacity;
+}
+
+void BayesTree::BoundFree(double limit) {
+  while (static_cast<double>(free_doubles_) > limit && !free_.empty() &&
+         std::prev(free_.end())->first > 0) {
+    const int id = std::prev(free_.end())->second;
+    free_doubles_ -= std::prev(free_.end())->first;
+    free_.erase(std::prev(free_.end()));
+    cliques_[id]->ReleaseStorage();
+    AddFree(id);
+  }
 }
 
 void BayesTree::Clear() {
@@ -232,6 +260,7 @@ void BayesTree::TrimStorage() {
     }
   }
   // Rekeyed by what the released slots now hold (as the copy constructor does).
+  free_doubles_ = 0;
   for (const auto& [unused, id] : std::exchange(free_, {})) AddFree(id);
 }
 

@@ -91,8 +91,14 @@ class BayesTree {
   // Exact, so it cannot fail where a re-elimination in a new order could (ill-conditioning).
   void RestoreRemoved();
   // Frees the cliques kept by the last RemoveTop (the update succeeded). RemoveTop and Clear
-  // call it first.
+  // call it first. The storage the free list keeps for reuse is then bounded by twice the
+  // largest top removed lately (a maximum decaying by kFreeDecay per top) and kMinFreeDoubles:
+  // the largest free cliques give theirs back. Otherwise a rare large re-elimination (a batch
+  // step, a relinearisation of most variables) left its storage to the free list for good, and
+  // in a lifelong run the list ratcheted up to 4x the tree in use.
   void ReleaseRemoved();
+  static constexpr double kFreeDecay = 0.999;
+  static constexpr std::size_t kMinFreeDoubles = std::size_t{1} << 15;  // 256 KiB
 
   // Bytes allocated by the cliques in use (`live`) and by those kept for reuse (free slots and
   // the last RemoveTop's), with the tree's own vectors in `live`; for memory reports.
@@ -114,7 +120,10 @@ class BayesTree {
 
   void AddRoot(int id);
   void RemoveRoot(int id);
-  void AddFree(int id) { free_.emplace(cliques_[id]->MatrixCapacity(), id); }
+  void AddFree(int id);
+  // Gives back the storage of the largest free cliques until the free list keeps at most
+  // `limit` doubles.
+  void BoundFree(double limit);
 
   // A clique taken out by RemoveTop, with its links at that time (its children in
   // removed_children_[children_begin, children_end): one pooled array, no allocation per update).
@@ -130,6 +139,8 @@ class BayesTree {
   std::vector<std::unique_ptr<Clique>> cliques_;
   // Freed slots by (MatrixCapacity when freed, id): ordered, so the choice is deterministic.
   std::set<std::pair<std::size_t, int>> free_;
+  std::size_t free_doubles_ = 0;     // Σ of free_'s capacities
+  double recent_top_doubles_ = 0.0;  // the largest top released lately (decaying)
   std::vector<int> roots_;       // live cliques with parent kNone
   std::vector<int> var_clique_;  // variable id -> clique id or kNone
 };
