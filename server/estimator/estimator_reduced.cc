@@ -212,6 +212,7 @@ bool Estimator::AddComposed(Key a, Key b, int kind, ComposedMeasurement m,
   }
   if (!link && (!existing || !robust.is_none()) &&
       (isam_->linearization_point().Contains(b) || s->values.Contains(b))) {
+    ++s->reduced.left_out;
     return true;  // a mapped landmark: no new factor (link_mapped_landmarks)
   }
   if (!robust.is_none()) {  // a robust term is not a Gaussian to fuse: kept on its own
@@ -269,6 +270,7 @@ bool Estimator::NearNode(const Variable& at, const EstimatorParams::ReducedGraph
 }
 
 void Estimator::CommitReduced(Staged* s) {
+  counters_.mapped_observations_left_out += s->reduced.left_out;
   for (int n : s->reduced.replaced) {
     residual_dimension_ -= numbers_.entry(n).dim;
     numbers_.Release(n);

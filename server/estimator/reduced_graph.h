@@ -120,6 +120,7 @@ struct ReducedGraphStage {
   std::map<core::Key, std::optional<PoseAlias>> aliases;
   std::vector<std::pair<MeasurementId, core::FactorPtr>> merged;
   std::vector<int> replaced;
+  int left_out = 0;  // observations of mapped landmarks left out (link_mapped_landmarks)
 };
 
 }  // namespace slamd::server

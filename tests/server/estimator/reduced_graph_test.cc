@@ -275,8 +275,8 @@ TEST(ReducedGraphTest, AccuracyCloseToTheFullGraph) {
 }
 
 // link_mapped_landmarks false: an alias's observation of a landmark the map has adds no new
-// (node, landmark) factor (it is fused where its node has a composed one); a new landmark
-// still enters.
+// (node, landmark) factor (it is fused where its node has a composed one, else left out and
+// counted); a new landmark still enters.
 TEST(ReducedGraphTest, MappedLandmarksGainNoFactorsFromAliasesUnlessLinked) {
   const Pose2 step(1, 0, 0);
   std::vector<Inbound> drive = {Prior("r", 0, Pose2()), Point("r", 0, 7, Point2(3, 1), 0.05)};
@@ -302,6 +302,11 @@ TEST(ReducedGraphTest, MappedLandmarksGainNoFactorsFromAliasesUnlessLinked) {
       EXPECT_EQ(r.applied, 1);
     }
     factors[link] = e->snapshot()->num_factors - before;
+    // Left out (and counted) once: sent again, the observation is recognised as held.
+    EXPECT_EQ(e->snapshot()->counters.mapped_observations_left_out, link ? 0 : 2);
+    ASSERT_TRUE(e->Process({seen[1]}).rejections.empty());
+    EXPECT_EQ(e->snapshot()->counters.already_held, 1);
+    EXPECT_EQ(e->snapshot()->counters.mapped_observations_left_out, link ? 0 : 2);
     ASSERT_TRUE(e->KeyOf({"r", KeyKind::kLandmark, 8}).has_value());
     const core::Values est = e->solver().CalculateEstimate();
     EXPECT_LT((est.At<Point2>(*e->KeyOf({"r", KeyKind::kLandmark, 7})) - Point2(3, 1)).norm(),

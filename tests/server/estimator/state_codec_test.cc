@@ -237,14 +237,16 @@ TEST(StateCodecTest, EveryRegisteredFactorTypeRoundTrips) {
   }
 }
 
-// Merged measurements are written as their digest; older snapshots, which hold the factor,
-// load as the factor's digest.
+// Merged measurements are written as their digest (with the reduced graph's counters); older
+// snapshots, which hold the factor, load as the factor's digest.
 TEST(StateCodecTest, MergedMeasurementsAreDigests) {
   const core::FactorPtr factor = std::make_shared<const core::BetweenFactor<Pose2>>(
       core::MakeKey('x', 3), core::MakeKey('x', 4), Pose2(1, 0.5, 0.2), Noise(3, 0.1));
   EstimatorState state;
   state.merged.push_back(
       {'o', factor->keys()[0], factor->keys()[1], 0, core::MeasurementDigest(*factor)});
+  state.counters.merged_poses = 7;
+  state.counters.mapped_observations_left_out = 5;
   snapshot::EstimatorState written;
   ASSERT_TRUE(written.ParseFromString(EncodeState(state, {})));
   ASSERT_EQ(written.merged_size(), 1);
@@ -268,6 +270,8 @@ TEST(StateCodecTest, MergedMeasurementsAreDigests) {
   ASSERT_TRUE(back.ok()) << back.status().ToString();
   ASSERT_EQ(back->merged.size(), 1u);
   EXPECT_EQ(back->merged[0].digest, core::MeasurementDigest(*factor));
+  EXPECT_EQ(back->counters.merged_poses, 7);
+  EXPECT_EQ(back->counters.mapped_observations_left_out, 5);
   EXPECT_EQ(back->merged[0].b, core::MakeKey('x', 4));
   // A corrupt older factor is refused as the other parts are.
   old->mutable_factor()->set_type_name("NoSuchFactor");
