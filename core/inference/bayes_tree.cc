@@ -180,12 +180,13 @@ void BayesTree::AddFree(int id) {
 }
 
 void BayesTree::BoundFree(double limit) {
-  while (static_cast<double>(free_doubles_) > limit && !free_.empty() &&
-         std::prev(free_.end())->first > 0) {
-    const int id = std::prev(free_.end())->second;
-    free_doubles_ -= std::prev(free_.end())->first;
-    free_.erase(std::prev(free_.end()));
+  while (static_cast<double>(free_doubles_) > limit && !free_.empty()) {
+    const auto [capacity, id] = *std::prev(free_.end());
     cliques_[id]->ReleaseStorage();
+    // The largest holds no more than an empty clique's few doubles: so does every other.
+    if (cliques_[id]->MatrixCapacity() >= capacity) break;
+    free_doubles_ -= capacity;
+    free_.erase(std::prev(free_.end()));
     AddFree(id);
   }
 }
