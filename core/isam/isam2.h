@@ -208,8 +208,7 @@ class Isam2 {
   Values RetractedBy(const Eigen::VectorXd& step) const;
   // Restores the state before the current update (after a numerical failure).
   void Rollback();
-  // The update stands: the detached top's cliques and the removed factors' slots are free for
-  // reuse.
+  // The update stands: the detached top's cliques and the removed factors' slots go to reuse.
   void ReleaseRemoved();
   // Drops the variables `dead` (ids, in no factor and no clique) and renumbers the rest in
   // order: θ, δ, the per-variable arrays, the factors' and the tree's ids (isam2_removal.cc).
@@ -225,16 +224,7 @@ class Isam2 {
     std::vector<double> delta;  // ... and their old δ, concatenated in the order of `theta`
     std::vector<int> relinearized_factors;  // re-linearised at the restored θ on rollback
     bool top_removed = false;  // the tree's top was detached (removed_frontals_, orphans_)
-    void Clear(int vars, int factors) {
-      num_vars = vars;
-      num_factors = factors;
-      removed_factors.clear();
-      reused_slots.clear();
-      theta.clear();
-      delta.clear();
-      relinearized_factors.clear();
-      top_removed = false;
-    }
+    void Clear(int vars, int factors);  // keeps the lists' storage (isam2_steps.cc)
   };
 
   Isam2Params params_;

@@ -351,6 +351,17 @@ void Isam2::Rollback() {
   if (undo_.top_removed) tree_.RestoreRemoved();
 }
 
+void Isam2::Undo::Clear(int vars, int factors) {
+  num_vars = vars;
+  num_factors = factors;
+  removed_factors.clear();
+  reused_slots.clear();
+  theta.clear();
+  delta.clear();
+  relinearized_factors.clear();
+  top_removed = false;
+}
+
 void Isam2::ReleaseRemoved() {
   tree_.ReleaseRemoved();
   for (const auto& [f, unused] : undo_.removed_factors) {
