@@ -186,5 +186,36 @@ TEST(BayesTreeTest, NewCliqueTakesTheFreedStorageThatFitsBest) {
   EXPECT_EQ(tree.NewClique(Clique::MatrixDoubles(3, 3)), std::min(small, large));
 }
 
+// The free list's bound (ReleaseRemoved): after a large top, the free cliques keep their
+// storage while the tops released lately are as large; once they have been small for long, the
+// largest give theirs back, down to an empty clique's one double each, where it stops however
+// many there are (more here than the bound's floor: it must not take the same clique for ever).
+TEST(BayesTreeTest, FreeStorageFollowsTheTopsReleasedLately) {
+  BayesTree tree;
+  constexpr int kMany = 40000;
+  static_assert(kMany > BayesTree::kMinFreeDoubles);
+  const auto add = [&](int var) {
+    const int id = tree.NewClique();
+    const std::vector<int> frontal{var}, dims{1};
+    tree.mutable_clique(id).ResetForElimination(frontal, dims, {}, {});
+    tree.SetCliqueOf(var, id);
+  };
+  std::vector<int> vars(kMany), removed, orphans;
+  for (int v = 0; v < kMany; ++v) add(vars[v] = v);
+  tree.RemoveTop(vars, &removed, &orphans);
+  tree.ReleaseRemoved();
+  const std::size_t held = tree.clique(0).MatrixCapacity();
+  EXPECT_GT(held, 1u);               // kept: the top just released was this large
+  for (int k = 0; k < 20000; ++k) {  // small tops: one clique each
+    add(kMany);
+    tree.RemoveTop(std::vector<int>{kMany}, &removed, &orphans);
+    tree.ReleaseRemoved();
+  }
+  std::size_t kept = 0;
+  for (int id = 0; id < tree.NumSlots(); ++id) kept += tree.clique(id).MatrixCapacity();
+  EXPECT_LE(kept, static_cast<std::size_t>(kMany) + held);  // one double each, but the last top's
+  EXPECT_TRUE(CheckConsistency(tree).ok());
+}
+
 }  // namespace
 }  // namespace slamd::core
