@@ -149,7 +149,7 @@ JsonWriter StatusJson(const slamd::status_t& s) {
       .Add("shard_queries_forwarded", static_cast<long long>(s.shard_queries_forwarded))
       .Add("removed_variables", static_cast<long long>(s.removed_variables))
       .Add("merged_poses", static_cast<long long>(s.merged_poses))
-      .Add("mapped_observations_left_out", static_cast<long long>(s.mapped_observations_left_out))
+      .Add("reduced_left_out", static_cast<long long>(s.reduced_left_out))
       .Add("rss_bytes", static_cast<long long>(s.rss_bytes))
       .Add("chi2", s.chi2)
       .Add("residual_dimension", static_cast<long long>(s.residual_dimension))

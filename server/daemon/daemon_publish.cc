@@ -160,7 +160,7 @@ void Daemon::PublishStatus(const EstimateSnapshot& snap) {
   out.landmarks_dropped = snap.counters.landmarks_dropped;
   out.removed_variables = snap.counters.removed_variables;
   out.merged_poses = snap.counters.merged_poses;
-  out.mapped_observations_left_out = snap.counters.mapped_observations_left_out;
+  out.reduced_left_out = snap.counters.reduced_left_out;
   out.rss_bytes = core::ResidentBytes();
   out.num_rejects_by_reason = kNumRejectReasonCodes;
   out.rejects_by_reason.resize(kNumRejectReasonCodes);

@@ -450,10 +450,11 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
     // Applied without factors (a camera_info_t, features that joined tracks, poses the reduced
     // graph held as aliases): nothing to undo.
     CommitCamerasAndTracks(&result);
+    const bool aliases_moved = !s.reduced.aliases.empty();
     CommitReduced(&s);
     result.applied += static_cast<int>(applied.size());
     counters_.applied += static_cast<std::int64_t>(applied.size());
-    PublishSnapshot(false);
+    PublishSnapshot(aliases_moved);  // a robot's newest pose, an alias, is a new estimate
     return;
   }
   FinishUpdate();  // a removal's update earlier in this Process

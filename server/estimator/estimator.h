@@ -237,10 +237,10 @@ class Estimator {
   // AddMeasured of a factor that places a pending pose or names an alias (reduced_graph.h).
   Outcome AddReduced(core::FactorPtr factor, core::Key first, const MeasurementId& id, Staged* s,
                      Verdict* v);
-  // Stages a composed factor on (a, b) (kind 0: relative pose, 1: point in a's frame), fused
-  // with the composed one there; with !link, b a landmark in the map adds no factor (fused into
-  // a's when there is one and no kernel, else left out). False when its covariance is unusable.
-  bool AddComposed(core::Key a, core::Key b, int kind, ComposedMeasurement m,
+  // Stages a composed factor on (a, b) (kind 0: relative pose, 1: point in a's frame), unless
+  // the pair has one (without a kernel) or, with !link, b is a landmark in the map: then the
+  // measurement is left out (counted). False when its covariance is unusable.
+  bool AddComposed(core::Key a, core::Key b, int kind, const ComposedMeasurement& m,
                    const core::RobustKernel& robust, Staged* s, bool link = true);
   bool Promote(core::Key pose, Staged* s);  // the robot's newest pose, an alias, made a node
   bool NearNode(const core::Variable& at, const EstimatorParams::ReducedGraph& policy,

@@ -126,13 +126,12 @@ struct EstimatorParams {
   // pose a node); > 0 also spaces a robot's nodes at least that far. angle_deg in (0, 180].
   // A robot keeps its last keep_aliases aliases (>= 1) for messages that name them (a loop
   // closure to a recent pose); older ones are forgotten (such a message is rejected as
-  // naming an unknown pose). Use it with isam2.trust_region: Gauss-Newton diverged on the weak
-  // composed factors of long dead-reckoned stretches in the lifelong soak (BENCHMARKS.md).
+  // naming an unknown pose).
   // link_mapped_landmarks: an alias's observation of a landmark already in the map, composed
-  // onto the alias's node, is fused into that node's factor to the landmark, or, when there is
-  // none, adds one (true) or is left out (false: a revisit then adds no factors, so a fleet
-  // driving through its mapped area for days keeps the graph and memory flat; the
-  // observations left out do not inform the map).
+  // onto the alias's node, adds a factor between them when they have none (true; each pair
+  // once, so the factors of a fixed area stop growing once its nodes are linked to the
+  // landmarks they see) or is left out (false: a revisit then adds no factors to landmarks, a
+  // smaller graph, but the observations left out do not inform the map).
   struct ReducedGraph {
     double distance_m = 0.0;
     double angle_deg = 30.0;

@@ -195,48 +195,24 @@ bool Estimator::Promote(Key pose, Staged* s) {
   return true;
 }
 
-bool Estimator::AddComposed(Key a, Key b, int kind, ComposedMeasurement m,
+bool Estimator::AddComposed(Key a, Key b, int kind, const ComposedMeasurement& m,
                             const core::RobustKernel& robust, Staged* s, bool link) {
   const MeasurementId id{'r', std::min(a, b), std::max(a, b), kind};
-  std::optional<std::size_t> staged;
-  for (const auto& [position, staged_id, staged_first] : s->ids) {
-    if (staged_id == id) staged = position;
-  }
-  core::FactorPtr existing;
-  int number = -1;
-  if (staged) {
-    existing = s->factors[*staged];
-  } else if (const auto it = applied_.find(id); it != applied_.end()) {
-    number = it->second;
-    existing = isam_->factor_slots()[numbers_.slot(number)];
-  }
-  if (!link && (!existing || !robust.is_none()) &&
-      (isam_->linearization_point().Contains(b) || s->values.Contains(b))) {
+  const bool held = applied_.count(id) != 0 ||
+                    std::any_of(s->ids.begin(), s->ids.end(),
+                                [&](const auto& staged) { return std::get<1>(staged) == id; });
+  const bool mapped = isam_->linearization_point().Contains(b) || s->values.Contains(b);
+  // One composed measurement per pair: later ones share the errors of their aliases' offsets
+  // with it (and, after a re-anchoring, a closure already used), so fusing them as independent
+  // made the map overconfident and biased (BENCHMARKS.md, "Lifelong").
+  if ((robust.is_none() && held) || (!link && mapped)) {
     ++s->reduced.left_out;
-    return true;  // a mapped landmark: no new factor (link_mapped_landmarks)
-  }
-  if (!robust.is_none()) {  // a robust term is not a Gaussian to fuse: kept on its own
-    core::FactorPtr f = ComposedFactor(a, b, m, robust);
-    if (!f) return false;
-    s->factors.Add(std::move(f));
     return true;
   }
-  Key from = a, to = b;
-  if (existing) {
-    if (kind == 0 && existing->keys()[0] != a) {
-      m = InverseRelative(m);
-      std::swap(from, to);
-    }
-    m = Fuse({*existing->Measured(), existing->noise_model().Covariance()}, m);
-  }
-  core::FactorPtr f = ComposedFactor(from, to, m, {});
+  core::FactorPtr f = ComposedFactor(a, b, m, robust);
   if (!f) return false;
-  if (staged) {
-    s->factors.Replace(*staged, std::move(f));
-    return true;
-  }
-  if (number >= 0) s->reduced.replaced.push_back(number);
-  s->ids.emplace_back(s->factors.size(), id, from);
+  // A robust term is kept on its own, without an identity: it does not hold the pair.
+  if (robust.is_none()) s->ids.emplace_back(s->factors.size(), id, a);
   s->factors.Add(std::move(f));
   return true;
 }
@@ -270,7 +246,7 @@ bool Estimator::NearNode(const Variable& at, const EstimatorParams::ReducedGraph
 }
 
 void Estimator::CommitReduced(Staged* s) {
-  counters_.mapped_observations_left_out += s->reduced.left_out;
+  counters_.reduced_left_out += s->reduced.left_out;
   for (int n : s->reduced.replaced) {
     residual_dimension_ -= numbers_.entry(n).dim;
     numbers_.Release(n);

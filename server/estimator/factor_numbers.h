@@ -1,8 +1,8 @@
 // FactorNumbers: the estimator's numbering of the measurements it applied. A number names one
 // measurement (its identity, the key the message named first, its dimension) and the solver
 // slot of its factor. A released number (its factor left the solver) goes to the next
-// measurement, so a run that keeps replacing factors (the reduced pose graph fuses each composed
-// measurement into a new one) keeps the table the size of its graph. A rebuilt solver numbers
+// measurement, so a run that keeps replacing factors (a shard replaces its neighbours' summaries
+// by their next ones) keeps the table the size of its graph. A rebuilt solver numbers
 // its factors anew: Remap changes the slots only.
 #pragma once
 

@@ -1,6 +1,5 @@
 #include "server/estimator/reduced_graph.h"
 
-#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 
@@ -44,11 +43,6 @@ auto WithPoseKind(const core::Variable& v, F&& f) {
   SLAMD_CHECK(std::holds_alternative<core::Pose3>(v))
       << "reduced pose graph: a pose alias must be a Pose2 or Pose3";
   return f(core::Pose3());
-}
-
-// Information of a covariance (symmetric positive definite by construction here).
-Eigen::MatrixXd Inverse(const Eigen::MatrixXd& covariance) {
-  return covariance.ldlt().solve(Eigen::MatrixXd::Identity(covariance.rows(), covariance.cols()));
 }
 
 }  // namespace
@@ -119,20 +113,6 @@ ComposedMeasurement ComposePoint(const PoseAlias& from, const ComposedMeasuremen
         Hpose * from.covariance * Hpose.transpose() + Hp * p.covariance * Hp.transpose();
     return ComposedMeasurement{moved, 0.5 * (cov + cov.transpose())};
   });
-}
-
-ComposedMeasurement Fuse(const ComposedMeasurement& x, const ComposedMeasurement& y) {
-  // Both terms are |h(θ) ⊖ z|² in their information; in the chart at x, y is x ⊕ d, and the sum
-  // is (up to a constant) one term at x ⊕ (Λx + Λy)⁻¹ Λy d with information Λx + Λy.
-  const Eigen::MatrixXd info_x = Inverse(x.covariance);
-  const Eigen::MatrixXd info_y = Inverse(y.covariance);
-  const Eigen::MatrixXd info = info_x + info_y;
-  const Eigen::VectorXd d = core::LocalCoordinates(x.measured, y.measured);
-  const Eigen::VectorXd step = info.ldlt().solve(info_y * d);
-  core::Variable fused = x.measured;
-  core::RetractInPlace(&fused, step.data());
-  Eigen::MatrixXd cov = Inverse(info);
-  return {fused, 0.5 * (cov + cov.transpose())};
 }
 
 void NodeGrid::Reset(double cell) {

@@ -9,9 +9,10 @@
 //     node's neighbourhood);
 //   a landmark seen at p (a point in the pose's frame) from a∘Z is a relative point on (a, l)
 //     measuring Z·p;
-// with the composed covariances. Composed factors of the same kind on the same variables are
-// fused into one (information-weighted: exact for points, first order for poses), so driving
-// the same loop for hours adds neither nodes nor factors. A loop closure from a robot's newest
+// with the composed covariances. A pair of variables gets one composed factor of each kind, the
+// first: later ones are left out, as they share the errors of their aliases' offsets with it
+// (fused as independent, they made the map overconfident and biased), so driving the same loop
+// for hours adds neither nodes nor factors. A loop closure from a robot's newest
 // pose (an alias) to the map re-anchors it when that makes its offset more certain: the
 // closure is then used twice (in the composed factor and as the new offset), the approximation
 // the reduced pose graph makes so that a robot localised against the map does not drift.
@@ -56,9 +57,6 @@ ComposedMeasurement ComposeBetween(const PoseAlias& from, const ComposedMeasurem
 ComposedMeasurement InverseRelative(const ComposedMeasurement& z);
 // A point p seen from the alias, in its anchor's frame: offset · p.
 ComposedMeasurement ComposePoint(const PoseAlias& from, const ComposedMeasurement& p);
-// Two measurements of the same quantity as one: information-weighted (points exactly; relative
-// poses to first order, in the chart at x).
-ComposedMeasurement Fuse(const ComposedMeasurement& x, const ComposedMeasurement& y);
 
 // Distance [m] and rotation angle [rad] between two poses of one kind.
 struct PoseDistance {
@@ -113,14 +111,14 @@ struct ReducedGraphState {
 
 // What one batch changes (committed with its update): a new pose its factor has yet to place
 // (node or alias), the aliases it adds or changes (nullopt: made a node), the measurements it
-// merged, and the factors (applied numbers) it replaces: composed ones by fused ones, and a
-// shard's summary by its next one (GraphBuilder::AddReplacing).
+// merged, and the factors (applied numbers) it replaces: a shard's summary by its next one
+// (GraphBuilder::AddReplacing).
 struct ReducedGraphStage {
   std::optional<std::pair<core::Key, core::Variable>> pending_pose;
   std::map<core::Key, std::optional<PoseAlias>> aliases;
   std::vector<std::pair<MeasurementId, core::FactorPtr>> merged;
   std::vector<int> replaced;
-  int left_out = 0;  // observations of mapped landmarks left out (link_mapped_landmarks)
+  int left_out = 0;  // measurements merged without their information (AddComposed)
 };
 
 }  // namespace slamd::server

@@ -27,9 +27,10 @@ struct EstimatorCounters {
   std::int64_t removed_variables = 0;  // by the lifelong window (EstimatorParams::window)
   // New poses the reduced pose graph held as aliases of existing nodes (EstimatorParams::reduced)
   std::int64_t merged_poses = 0;
-  // Observations of mapped landmarks from aliases the reduced pose graph left out
-  // (ReducedGraph::link_mapped_landmarks false: their node has no composed factor to it)
-  std::int64_t mapped_observations_left_out = 0;
+  // Measurements on aliases the reduced pose graph merged without their information: a
+  // composed measurement on a pair of variables that has one, and, with
+  // ReducedGraph::link_mapped_landmarks false, observations of landmarks in the map
+  std::int64_t reduced_left_out = 0;
   std::array<std::int64_t, kNumRejectReasonCodes> rejects_by_reason = {};
 };
 

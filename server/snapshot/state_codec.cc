@@ -237,7 +237,7 @@ std::string EncodeState(const EstimatorState& state, const JournalPosition& posi
   c->set_landmarks_dropped(state.counters.landmarks_dropped);
   c->set_removed_variables(state.counters.removed_variables);
   c->set_merged_poses(state.counters.merged_poses);
-  c->set_mapped_observations_left_out(state.counters.mapped_observations_left_out);
+  c->set_reduced_left_out(state.counters.reduced_left_out);
   c->set_updates(state.counters.updates);
   c->set_refinements(state.counters.refinements);
   c->set_rebuilds(state.counters.rebuilds);
@@ -333,7 +333,7 @@ core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition
   state.counters.landmarks_dropped = c.landmarks_dropped();
   state.counters.removed_variables = c.removed_variables();
   state.counters.merged_poses = c.merged_poses();
-  state.counters.mapped_observations_left_out = c.mapped_observations_left_out();
+  state.counters.reduced_left_out = c.reduced_left_out();
   state.counters.updates = c.updates();
   state.counters.refinements = c.refinements();
   state.counters.rebuilds = c.rebuilds();

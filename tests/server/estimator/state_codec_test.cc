@@ -246,7 +246,7 @@ TEST(StateCodecTest, MergedMeasurementsAreDigests) {
   state.merged.push_back(
       {'o', factor->keys()[0], factor->keys()[1], 0, core::MeasurementDigest(*factor)});
   state.counters.merged_poses = 7;
-  state.counters.mapped_observations_left_out = 5;
+  state.counters.reduced_left_out = 5;
   snapshot::EstimatorState written;
   ASSERT_TRUE(written.ParseFromString(EncodeState(state, {})));
   ASSERT_EQ(written.merged_size(), 1);
@@ -271,7 +271,7 @@ TEST(StateCodecTest, MergedMeasurementsAreDigests) {
   ASSERT_EQ(back->merged.size(), 1u);
   EXPECT_EQ(back->merged[0].digest, core::MeasurementDigest(*factor));
   EXPECT_EQ(back->counters.merged_poses, 7);
-  EXPECT_EQ(back->counters.mapped_observations_left_out, 5);
+  EXPECT_EQ(back->counters.reduced_left_out, 5);
   EXPECT_EQ(back->merged[0].b, core::MakeKey('x', 4));
   // A corrupt older factor is refused as the other parts are.
   old->mutable_factor()->set_type_name("NoSuchFactor");
