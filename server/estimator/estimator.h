@@ -238,8 +238,9 @@ class Estimator {
   Outcome AddReduced(core::FactorPtr factor, core::Key first, const MeasurementId& id, Staged* s,
                      Verdict* v);
   // Stages a composed factor on (a, b) (kind 0: relative pose, 1: point in a's frame), unless
-  // the pair has one (without a kernel) or, with !link, b is a landmark in the map: then the
-  // measurement is left out (counted). False when its covariance is unusable.
+  // the pair has one of that kind (robust and Gaussian ones apart) or, with !link, b is a
+  // landmark in the map: then the measurement is left out (counted). False when its covariance
+  // is unusable.
   bool AddComposed(core::Key a, core::Key b, int kind, const ComposedMeasurement& m,
                    const core::RobustKernel& robust, Staged* s, bool link = true);
   bool Promote(core::Key pose, Staged* s);  // the robot's newest pose, an alias, made a node

@@ -197,22 +197,22 @@ bool Estimator::Promote(Key pose, Staged* s) {
 
 bool Estimator::AddComposed(Key a, Key b, int kind, const ComposedMeasurement& m,
                             const core::RobustKernel& robust, Staged* s, bool link) {
-  const MeasurementId id{'r', std::min(a, b), std::max(a, b), kind};
+  // One composed measurement per pair and kind: later ones share the errors of their aliases'
+  // offsets with it (and, after a re-anchoring, a closure already used), so fusing them as
+  // independent made the map overconfident and biased (BENCHMARKS.md, "Lifelong"). A robust one
+  // (a term that is not a Gaussian) is a kind of its own: the pair keeps its first of each.
+  const MeasurementId id{'r', std::min(a, b), std::max(a, b), kind + (robust.is_none() ? 0 : 2)};
   const bool held = applied_.count(id) != 0 ||
                     std::any_of(s->ids.begin(), s->ids.end(),
                                 [&](const auto& staged) { return std::get<1>(staged) == id; });
   const bool mapped = isam_->linearization_point().Contains(b) || s->values.Contains(b);
-  // One composed measurement per pair: later ones share the errors of their aliases' offsets
-  // with it (and, after a re-anchoring, a closure already used), so fusing them as independent
-  // made the map overconfident and biased (BENCHMARKS.md, "Lifelong").
-  if ((robust.is_none() && held) || (!link && mapped)) {
+  if (held || (!link && mapped)) {
     ++s->reduced.left_out;
     return true;
   }
   core::FactorPtr f = ComposedFactor(a, b, m, robust);
   if (!f) return false;
-  // A robust term is kept on its own, without an identity: it does not hold the pair.
-  if (robust.is_none()) s->ids.emplace_back(s->factors.size(), id, a);
+  s->ids.emplace_back(s->factors.size(), id, a);
   s->factors.Add(std::move(f));
   return true;
 }

@@ -9,13 +9,13 @@
 //     node's neighbourhood);
 //   a landmark seen at p (a point in the pose's frame) from a∘Z is a relative point on (a, l)
 //     measuring Z·p;
-// with the composed covariances. A pair of variables gets one composed factor of each kind, the
-// first: later ones are left out, as they share the errors of their aliases' offsets with it
-// (fused as independent, they made the map overconfident and biased), so driving the same loop
-// for hours adds neither nodes nor factors. A loop closure from a robot's newest
-// pose (an alias) to the map re-anchors it when that makes its offset more certain: the
-// closure is then used twice (in the composed factor and as the new offset), the approximation
-// the reduced pose graph makes so that a robot localised against the map does not drift.
+// with the composed covariances. A pair of variables gets one composed factor of each kind (a
+// robust one apart), the first: later ones are left out, as they share the errors of their aliases'
+// offsets with it (fused as independent, they made the map overconfident and biased), so driving
+// the same loop for hours adds neither nodes nor factors. A loop closure from a robot's newest pose
+// (an alias) to the map re-anchors it when that makes its offset more certain: the closure is then
+// used twice (in the composed factor and as the new offset), the approximation the reduced pose
+// graph makes so that a robot localised against the map does not drift.
 #pragma once
 
 #include <Eigen/Core>

@@ -344,6 +344,19 @@ TEST(ReducedGraphTest, APairKeepsItsFirstComposedFactor) {
   EXPECT_EQ(e->snapshot()->num_factors, factors);
   EXPECT_EQ(e->snapshot()->counters.reduced_left_out, 2);
   ExpectNear(PoseOf(*e, "r", 4), Pose2(2, 0, 0), 1e-6);
+  // Robust closures onto (x0, x4): the first is a factor of its own (not a Gaussian to leave
+  // out for the odometry's), the next is left out, so revisits with robust closures do not
+  // grow the graph either.
+  const core::RobustKernel huber =
+      core::RobustKernel::Create(core::RobustKernel::Kind::kHuber, 1.345).value();
+  for (const std::uint64_t from : {2, 1}) {
+    Inbound closure = Loop("r", from, "r", 4, Pose2(2.0 - 0.5 * from, 0, 0));
+    std::get<LoopClosureMeasurement>(closure.measurement).robust = huber;
+    r = e->Process({closure});
+    ASSERT_TRUE(r.rejections.empty());
+  }
+  EXPECT_EQ(e->snapshot()->num_factors, factors + 1);
+  EXPECT_EQ(e->snapshot()->counters.reduced_left_out, 3);
 }
 
 TEST(ReducedGraphTest, DuplicatesRejectionsAndExpiry) {
