@@ -279,6 +279,60 @@ TEST(StateCodecTest, MergedMeasurementsAreDigests) {
             core::StatusCode::kDataLoss);
 }
 
+// A state larger than the encoder's chunks (it writes the big repeated fields a thousand or so
+// elements at a time): every element comes back, in order.
+TEST(StateCodecTest, LargeStatesRoundTripInOrder) {
+  constexpr int kPoses = 2500, kMerged = 3100, kAliases = 1500;
+  EstimatorState state;
+  for (int i = 0; i < kPoses; ++i) {
+    ASSERT_TRUE(
+        state.linearization_point.Insert(core::MakeKey('x', i), Pose2(i, 0.5, 0.01 * i)).ok());
+  }
+  for (int i = 0; i + 1 < kPoses; ++i) {
+    const core::Key a = core::MakeKey('x', i), b = core::MakeKey('x', i + 1);
+    state.factors.push_back(
+        std::make_shared<const core::BetweenFactor<Pose2>>(a, b, Pose2(1, 0, i), Noise(3, 0.1)));
+    state.applied.push_back({'o', a, b, 0, i, a, 3});
+  }
+  for (int i = 0; i < kMerged; ++i) {
+    state.merged.push_back(
+        {'l', core::MakeKey('x', i % kPoses), core::MakeKey('l', i), 1, 977u * i + 1});
+  }
+  for (int i = 0; i < kAliases; ++i) {
+    state.aliases.push_back(
+        {core::MakeKey('x', kPoses + i),
+         {core::MakeKey('x', i), Pose2(0.5, 0, 0.1), (i + 1) * Eigen::Matrix3d::Identity()}});
+  }
+  JournalPosition position;
+  const core::Result<EstimatorState> back = DecodeState(
+      EncodeState(state, {.last_message_sequence = 9, .journal_offset = 99}), &position);
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(position.last_message_sequence, 9);
+  EXPECT_EQ(position.journal_offset, 99);
+  ASSERT_EQ(back->linearization_point.size(), static_cast<size_t>(kPoses));
+  ASSERT_EQ(back->factors.size(), state.factors.size());
+  ASSERT_EQ(back->applied.size(), state.applied.size());
+  ASSERT_EQ(back->merged.size(), state.merged.size());
+  ASSERT_EQ(back->aliases.size(), state.aliases.size());
+  for (int i = 0; i < kPoses; ++i) {
+    ASSERT_EQ(back->linearization_point.KeyAt(i), state.linearization_point.KeyAt(i));
+  }
+  for (size_t i = 0; i < state.factors.size(); ++i) {
+    ASSERT_EQ(back->factors[i]->keys(), state.factors[i]->keys());
+    ASSERT_EQ(core::MeasurementDigest(*back->factors[i]),
+              core::MeasurementDigest(*state.factors[i]));
+    ASSERT_EQ(back->applied[i].factor, state.applied[i].factor);
+  }
+  for (size_t i = 0; i < state.merged.size(); ++i) {
+    ASSERT_EQ(back->merged[i].b, state.merged[i].b);
+    ASSERT_EQ(back->merged[i].digest, state.merged[i].digest);
+  }
+  for (size_t i = 0; i < state.aliases.size(); ++i) {
+    ASSERT_EQ(back->aliases[i].first, state.aliases[i].first);
+    ASSERT_EQ(back->aliases[i].second.covariance, state.aliases[i].second.covariance);
+  }
+}
+
 // A snapshot written before factors and variables were stored by type name (the enums) loads.
 TEST(StateCodecTest, SnapshotsWrittenBeforeTypeNamesLoad) {
   snapshot::EstimatorState old;
