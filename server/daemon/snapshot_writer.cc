@@ -21,9 +21,33 @@ SnapshotWriter::SnapshotWriter(std::string data_dir, const ServerParams::Journal
       last_sequence_(last_sequence),
       last_us_(now_us) {
   if (recovered) known_[recovered->journal_offset] = recovered->last_message_sequence;
+  thread_ = std::thread([this] { Run(); });
 }
 
-SnapshotWriter::~SnapshotWriter() { Join(); }
+SnapshotWriter::~SnapshotWriter() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  thread_.join();  // after the job handed over, if any
+}
+
+void SnapshotWriter::Run() {
+  core::NameThisThread("slamd-snapshot");
+  std::unique_lock<std::mutex> lock(mutex_);
+  for (;;) {
+    wake_.wait(lock, [this] { return job_.has_value() || stop_; });
+    if (!job_) return;
+    lock.unlock();  // job_ is this thread's until reset: Write hands over the next after Join
+    WriteNow(*job_);
+    job_->state.reset();  // the state is let go here, outside the lock
+    lock.lock();
+    job_.reset();
+    busy_ = false;
+    wake_.notify_all();
+  }
+}
 
 bool SnapshotWriter::Due(std::int64_t sequence, std::int64_t now_us) const {
   if (busy_ || sequence == last_sequence_) return false;
@@ -45,23 +69,28 @@ void SnapshotWriter::Write(std::shared_ptr<const EstimatorState> state,
   last_sequence_ = sequence;
   last_us_ = now_us;
   busy_ = true;
-  thread_ = std::thread([this, state = std::move(state), position, export_us] {
-    core::NameThisThread("slamd-snapshot");
-    core::Stopwatch timer;
-    const std::string bytes = EncodeState(*state, position);
-    const core::Result<std::string> path = WriteSnapshotFile(
-        data_dir_, position.journal_offset, bytes, {.keep = params_.keep_snapshots});
-    cost_us_ = export_us + static_cast<std::int64_t>(timer.Seconds() * 1e6);
-    if (path.ok()) {
-      log_->info("snapshot {} ({} bytes, message {}) in {:.3f} s", path.value(), bytes.size(),
-                 position.last_message_sequence, timer.Seconds());
-      known_[position.journal_offset] = position.last_message_sequence;
-      if (params_.delete_covered_segments) DeleteCoveredSegments();
-    } else {
-      log_->error("snapshot: {}", path.status().ToString());
-    }
-    busy_ = false;
-  });
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    job_ = Job{std::move(state), position, export_us};
+  }
+  wake_.notify_all();
+}
+
+void SnapshotWriter::WriteNow(const Job& job) {
+  const JournalPosition& position = job.position;
+  core::Stopwatch timer;
+  const std::string bytes = EncodeState(*job.state, position);
+  const core::Result<std::string> path = WriteSnapshotFile(data_dir_, position.journal_offset,
+                                                           bytes, {.keep = params_.keep_snapshots});
+  cost_us_ = job.export_us + static_cast<std::int64_t>(timer.Seconds() * 1e6);
+  if (path.ok()) {
+    log_->info("snapshot {} ({} bytes, message {}) in {:.3f} s", path.value(), bytes.size(),
+               position.last_message_sequence, timer.Seconds());
+    known_[position.journal_offset] = position.last_message_sequence;
+    if (params_.delete_covered_segments) DeleteCoveredSegments();
+  } else {
+    log_->error("snapshot: {}", path.status().ToString());
+  }
 }
 
 void SnapshotWriter::DeleteCoveredSegments() {
@@ -85,7 +114,8 @@ void SnapshotWriter::DeleteCoveredSegments() {
 }
 
 void SnapshotWriter::Join() {
-  if (thread_.joinable()) thread_.join();
+  std::unique_lock<std::mutex> lock(mutex_);
+  wake_.wait(lock, [this] { return !job_.has_value(); });
 }
 
 }  // namespace slamd::server

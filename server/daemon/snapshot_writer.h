@@ -1,5 +1,7 @@
 // SnapshotWriter: the daemon's snapshots. The estimator thread exports its state when one is due
-// (journal.snapshot_every_updates / _s) and hands it over; the writer's thread, slamd-snapshot,
+// (journal.snapshot_every_updates / _s) and hands it over; the writer's thread, slamd-snapshot
+// (one for the writer's life: its allocator arena keeps the encoding's buffers for the next
+// snapshot, where a thread per snapshot could land in another arena and leave them behind),
 // encodes it and writes it atomically (server/journal/snapshot_file.h), keeping
 // journal.keep_snapshots, then deletes the journal segments the oldest kept snapshot covers
 // (journal.delete_covered_segments). At most 5% of the time goes to snapshots: the next is due
@@ -9,9 +11,12 @@
 #pragma once
 
 #include <atomic>
+#include <condition_variable>
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 
@@ -34,7 +39,7 @@ class SnapshotWriter {
   SnapshotWriter(std::string data_dir, const ServerParams::Journal& params, Journal* journal,
                  std::shared_ptr<spdlog::logger> log, std::int64_t last_sequence,
                  const JournalPosition* recovered, std::int64_t now_us);
-  ~SnapshotWriter();  // waits for the snapshot being written
+  ~SnapshotWriter();  // waits for the snapshot being written, then ends the thread
   SnapshotWriter(const SnapshotWriter&) = delete;
   SnapshotWriter& operator=(const SnapshotWriter&) = delete;
 
@@ -48,6 +53,13 @@ class SnapshotWriter {
   void Join();
 
  private:
+  struct Job {
+    std::shared_ptr<const EstimatorState> state;
+    JournalPosition position;
+    std::int64_t export_us = 0;
+  };
+  void Run();                     // the writer's thread
+  void WriteNow(const Job& job);  // on the writer's thread
   // On the writer's thread, after a snapshot is durable.
   void DeleteCoveredSegments();
 
@@ -60,8 +72,12 @@ class SnapshotWriter {
   std::shared_ptr<spdlog::logger> log_;
   std::int64_t last_sequence_;  // of the last snapshot written (or recovered)
   std::int64_t last_us_;        // when it was due
-  std::thread thread_;
+  std::mutex mutex_;
+  std::condition_variable wake_;  // a job, the stop, or (to Join) the job done
+  std::optional<Job> job_;        // handed over, not yet done (under mutex_)
+  bool stop_ = false;             // under mutex_
   std::atomic<bool> busy_{false};
+  std::thread thread_;                    // last: started when the rest is ready
   std::atomic<std::int64_t> cost_us_{0};  // the last snapshot's export + write time
 };
 
