@@ -230,7 +230,7 @@ Outcome Estimator::AddReplacing(core::FactorPtr factor, Key first, Staged* s) {
     return Outcome::kApplied;
   }
   if (const auto it = applied_.find(id); it != applied_.end() && numbers_.slot(it->second) >= 0) {
-    s->reduced.replaced.push_back(it->second);
+    s->replaced.push_back(it->second);
   }
   s->ids.emplace_back(s->factors.size(), id, first);
   s->factors.Add(std::move(factor));
@@ -459,7 +459,7 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
   }
   FinishUpdate();  // a removal's update earlier in this Process
   core::Isam2UpdateOptions options = ProcessUpdateOptions();
-  for (int n : s.reduced.replaced) options.remove_factors.push_back(numbers_.slot(n));
+  for (int n : s.replaced) options.remove_factors.push_back(numbers_.slot(n));
   if (finish_later_) options.solve_first = NewestPoses(&s);  // with this batch's aliases
   result.updates.push_back(isam_->Update(s.factors, s.values, options));
   const core::Isam2Result& update = result.updates.back();
@@ -480,7 +480,12 @@ void Estimator::ApplyBatch(std::vector<Inbound> batch, ProcessResult* out) {
   }
   CommitCamerasAndTracks(&result);
   shard_boundary_.Grow(s.factors, s.ids);
-  CommitReduced(&s);  // first: the numbers of the factors it replaced go to the new ones
+  CommitReduced(&s);
+  for (int n : s.replaced) {  // first: their numbers go to the new factors
+    residual_dimension_ -= numbers_.entry(n).dim;
+    numbers_.Release(n);
+    --num_factors_;
+  }
   for (const auto& [position, id, first] : s.ids) {
     applied_[id] =
         numbers_.Add({id, first, s.factors[position]->dim()}, update.new_factor_indices[position]);

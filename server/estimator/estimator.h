@@ -196,6 +196,9 @@ class Estimator {
     std::optional<std::uint64_t> pending_digest;
     std::vector<std::pair<std::uint8_t, RobotState>> robots_before;  // for rollback
     std::vector<Rejection> parts;  // rejected parts of messages (GraphBuilder::RejectPart)
+    // Applied numbers of the factors it replaces (GraphBuilder::AddReplacing: a shard's
+    // summary by its next one).
+    std::vector<int> replaced;
     ReducedGraphStage reduced;
   };
 

@@ -247,11 +247,6 @@ bool Estimator::NearNode(const Variable& at, const EstimatorParams::ReducedGraph
 
 void Estimator::CommitReduced(Staged* s) {
   counters_.reduced_left_out += s->reduced.left_out;
-  for (int n : s->reduced.replaced) {
-    residual_dimension_ -= numbers_.entry(n).dim;
-    numbers_.Release(n);
-    --num_factors_;
-  }
   for (auto& [key, alias] : s->reduced.aliases) {
     if (alias) {
       counters_.merged_poses += reduced_.aliases.count(key) == 0 ? 1 : 0;

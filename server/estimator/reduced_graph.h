@@ -110,14 +110,12 @@ struct ReducedGraphState {
 };
 
 // What one batch changes (committed with its update): a new pose its factor has yet to place
-// (node or alias), the aliases it adds or changes (nullopt: made a node), the measurements it
-// merged, and the factors (applied numbers) it replaces: a shard's summary by its next one
-// (GraphBuilder::AddReplacing).
+// (node or alias), the aliases it adds or changes (nullopt: made a node), and the measurements
+// it merged.
 struct ReducedGraphStage {
   std::optional<std::pair<core::Key, core::Variable>> pending_pose;
   std::map<core::Key, std::optional<PoseAlias>> aliases;
   std::vector<std::pair<MeasurementId, core::FactorPtr>> merged;
-  std::vector<int> replaced;
   int left_out = 0;  // measurements merged without their information (AddComposed)
 };
 
