@@ -130,6 +130,7 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   if (rep.has_lease_ttl_ms()) p->replication.lease_ttl_ms = rep.lease_ttl_ms();
   if (rep.has_lease_bucket()) p->replication.lease_bucket = rep.lease_bucket();
   if (rep.has_standby_keep_s()) p->replication.standby_keep_s = rep.standby_keep_s();
+  if (rep.has_keep_snapshots()) p->replication.keep_snapshots = rep.keep_snapshots();
   const proto::ShardsConfig& sh = config.shards();
   if (sh.has_self()) p->estimator.shards.self = sh.self();
   for (const proto::ShardsConfig::Shard& shard : sh.shard()) {
@@ -395,6 +396,8 @@ std::string DefaultConfigText() {
       << "  lease_bucket: " << Quote(d.replication.lease_bucket) << "\n"
       << "  standby_keep_s: " << Num(d.replication.standby_keep_s)
       << "  # a standby journals what it heard this long before it took over [s]\n"
+      << "  keep_snapshots: " << d.replication.keep_snapshots
+      << "  # in the stream, which is truncated before the oldest; 0 = never truncated\n"
       << "}\n\n"
       << "shards {  # map shards: this slamd owns some robots, neighbours exchange summaries\n"
       << "  self: \"\"  # this slamd's shard; \"\" = not sharded\n"

@@ -68,6 +68,8 @@ core::Status ServerParams::Validate() const {
   }
   SLAMD_CONFIG_CHECK(replication.standby_keep_s, >=, 0.1);
   SLAMD_CONFIG_CHECK(replication.standby_keep_s, <=, 600.0);
+  SLAMD_CONFIG_CHECK(replication.keep_snapshots, >=, 0);
+  SLAMD_CONFIG_CHECK(replication.keep_snapshots, <=, 100);
   if (!IsNatsSubject(shards.subject)) {
     return core::InvalidArgument("shards.subject = \"" + shards.subject +
                                  "\"; violates: [A-Za-z0-9_-]+ tokens joined by dots");

@@ -114,6 +114,11 @@ struct ServerParams {
     // What a standby hears directly from the robots is kept this long, and journaled when it
     // takes over (what the old leader accepted but never got into the stream) [s]; 0.1..600.
     double standby_keep_s = 30.0;
+    // The leader's snapshots are also stored in the stream "<stream>_SNAPSHOTS", the newest
+    // keep_snapshots of them, and the journal stream is truncated before the oldest kept one: it
+    // holds what came after it (server/replication/stream_snapshots.h). A standby starts from
+    // the newest. 0 = no snapshot in NATS, the stream keeps the whole history; 0..100.
+    int keep_snapshots = 2;
   };
   Replication replication = {};
 

@@ -113,9 +113,9 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
   std::unique_ptr<Daemon> daemon(new Daemon(params, bus, std::move(estimator), std::move(journal)));
   bool superseded = false;
   SLAMD_RETURN_IF_ERROR(daemon->StartReplication(&superseded));
-  if (superseded) {  // a standby: the recovered state was moved aside
+  if (superseded || daemon->follow_start_) {  // a standby: the recovered state was moved aside
     pending.clear();
-    recovered_snapshot.reset();
+    recovered_snapshot = daemon->follow_start_;
   }
   if (!pending.empty()) {
     // Accepted and journaled before the restart but never processed: first, as one update.
@@ -124,6 +124,8 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
     const ProcessResult r = daemon->estimator_->Process(pending);
     daemon->JournalUpdate(pending);
     for (const Rejection& rej : r.rejections) daemon->PublishRejection(rej);
+  } else if (daemon->follow_start_) {
+    daemon->processed_sequence_ = daemon->follow_start_->last_message_sequence;
   } else if (daemon->journal_) {
     daemon->processed_sequence_ = daemon->journal_->last_sequence();
   }
@@ -330,10 +332,22 @@ void Daemon::MaybeSnapshot() {
   if (!snapshot_writer_->Due(sequence, now)) return;
   snapshot_writer_->Join();  // before the export: it may still be reading the last state
   auto state = std::make_shared<const EstimatorState>(estimator_->ExportState());
-  snapshot_writer_->Write(
-      std::move(state),
-      {.last_message_sequence = processed_sequence_, .journal_offset = journal_->offset()},
-      sequence, now, SteadyMicros() - now);
+  const JournalPosition position{.last_message_sequence = processed_sequence_,
+                                 .journal_offset = journal_->offset()};
+  // Into NATS too when leading, once the stream holds every record the state includes.
+  std::optional<SnapshotWriter::ToStream> to_stream;
+  if (stream_snapshots_ && !replication_held_ && !deposed_ && CommitReplica()) {
+    const core::Result<FollowPoint> follow =
+        replica_->FollowPointFor(position.last_message_sequence);
+    if (follow.ok()) {
+      to_stream = SnapshotWriter::ToStream{
+          .snapshots = stream_snapshots_.get(), .source = replica_->source(), .follow = *follow};
+    } else {
+      log_->warn("replication: this snapshot stays local: {}", follow.status().ToString());
+    }
+  }
+  snapshot_writer_->Write(std::move(state), position, sequence, now, SteadyMicros() - now,
+                          std::move(to_stream));
 }
 
 std::shared_ptr<const EstimateSnapshot> Daemon::snapshot() const {

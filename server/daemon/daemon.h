@@ -47,6 +47,7 @@
 #include <deque>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <span>
 #include <string>
@@ -65,6 +66,7 @@
 #include "server/replication/leader_lease.h"
 #include "server/replication/stream_journal.h"
 #include "server/replication/stream_reader.h"
+#include "server/replication/stream_snapshots.h"
 #include "server/transport/bus.h"
 #include "server/transport/channels.h"
 
@@ -119,9 +121,15 @@ class Daemon {
   // Moves the journal and snapshots of data_dir into data_dir/superseded-<µs>/ and starts over
   // empty (journal, estimator).
   core::Status SupersedeLocalState();
-  // Becomes a standby: follows the stream from its start (superseding a non-empty data
-  // directory).
+  // Becomes a standby (superseding a non-empty data directory): follows the stream from the
+  // newest snapshot in NATS (StartFromStreamSnapshot), or from its start when there is none.
   core::Status Follow(bool* superseded);
+  // A standby's start from the newest snapshot in NATS: the estimator restored from it, the
+  // data directory holding it as its snapshot and a journal that begins where the stream is
+  // followed (*from). False when NATS holds no snapshot.
+  core::Result<bool> StartFromStreamSnapshot(FollowPoint* from);
+  // The leader's snapshot stream (replication.keep_snapshots > 0), opened once leading.
+  core::Status OpenStreamSnapshots();
   // Commits the replica (true without one). A failure holds intake and the estimates until a
   // later commit succeeds.
   bool CommitReplica();
@@ -237,6 +245,12 @@ class Daemon {
   std::atomic<bool> deposed_{false};  // the lease was lost while leading: this slamd must stop
   std::unique_ptr<StreamReader> follower_;
   std::unique_ptr<JournalReplay> replay_;
+  // A standby started from a snapshot in NATS: its local position (the data directory's
+  // snapshot), the last message it includes, and how many of the followed records other than
+  // messages it still includes (FollowPoint::skip).
+  std::optional<JournalPosition> follow_start_;
+  std::int64_t follow_included_ = 0;
+  std::int64_t follow_skip_ = 0;
   struct Heard {
     std::string channel, type;
     std::vector<std::uint8_t> bytes;
@@ -280,6 +294,9 @@ class Daemon {
   std::int64_t last_map_us_ = 0, last_map_sequence_ = -1;
   std::int64_t last_input_us_ = 0;       // steady clock
   std::int64_t processed_sequence_ = 0;  // last journal sequence handed to the estimator
+  // The leader's snapshots in NATS (null when not leading or keep_snapshots = 0); declared
+  // before the writer whose thread puts them, so destroyed after it.
+  std::unique_ptr<StreamSnapshots> stream_snapshots_;
   std::unique_ptr<SnapshotWriter> snapshot_writer_;  // null without a journal
 
   mutable std::mutex snapshot_mutex_;

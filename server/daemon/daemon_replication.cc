@@ -6,13 +6,17 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <thread>
 
 #include "core/base/thread_name.h"
 #include "server/daemon/daemon.h"
+#include "server/journal/journal_segments.h"
+#include "server/journal/snapshot_file.h"
 #include "server/messages/inbound_codec.h"
 #include "server/replication/replicated_journal.h"
+#include "server/snapshot/state_codec.h"
 #include "slamd_proto/journal.pb.h"
 
 namespace slamd::server {
@@ -65,6 +69,7 @@ core::Status Daemon::StartReplication(bool* superseded) {
     return core::Status(started.status().code(), "replication: " + started.status().message());
   }
   replica_ = std::move(started).value();
+  SLAMD_RETURN_IF_ERROR(OpenStreamSnapshots());
   const StreamPosition end = replica_->stream_end();
   log_->info(
       "replication: {}journal in stream {} ({} replicas) on {}; it ends at message {} "
@@ -74,16 +79,87 @@ core::Status Daemon::StartReplication(bool* superseded) {
   return core::Status::Ok();
 }
 
+core::Status Daemon::OpenStreamSnapshots() {
+  const ServerParams::Replication& r = params_.replication;
+  if (r.keep_snapshots == 0 || stream_snapshots_) return core::Status::Ok();
+  core::Result<std::unique_ptr<StreamSnapshots>> opened =
+      StreamSnapshots::Open(replica_->options(), r.keep_snapshots);
+  if (!opened.ok()) {
+    return core::Status(opened.status().code(), "replication: " + opened.status().message());
+  }
+  stream_snapshots_ = std::move(opened).value();
+  return core::Status::Ok();
+}
+
+core::Result<bool> Daemon::StartFromStreamSnapshot(FollowPoint* from) {
+  const ServerParams::Replication& r = params_.replication;
+  StreamJournalOptions options = StreamOptions(r);
+  core::Result<std::string> id = DataDirectoryId(params_.data_dir);
+  if (!id.ok()) return id.status();
+  options.source = id.value();
+  core::Result<std::unique_ptr<StreamSnapshots>> snapshots =
+      StreamSnapshots::Open(options, r.keep_snapshots);
+  if (!snapshots.ok()) return snapshots.status();
+  core::Result<StreamSnapshot> newest = snapshots.value()->LoadNewest();
+  if (newest.status().code() == core::StatusCode::kNotFound) return false;
+  if (!newest.ok()) return newest.status();
+  const StreamSnapshot& snapshot = newest.value();
+  const std::string where = "the snapshot at journal offset " +
+                            std::to_string(snapshot.journal_offset) + " in stream " +
+                            StreamSnapshots::StreamName(r.stream);
+  JournalPosition position;
+  core::Result<EstimatorState> state = DecodeState(snapshot.bytes, &position);
+  if (!state.ok()) return core::DataLoss(where + ": " + state.status().message());
+  core::Result<std::unique_ptr<Estimator>> restored =
+      Estimator::Restore(params_.estimator, params_.isam2, state.value());
+  if (!restored.ok()) return core::DataLoss(where + ": " + restored.status().message());
+  // The data directory (no accepted message in it: superseded or new) starts from the snapshot:
+  // a new journal that continues its message numbers, and the state as its snapshot file at
+  // the journal's start.
+  journal_.reset();
+  core::Result<std::vector<JournalSegment>> segments = ListJournalSegments(params_.data_dir);
+  if (!segments.ok()) return segments.status();
+  for (const JournalSegment& segment : segments.value()) std::remove(segment.path.c_str());
+  core::Result<std::unique_ptr<Journal>> opened = Journal::Open(
+      params_.data_dir, JournalOptionsOf(params_), {}, position.last_message_sequence);
+  if (!opened.ok()) return opened.status();
+  journal_ = std::move(opened).value();
+  const JournalPosition local{.last_message_sequence = position.last_message_sequence,
+                              .journal_offset = journal_->offset()};
+  core::Result<std::string> file =
+      WriteSnapshotFile(params_.data_dir, local.journal_offset, EncodeState(state.value(), local),
+                        {.keep = params_.journal.keep_snapshots});
+  if (!file.ok()) return file.status();
+  estimator_ = std::move(restored).value();
+  follow_start_ = local;
+  follow_included_ = position.last_message_sequence;
+  follow_skip_ = snapshot.follow.skip;
+  *from = snapshot.follow;
+  log_->info(
+      "replication: standby starts from {} (message {}), following the journal stream from its "
+      "message {}",
+      where, position.last_message_sequence, from->sequence);
+  return true;
+}
+
 core::Status Daemon::Follow(bool* superseded) {
   const ServerParams::Replication& r = params_.replication;
   if (journal_->last_sequence() > 0) {
     SLAMD_RETURN_IF_ERROR(SupersedeLocalState());
     *superseded = true;
   }
-  core::Result<std::unique_ptr<StreamReader>> follower = StreamReader::Open(StreamOptions(r), 1);
+  FollowPoint from{.sequence = 1};
+  if (r.keep_snapshots > 0) {
+    const core::Result<bool> started = StartFromStreamSnapshot(&from);
+    if (!started.ok()) {
+      return core::Status(started.status().code(), "replication: " + started.status().message());
+    }
+  }
+  core::Result<std::unique_ptr<StreamReader>> follower = StreamReader::Open(StreamOptions(r), from);
   if (!follower.ok()) return follower.status();
   follower_ = std::move(follower).value();
-  replay_ = std::make_unique<JournalReplay>(estimator_.get(), 0);
+  replay_ = std::make_unique<JournalReplay>(
+      estimator_.get(), follow_start_ ? follow_start_->last_message_sequence : 0);
   // Rebuilds started in the replay catch up as the stream's swap records say (as in recovery).
   estimator_->SetReplaying(true);
   standby_ = true;
@@ -175,8 +251,19 @@ bool Daemon::Hear(std::string_view channel, std::string_view type,
 bool Daemon::ApplyFollowed(const journal::JournalRecord& record) {
   const std::string where = "stream " + params_.replication.stream + " after message " +
                             std::to_string(follower_->position().sequence);
-  core::Status s = replay_->Apply(record, where, false);
-  if (s.ok()) s = journal_->AppendCopy(record);
+  // What the state this standby started from includes is neither applied nor journaled.
+  bool included = false;
+  if (record.has_message()) {
+    included = record.message().sequence() <= follow_included_;
+  } else if (follow_skip_ > 0) {
+    included = true;
+    --follow_skip_;
+  }
+  core::Status s = included ? core::Status::Ok() : replay_->Apply(record, where, false);
+  if (s.ok() && !included) s = journal_->AppendCopy(record);
+  if (s.ok() && record.has_boundary() && !included) {
+    processed_sequence_ = record.boundary().last_message_sequence();
+  }
   if (s.ok() && record.has_message()) {  // remembered as long as what intake hears
     const std::int64_t now = SteadyMicros();
     const auto keep_us = static_cast<std::int64_t>(params_.replication.standby_keep_s * 1e6);
@@ -208,6 +295,7 @@ void Daemon::StandbyStep() {
   const core::Status committed = journal_->Commit();
   if (!committed.ok()) NoteJournalError(committed);
   if (deposed_) return;
+  MaybeSnapshot();  // local only (a standby has no replica): its journal's segments go too
   // What the old leader accepted and never got into the stream exists only in what standbys
   // heard: one that has not heard the robots for two lease lengths leaves the lease to one that
   // has (unless it holds the lease already, or no one else takes it).
@@ -245,6 +333,8 @@ void Daemon::TakeOver() {
     return;
   }
   replica_ = std::move(replica).value();
+  const core::Status snapshots = OpenStreamSnapshots();
+  if (!snapshots.ok()) log_->error("{}: snapshots stay local", snapshots.ToString());
   const std::int64_t stream_end = follower_->position().sequence;
   follower_.reset();
   std::vector<Inbound> pending = replay_->TakePending();

@@ -64,14 +64,15 @@ bool SnapshotWriter::Due(std::int64_t sequence, std::int64_t now_us) const {
 
 void SnapshotWriter::Write(std::shared_ptr<const EstimatorState> state,
                            const JournalPosition& position, std::int64_t sequence,
-                           std::int64_t now_us, std::int64_t export_us) {
+                           std::int64_t now_us, std::int64_t export_us,
+                           std::optional<ToStream> to_stream) {
   Join();
   last_sequence_ = sequence;
   last_us_ = now_us;
   busy_ = true;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    job_ = Job{std::move(state), position, export_us};
+    job_ = Job{std::move(state), position, export_us, std::move(to_stream)};
   }
   wake_.notify_all();
 }
@@ -79,7 +80,7 @@ void SnapshotWriter::Write(std::shared_ptr<const EstimatorState> state,
 void SnapshotWriter::WriteNow(const Job& job) {
   const JournalPosition& position = job.position;
   core::Stopwatch timer;
-  const std::string bytes = EncodeState(*job.state, position);
+  std::string bytes = EncodeState(*job.state, position);
   const core::Result<std::string> path = WriteSnapshotFile(data_dir_, position.journal_offset,
                                                            bytes, {.keep = params_.keep_snapshots});
   cost_us_ = job.export_us + static_cast<std::int64_t>(timer.Seconds() * 1e6);
@@ -90,6 +91,23 @@ void SnapshotWriter::WriteNow(const Job& job) {
     if (params_.delete_covered_segments) DeleteCoveredSegments();
   } else {
     log_->error("snapshot: {}", path.status().ToString());
+  }
+  if (!job.to_stream) return;
+  const ToStream& to = *job.to_stream;
+  core::Stopwatch put_timer;
+  const std::int64_t size = static_cast<std::int64_t>(bytes.size());
+  const core::Status put = to.snapshots->Put({.bytes = std::move(bytes),
+                                              .source = to.source,
+                                              .journal_offset = position.journal_offset,
+                                              .last_message = position.last_message_sequence,
+                                              .follow = to.follow});
+  if (put.ok()) {
+    log_->info(
+        "replication: snapshot of message {} ({} bytes) stored in the stream in {:.3f} s; the "
+        "journal stream is kept from where its oldest kept snapshot is followed",
+        position.last_message_sequence, size, put_timer.Seconds());
+  } else {
+    log_->error("replication: snapshot not stored in the stream: {}", put.ToString());
   }
 }
 

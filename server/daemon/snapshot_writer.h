@@ -6,6 +6,8 @@
 // journal.keep_snapshots, then deletes the journal segments the oldest kept snapshot covers
 // (journal.delete_covered_segments). At most 5% of the time goes to snapshots: the next is due
 // no sooner than 20x the last one's export + write time, as on a large map both grow.
+// With a replicated journal, the leader's snapshots are also stored in the stream's snapshot
+// stream, which truncates the journal stream (server/replication/stream_snapshots.h).
 // Deleting needs the position of the oldest kept snapshot: the writer knows those it wrote and
 // the one recovered at start; while an older one of unknown position is kept, nothing is deleted.
 #pragma once
@@ -22,6 +24,7 @@
 
 #include "server/config/server_params.h"
 #include "server/journal/journal.h"
+#include "server/replication/stream_snapshots.h"
 #include "server/snapshot/estimator_state.h"
 #include "server/snapshot/state_codec.h"
 
@@ -45,10 +48,18 @@ class SnapshotWriter {
 
   // A snapshot of update `sequence` is due at `now_us` and none is being written.
   bool Due(std::int64_t sequence, std::int64_t now_us) const;
+  // Where a snapshot also goes: the replicated journal's snapshot stream (not owned; it
+  // outlives the writer), with what a reader of the journal stream needs.
+  struct ToStream {
+    StreamSnapshots* snapshots = nullptr;
+    std::string source;  // the data directory whose journal the stream holds
+    FollowPoint follow;  // where a reader of this snapshot starts in the journal stream
+  };
   // Writes `state` (exported in export_us) of update `sequence` at `position` on the writer's
-  // thread.
+  // thread; after the file, to `to_stream` when given.
   void Write(std::shared_ptr<const EstimatorState> state, const JournalPosition& position,
-             std::int64_t sequence, std::int64_t now_us, std::int64_t export_us);
+             std::int64_t sequence, std::int64_t now_us, std::int64_t export_us,
+             std::optional<ToStream> to_stream = std::nullopt);
   // Waits for the snapshot being written, if any.
   void Join();
 
@@ -57,6 +68,7 @@ class SnapshotWriter {
     std::shared_ptr<const EstimatorState> state;
     JournalPosition position;
     std::int64_t export_us = 0;
+    std::optional<ToStream> to_stream;
   };
   void Run();                     // the writer's thread
   void WriteNow(const Job& job);  // on the writer's thread

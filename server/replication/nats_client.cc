@@ -20,6 +20,83 @@ std::string JoinServers(const std::vector<std::string>& servers) {
 
 }  // namespace
 
+jsOptions NatsWait(int wait_ms) {
+  jsOptions jo;
+  jsOptions_Init(&jo);
+  jo.Wait = wait_ms;
+  return jo;
+}
+
+core::Result<StreamRange> OpenStream(jsCtx* js, const StreamSpec& spec) {
+  jsOptions jo = NatsWait(spec.wait_ms);
+  jsStreamInfo* si = nullptr;
+  jsErrCode jerr = static_cast<jsErrCode>(0);
+  natsStatus s = js_GetStreamInfo(&si, js, spec.name.c_str(), &jo, &jerr);
+  if (s == NATS_NOT_FOUND) {
+    jsStreamConfig cfg;
+    jsStreamConfig_Init(&cfg);
+    const char* subjects[] = {spec.subject.c_str()};
+    cfg.Name = spec.name.c_str();
+    cfg.Subjects = subjects;
+    cfg.SubjectsLen = 1;
+    cfg.Storage = js_FileStorage;
+    cfg.Replicas = spec.replicas;
+    cfg.Duplicates = std::int64_t{spec.duplicate_window_s} * 1000 * 1000 * 1000;
+    jerr = static_cast<jsErrCode>(0);
+    s = js_AddStream(&si, js, &cfg, &jo, &jerr);
+    if (s != NATS_OK) return NatsStatus(("cannot create stream " + spec.name).c_str(), s, jerr);
+  } else if (s != NATS_OK) {
+    return NatsStatus(("cannot read stream " + spec.name).c_str(), s, jerr);
+  }
+  const bool same_subject = si->Config->SubjectsLen == 1 && spec.subject == si->Config->Subjects[0];
+  const StreamRange range{.first = static_cast<std::int64_t>(si->State.FirstSeq),
+                          .last = static_cast<std::int64_t>(si->State.LastSeq)};
+  jsStreamInfo_Destroy(si);
+  if (!same_subject) {
+    return core::FailedPrecondition(
+        "stream " + spec.name + " exists and does not capture exactly the subject " + spec.subject);
+  }
+  return range;
+}
+
+core::Result<std::int64_t> PublishToStream(jsCtx* js, const StreamMessage& message, int wait_ms,
+                                           const std::string& what, int* js_error) {
+  natsMsg* m = nullptr;
+  natsStatus s = natsMsg_Create(&m, message.subject.c_str(), nullptr, message.payload.data(),
+                                static_cast<int>(message.payload.size()));
+  for (const auto& [key, value] : message.headers) {
+    if (s == NATS_OK) s = natsMsgHeader_Set(m, key, value.c_str());
+  }
+  jsPubOptions po;
+  jsPubOptions_Init(&po);
+  po.MaxWait = wait_ms;
+  jsPubAck* ack = nullptr;
+  jsErrCode jerr = static_cast<jsErrCode>(0);
+  if (s == NATS_OK) s = js_PublishMsg(&ack, js, m, &po, &jerr);
+  natsMsg_Destroy(m);
+  *js_error = static_cast<int>(jerr);
+  if (s != NATS_OK) return NatsStatus(what.c_str(), s, jerr);
+  const auto sequence = static_cast<std::int64_t>(ack->Sequence);
+  jsPubAck_Destroy(ack);
+  return sequence;
+}
+
+core::Status PurgeStreamBefore(jsCtx* js, const std::string& name, std::int64_t sequence,
+                               int wait_ms) {
+  // Nothing is before the first message (and the server reads a purge to 1 as one of all).
+  if (sequence <= 1) return core::Status::Ok();
+  jsOptions jo = NatsWait(wait_ms);
+  jo.Stream.Purge.Sequence = static_cast<std::uint64_t>(sequence);
+  jsErrCode jerr = static_cast<jsErrCode>(0);
+  const natsStatus s = js_PurgeStream(js, name.c_str(), &jo, &jerr);
+  if (s != NATS_OK) {
+    return NatsStatus(
+        ("cannot truncate stream " + name + " before message " + std::to_string(sequence)).c_str(),
+        s, jerr);
+  }
+  return core::Status::Ok();
+}
+
 core::Status NatsOptions::Validate() const {
   if (servers.empty()) return core::InvalidArgument("NatsOptions::servers: empty");
   for (const std::string& s : servers) {

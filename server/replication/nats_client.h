@@ -13,6 +13,8 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "core/base/status.h"
@@ -20,6 +22,7 @@
 typedef struct __natsConnection natsConnection;
 typedef struct __jsCtx jsCtx;
 typedef struct __natsSubscription natsSubscription;
+struct jsOptions;
 
 namespace slamd::server {
 
@@ -49,6 +52,40 @@ std::vector<std::string> SplitServers(const std::string& comma_separated);
 // connection) or IoError, with `what` and the library's text (and the JetStream error code when
 // it is not 0).
 core::Status NatsStatus(const char* what, int nats_status, int js_error = 0);
+
+// Options of a JetStream call (libnats) that waits up to wait_ms for its answer.
+jsOptions NatsWait(int wait_ms);
+
+// A JetStream stream capturing exactly one subject, with file storage: opened, or created with
+// `replicas` copies (and a `duplicate_window_s` window in which a message id is stored once)
+// when it does not exist. FailedPrecondition when it exists with another subject.
+struct StreamSpec {
+  std::string name;
+  std::string subject;
+  int replicas = 3;
+  int duplicate_window_s = 120;
+  int wait_ms = kNatsAdminWaitMs;
+};
+struct StreamRange {
+  std::int64_t first = 0;  // the oldest message kept (0: empty)
+  std::int64_t last = 0;   // the newest (0: never written)
+};
+core::Result<StreamRange> OpenStream(jsCtx* js, const StreamSpec& spec);
+
+// A message for a JetStream stream: its subject, payload and headers.
+struct StreamMessage {
+  std::string subject;
+  std::string_view payload;
+  std::vector<std::pair<const char*, std::string>> headers;
+};
+// Publishes `message`, waiting up to wait_ms for the stream's acknowledgement: the sequence the
+// stream stored it at, or an error naming `what` (*js_error: JetStream's error code, 0 if none).
+core::Result<std::int64_t> PublishToStream(jsCtx* js, const StreamMessage& message, int wait_ms,
+                                           const std::string& what, int* js_error);
+
+// Deletes the messages of stream `name` before message `sequence` (a truncation).
+core::Status PurgeStreamBefore(jsCtx* js, const std::string& name, std::int64_t sequence,
+                               int wait_ms);
 
 class NatsClient {
  public:

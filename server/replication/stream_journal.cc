@@ -11,12 +11,11 @@
 namespace slamd::server {
 namespace {
 
-constexpr const char* kSourceHeader = "Slamd-Source";
+constexpr const char* kStreamOffsetHeader = "Slamd-Stream-Offset";
 constexpr const char* kJournalEndHeader = "Slamd-Journal-End";
-constexpr const char* kLastMessageHeader = "Slamd-Last-Message";
 // Acknowledged batches kept to send again should the stream lose them [bytes].
 constexpr std::int64_t kRetainBytes = std::int64_t{64} << 20;
-constexpr std::int64_t kDuplicateWindowNs = std::int64_t{120} * 1000 * 1000 * 1000;
+constexpr size_t kFollowPoints = 4096;
 
 // 16 hex digits, different for every writer (pid and a random device).
 std::string NewWriterId() {
@@ -27,26 +26,10 @@ std::string NewWriterId() {
   return buf;
 }
 
-std::int64_t NumberHeader(natsMsg* msg, const char* key) {
-  const char* v = nullptr;
-  if (natsMsgHeader_Get(msg, key, &v) != NATS_OK || v == nullptr) return 0;
-  std::int64_t n = 0;
-  const char* end = v + std::strlen(v);
-  if (std::from_chars(v, end, n).ptr != end) return 0;
-  return n;
-}
-
-jsOptions WaitOptions(int wait_ms) {
-  jsOptions jo;
-  jsOptions_Init(&jo);
-  jo.Wait = wait_ms;
-  return jo;
-}
-
 // The newest message of the stream (its position) and its Nats-Msg-Id.
 core::Result<std::pair<StreamPosition, std::string>> ReadNewest(jsCtx* js,
                                                                 const StreamJournalOptions& o) {
-  jsOptions jo = WaitOptions(o.ack_timeout_ms);
+  jsOptions jo = NatsWait(o.ack_timeout_ms);
   natsMsg* m = nullptr;
   jsErrCode jerr = static_cast<jsErrCode>(0);
   const natsStatus s = js_GetLastMsg(&m, js, o.stream.c_str(), o.subject.c_str(), &jo, &jerr);
@@ -83,8 +66,19 @@ core::Status StreamJournalOptions::Validate() const {
   return core::Status::Ok();
 }
 
+std::int64_t NumberHeader(natsMsg* msg, const char* key, std::int64_t absent) {
+  const char* v = nullptr;
+  if (natsMsgHeader_Get(msg, key, &v) != NATS_OK || v == nullptr) return absent;
+  std::int64_t n = 0;
+  const char* end = v + std::strlen(v);
+  if (std::from_chars(v, end, n).ptr != end) return absent;
+  return n;
+}
+
 StreamPosition PositionOf(natsMsg* msg) {
   StreamPosition p{.sequence = static_cast<std::int64_t>(natsMsg_GetSequence(msg)),
+                   .stream_offset = NumberHeader(msg, kStreamOffsetHeader, -1),
+                   .payload_bytes = natsMsg_GetDataLength(msg),
                    .journal_end = NumberHeader(msg, kJournalEndHeader),
                    .last_message = NumberHeader(msg, kLastMessageHeader)};
   const char* v = nullptr;
@@ -98,37 +92,13 @@ core::Result<std::unique_ptr<StreamJournal>> StreamJournal::Open(
   core::Result<std::unique_ptr<NatsClient>> client = NatsClient::Connect(options.nats);
   if (!client.ok()) return client.status();
   jsCtx* js = client.value()->jetstream();
-  jsOptions jo = WaitOptions(std::max(options.ack_timeout_ms, kNatsAdminWaitMs));
-  jsStreamInfo* si = nullptr;
-  jsErrCode jerr = static_cast<jsErrCode>(0);
-  natsStatus s = js_GetStreamInfo(&si, js, options.stream.c_str(), &jo, &jerr);
-  if (s == NATS_NOT_FOUND) {
-    jsStreamConfig cfg;
-    jsStreamConfig_Init(&cfg);
-    const char* subjects[] = {options.subject.c_str()};
-    cfg.Name = options.stream.c_str();
-    cfg.Subjects = subjects;
-    cfg.SubjectsLen = 1;
-    cfg.Storage = js_FileStorage;
-    cfg.Replicas = options.replicas;
-    cfg.Duplicates = kDuplicateWindowNs;
-    jerr = static_cast<jsErrCode>(0);
-    s = js_AddStream(&si, js, &cfg, &jo, &jerr);
-    if (s != NATS_OK) {
-      return NatsStatus(("cannot create stream " + options.stream).c_str(), s, jerr);
-    }
-  } else if (s != NATS_OK) {
-    return NatsStatus(("cannot read stream " + options.stream).c_str(), s, jerr);
-  }
-  const bool same_subject =
-      si->Config->SubjectsLen == 1 && options.subject == si->Config->Subjects[0];
-  const std::int64_t last = static_cast<std::int64_t>(si->State.LastSeq);
-  jsStreamInfo_Destroy(si);
-  if (!same_subject) {
-    return core::FailedPrecondition("stream " + options.stream +
-                                    " exists and does not capture exactly the subject " +
-                                    options.subject);
-  }
+  core::Result<StreamRange> range =
+      OpenStream(js, {.name = options.stream,
+                      .subject = options.subject,
+                      .replicas = options.replicas,
+                      .wait_ms = std::max(options.ack_timeout_ms, kNatsAdminWaitMs)});
+  if (!range.ok()) return range.status();
+  const std::int64_t last = range.value().last;
   StreamPosition end;
   if (last > 0) {
     auto newest = ReadNewest(js, options);
@@ -144,6 +114,8 @@ StreamJournal::StreamJournal(const StreamJournalOptions& options,
     : options_(options),
       client_(std::move(client)),
       writer_id_(NewWriterId()),
+      cut_{.last_message = end.last_message, .journal_end = end.journal_end},
+      stream_bytes_(end.stream_offset >= 0 ? end.stream_offset + end.payload_bytes : 0),
       end_(std::move(end)) {}
 
 void StreamJournal::Stage(std::string_view frame, Position after) {
@@ -156,16 +128,24 @@ void StreamJournal::CutBatchesLocked() {
   const size_t max = static_cast<size_t>(options_.max_batch_bytes);
   size_t begin = 0, next = 0;  // next: the first mark not yet in a batch
   while (begin < staged_.size()) {
+    Batch batch{.id = writer_id_ + "-" + std::to_string(next_batch_++),
+                .stream_offset = stream_bytes_,
+                .whole_start = cut_whole_,
+                .last_message_before = cut_.last_message};
     size_t end = begin;
     while (next < marks_.size() && marks_[next].end - begin <= max) {  // whole records
       end = marks_[next].end;
+      // A message's record moves last_message on; any other leaves it.
+      if (marks_[next].position.last_message == cut_.last_message) ++batch.others;
       cut_ = marks_[next].position;
       ++next;
     }
+    cut_whole_ = end != begin;  // else it ends inside a record longer than what is left
     if (end == begin) end = std::min(staged_.size(), begin + max);  // a longer record, cut
-    pending_.push_back({.id = writer_id_ + "-" + std::to_string(next_batch_++),
-                        .bytes = staged_.substr(begin, end - begin),
-                        .end = cut_});
+    batch.bytes = staged_.substr(begin, end - begin);
+    stream_bytes_ += static_cast<std::int64_t>(batch.bytes.size());
+    batch.end = cut_;
+    pending_.push_back(std::move(batch));
     begin = end;
   }
   staged_.clear();
@@ -178,6 +158,13 @@ void StreamJournal::Stored(Batch batch, std::int64_t sequence) {
           .journal_end = batch.end.journal_end,
           .last_message = batch.end.last_message};
   ++batches_published_;
+  if (sequence > 0 && batch.whole_start) {
+    starts_.push_back({.point = {.sequence = sequence, .stream_offset = batch.stream_offset},
+                       .last_message_before = batch.last_message_before,
+                       .others_before = others_acked_});
+    if (starts_.size() > kFollowPoints) starts_.pop_front();
+  }
+  others_acked_ += batch.others;
   acked_bytes_ += static_cast<std::int64_t>(batch.bytes.size());
   acked_.push_back(std::move(batch));
   while (acked_bytes_ > kRetainBytes && acked_.size() > 1) {
@@ -189,32 +176,25 @@ void StreamJournal::Stored(Batch batch, std::int64_t sequence) {
 
 StreamJournal::Sent StreamJournal::Publish(const Batch& batch, std::int64_t* sequence,
                                            core::Status* error) {
-  natsMsg* m = nullptr;
-  const std::string expected = std::to_string(end_.sequence);
-  const std::string journal_end = std::to_string(batch.end.journal_end);
-  const std::string last_message = std::to_string(batch.end.last_message);
-  natsStatus s = natsMsg_Create(&m, options_.subject.c_str(), nullptr, batch.bytes.data(),
-                                static_cast<int>(batch.bytes.size()));
-  if (s == NATS_OK) s = natsMsgHeader_Set(m, "Nats-Msg-Id", batch.id.c_str());
-  if (s == NATS_OK) s = natsMsgHeader_Set(m, "Nats-Expected-Last-Sequence", expected.c_str());
-  if (s == NATS_OK) s = natsMsgHeader_Set(m, kSourceHeader, options_.source.c_str());
-  if (s == NATS_OK) s = natsMsgHeader_Set(m, kJournalEndHeader, journal_end.c_str());
-  if (s == NATS_OK) s = natsMsgHeader_Set(m, kLastMessageHeader, last_message.c_str());
-  jsPubOptions po;
-  jsPubOptions_Init(&po);
-  po.MaxWait = options_.ack_timeout_ms;
-  jsPubAck* ack = nullptr;
-  jsErrCode jerr = static_cast<jsErrCode>(0);
-  if (s == NATS_OK) s = js_PublishMsg(&ack, client_->jetstream(), m, &po, &jerr);
-  natsMsg_Destroy(m);
-  if (s == NATS_OK) {
-    *sequence = static_cast<std::int64_t>(ack->Sequence);
-    jsPubAck_Destroy(ack);
+  int jerr = 0;
+  core::Result<std::int64_t> stored =
+      PublishToStream(client_->jetstream(),
+                      {.subject = options_.subject,
+                       .payload = batch.bytes,
+                       .headers = {{"Nats-Msg-Id", batch.id},
+                                   {"Nats-Expected-Last-Sequence", std::to_string(end_.sequence)},
+                                   {kSourceHeader, options_.source},
+                                   {kStreamOffsetHeader, std::to_string(batch.stream_offset)},
+                                   {kJournalEndHeader, std::to_string(batch.end.journal_end)},
+                                   {kLastMessageHeader, std::to_string(batch.end.last_message)}}},
+                      options_.ack_timeout_ms,
+                      "stream " + options_.stream + ": batch " + batch.id + " not stored", &jerr);
+  if (stored.ok()) {
+    *sequence = stored.value();
     return Sent::kStored;
   }
   if (jerr == JSStreamWrongLastSequenceErr) return Sent::kMoved;
-  *error = NatsStatus(("stream " + options_.stream + ": batch " + batch.id + " not stored").c_str(),
-                      s, jerr);
+  *error = stored.status();
   return Sent::kFailed;
 }
 
@@ -298,6 +278,20 @@ std::int64_t StreamJournal::pending_bytes() const {
 std::int64_t StreamJournal::batches_published() const {
   std::lock_guard lock(commit_mutex_);
   return batches_published_;
+}
+
+core::Result<FollowPoint> StreamJournal::FollowPointFor(std::int64_t last_message) const {
+  std::lock_guard lock(commit_mutex_);
+  for (auto s = starts_.rbegin(); s != starts_.rend(); ++s) {
+    if (s->last_message_before <= last_message) {
+      FollowPoint p = s->point;
+      p.skip = others_acked_ - s->others_before;
+      return p;
+    }
+  }
+  return core::NotFound(
+      "stream " + options_.stream + ": no message of the newest " + std::to_string(starts_.size()) +
+      " begins with a record after messages up to " + std::to_string(last_message) + " only");
 }
 
 }  // namespace slamd::server

@@ -11,8 +11,15 @@
 //                                 the message if anything else was appended meanwhile, so
 //                                 batches are never reordered or interleaved with another writer
 //   Slamd-Source                  the id of the data directory whose journal this is
+//   Slamd-Stream-Offset           where its payload starts in the stream's bytes (all payloads
+//                                 one after the other since the first message)
 //   Slamd-Journal-End             that journal's global offset past the last whole record here
 //   Slamd-Last-Message            the sequence of the last accepted message up to there
+// A reader knows from Slamd-Stream-Offset which bytes it already has (a batch sent again) and
+// whether any are missing (the stream truncated before it); see stream_reader.h.
+//
+// Truncation: the stream may lose its oldest messages once a snapshot covers them
+// (stream_snapshots.h); FollowPoint names the message a reader of such a snapshot starts at.
 //
 // Failure: an unacknowledged batch (NATS down, no quorum, a partition) stays pending and Commit
 // returns Unavailable; the next Commit sends it again (same id). When the stream refuses a batch
@@ -44,6 +51,11 @@ typedef struct __natsMsg natsMsg;
 
 namespace slamd::server {
 
+// Headers of the stream messages that name their writer and the last message up to them (the
+// snapshot stream's too).
+inline constexpr const char* kSourceHeader = "Slamd-Source";
+inline constexpr const char* kLastMessageHeader = "Slamd-Last-Message";
+
 struct StreamJournalOptions {
   NatsOptions nats = {};
   std::string stream = "SLAMD";           // JetStream stream name ([A-Za-z0-9_-])
@@ -61,10 +73,23 @@ struct StreamJournalOptions {
 struct StreamPosition {
   std::int64_t sequence = 0;  // the stream's (0: empty stream)
   std::string source;
+  std::int64_t stream_offset = -1;  // -1: not said (a stream written before the header)
+  std::int64_t payload_bytes = 0;
   std::int64_t journal_end = 0;
   std::int64_t last_message = 0;
 };
+
+// Where a reader of a state starts: a stream message that begins with a whole record, every
+// message before it in the state, and the records after it that are not messages in the state
+// for the first `skip` of them (messages say by their sequence whether a state includes them).
+struct FollowPoint {
+  std::int64_t sequence = 1;       // the stream message
+  std::int64_t stream_offset = 0;  // its Slamd-Stream-Offset
+  std::int64_t skip = 0;
+};
 StreamPosition PositionOf(natsMsg* msg);
+// A header of `msg` as a number; `absent` when it is missing or not a number.
+std::int64_t NumberHeader(natsMsg* msg, const char* key, std::int64_t absent = 0);
 
 class StreamJournal final : public JournalReplica {
  public:
@@ -80,13 +105,23 @@ class StreamJournal final : public JournalReplica {
   StreamPosition stream_end() const;
   std::int64_t pending_bytes() const;      // staged or sent and not acknowledged [bytes]
   std::int64_t batches_published() const;  // acknowledged since Open
+  // Where a reader of a state that includes every record acknowledged so far and the messages
+  // up to `last_message` starts (the newest such point among the newest 4096 batches). Call
+  // after a Commit that left nothing pending, before anything but messages is staged again.
+  // NotFound when there is none.
+  core::Result<FollowPoint> FollowPointFor(std::int64_t last_message) const;
   const std::string& source() const { return options_.source; }  // Slamd-Source of its batches
+  const StreamJournalOptions& options() const { return options_; }
 
  private:
   struct Batch {
     std::string id;
     std::string bytes;
-    Position end;  // of its last whole record
+    std::int64_t stream_offset = 0;  // Slamd-Stream-Offset
+    bool whole_start = false;        // bytes begin with a record (not a record's continuation)
+    std::int64_t last_message_before = 0;  // the last message before its first record
+    int others = 0;                        // records ending here that are not messages
+    Position end;                          // of its last whole record
   };
   // Where a staged frame ends.
   struct Mark {
@@ -118,6 +153,8 @@ class StreamJournal final : public JournalReplica {
   mutable std::mutex commit_mutex_;  // Commit, pending_ and the stream position
   std::deque<Batch> pending_;
   Position cut_;  // end of the last whole record cut into a batch
+  bool cut_whole_ = true;          // the last batch cut ended with a whole record
+  std::int64_t stream_bytes_ = 0;  // payload bytes cut into batches since the stream began
   std::int64_t next_batch_ = 1;
   StreamPosition end_;
   std::int64_t batches_published_ = 0;
@@ -125,6 +162,15 @@ class StreamJournal final : public JournalReplica {
   std::int64_t acked_bytes_ = 0;
   bool retained_all_ = true;  // acked_ holds every batch this writer stored
   std::int64_t lost_batches_ = 0;  // acknowledged, lost by the stream, sent again (new ids)
+  // Where readers may start, among the newest acknowledged batches (oldest first), with the
+  // count of other records acknowledged before each.
+  struct Start {
+    FollowPoint point;
+    std::int64_t last_message_before = 0;
+    std::int64_t others_before = 0;
+  };
+  std::deque<Start> starts_;
+  std::int64_t others_acked_ = 0;  // records other than messages acknowledged since Open
 };
 
 }  // namespace slamd::server

@@ -10,10 +10,11 @@
 namespace slamd::server {
 
 core::Result<std::unique_ptr<StreamReader>> StreamReader::Open(const StreamJournalOptions& options,
-                                                               std::int64_t from_sequence) {
-  if (from_sequence < 1) {
-    return core::InvalidArgument("StreamReader: from_sequence = " + std::to_string(from_sequence) +
-                                 "; violates >= 1");
+                                                               const FollowPoint& from) {
+  if (from.sequence < 1 || from.stream_offset < 0) {
+    return core::InvalidArgument("StreamReader: from = message " + std::to_string(from.sequence) +
+                                 " at stream offset " + std::to_string(from.stream_offset) +
+                                 "; violates sequence >= 1, offset >= 0");
   }
   core::Result<std::unique_ptr<NatsClient>> client = NatsClient::Connect(options.nats);
   if (!client.ok()) return client.status();
@@ -25,7 +26,7 @@ core::Result<std::unique_ptr<StreamReader>> StreamReader::Open(const StreamJourn
   so.Stream = options.stream.c_str();
   so.Ordered = true;
   so.Config.DeliverPolicy = js_DeliverByStartSequence;
-  so.Config.OptStartSeq = static_cast<std::uint64_t>(from_sequence);
+  so.Config.OptStartSeq = static_cast<std::uint64_t>(from.sequence);
   natsSubscription* sub = nullptr;
   jsErrCode jerr = static_cast<jsErrCode>(0);
   const natsStatus s =
@@ -34,7 +35,7 @@ core::Result<std::unique_ptr<StreamReader>> StreamReader::Open(const StreamJourn
     return NatsStatus(("cannot follow stream " + options.stream).c_str(), s, jerr);
   }
   return std::unique_ptr<StreamReader>(
-      new StreamReader(std::move(client).value(), sub, options.stream));
+      new StreamReader(std::move(client).value(), sub, options.stream, from.stream_offset));
 }
 
 StreamReader::~StreamReader() {
@@ -60,6 +61,7 @@ core::Result<bool> StreamReader::TakeFrame(journal::JournalRecord* record) {
                           std::to_string(position_.sequence) + ": " + why);
   }
   next_ += kJournalRecordHeaderSize + length;
+  if (offset_ >= 0) offset_ += static_cast<std::int64_t>(kJournalRecordHeaderSize + length);
   if (next_ == buffer_.size()) {  // everything received is returned
     buffer_.clear();
     next_ = 0;
@@ -80,14 +82,34 @@ core::Result<bool> StreamReader::Next(journal::JournalRecord* record, int timeou
       buffer_.erase(0, next_);
       next_ = 0;
     }
-    buffer_.append(natsMsg_GetData(m), static_cast<size_t>(natsMsg_GetDataLength(m)));
-    received_ = PositionOf(m);
+    StreamPosition p = PositionOf(m);
     jsMsgMetaData* meta = nullptr;  // a consumer's message has its stream sequence here
     if (natsMsg_GetMetaData(&meta, m) == NATS_OK) {
-      received_.sequence = static_cast<std::int64_t>(meta->Sequence.Stream);
+      p.sequence = static_cast<std::int64_t>(meta->Sequence.Stream);
       jsMsgMetaData_Destroy(meta);
     }
+    const auto length = static_cast<std::int64_t>(natsMsg_GetDataLength(m));
+    const auto buffered = static_cast<std::int64_t>(buffer_.size());  // next_ = 0
+    std::int64_t skip = 0;
+    if (p.stream_offset < 0) {
+      offset_ = -1;  // a writer from before the header: nothing to check
+    } else if (offset_ < 0) {
+      offset_ = p.stream_offset - buffered;
+    } else if (p.stream_offset > offset_ + buffered) {
+      natsMsg_Destroy(m);
+      return core::DataLoss("stream " + stream_ + ": message " + std::to_string(p.sequence) +
+                            " starts at stream offset " + std::to_string(p.stream_offset) +
+                            ", this reader is at " + std::to_string(offset_ + buffered) +
+                            ": the records in between are no longer in the stream (truncated "
+                            "after a snapshot?)");
+    } else {
+      skip = std::min(length, offset_ + buffered - p.stream_offset);
+    }
+    if (skip == length) ++repeated_messages_;
+    buffer_.append(natsMsg_GetData(m) + skip, static_cast<size_t>(length - skip));
     natsMsg_Destroy(m);
+    received_ = std::move(p);
+    if (buffer_.empty()) position_ = received_;  // nothing new: all of it returned before
   }
 }
 

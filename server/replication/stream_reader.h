@@ -4,7 +4,10 @@
 // reads; tests compare it with the local journal.
 //
 // The payloads of consecutive stream messages are one byte stream of journal frames
-// (journal_format.h: length, masked CRC32C, JournalRecord); a frame may span messages.
+// (journal_format.h: length, masked CRC32C, JournalRecord); a frame may span messages. Each
+// message says where it starts in the stream's bytes (Slamd-Stream-Offset): bytes the reader
+// already has (a batch the writer sent again after the stream lost it) are skipped, and a message
+// that starts past the reader (the stream truncated before it was read) is DataLoss.
 #pragma once
 
 #include <cstdint>
@@ -25,10 +28,11 @@ namespace slamd::server {
 
 class StreamReader {
  public:
-  // Starts at stream message `from_sequence` (>= 1; 1 = the beginning). The options' nats,
+  // Starts at stream message from.sequence (>= 1), which begins with a record at
+  // from.stream_offset ({1, 0}: the beginning; from.skip is the caller's). The options' nats,
   // stream and subject are used; Unavailable when NATS does not answer.
   static core::Result<std::unique_ptr<StreamReader>> Open(const StreamJournalOptions& options,
-                                                          std::int64_t from_sequence);
+                                                          const FollowPoint& from);
   ~StreamReader();
   StreamReader(const StreamReader&) = delete;
   StreamReader& operator=(const StreamReader&) = delete;
@@ -40,12 +44,15 @@ class StreamReader {
 
   // The last stream message all of whose bytes were returned (sequence 0 before the first).
   const StreamPosition& position() const { return position_; }
+  // Messages that held only bytes already returned (batches sent again).
+  std::int64_t repeated_messages() const { return repeated_messages_; }
   // Bytes received and not yet returned as a record (a frame's beginning).
   std::int64_t buffered_bytes() const { return static_cast<std::int64_t>(buffer_.size() - next_); }
 
  private:
-  StreamReader(std::unique_ptr<NatsClient> client, natsSubscription* sub, std::string stream)
-      : client_(std::move(client)), sub_(sub), stream_(std::move(stream)) {}
+  StreamReader(std::unique_ptr<NatsClient> client, natsSubscription* sub, std::string stream,
+               std::int64_t offset)
+      : client_(std::move(client)), sub_(sub), stream_(std::move(stream)), offset_(offset) {}
   // A whole frame at next_: parses it into *record (true), or false when more bytes are needed.
   core::Result<bool> TakeFrame(journal::JournalRecord* record);
 
@@ -54,6 +61,8 @@ class StreamReader {
   const std::string stream_;
   std::string buffer_;
   size_t next_ = 0;          // first byte of buffer_ not yet returned
+  std::int64_t offset_;      // stream offset of buffer_[next_]; -1 when unknown (no header)
+  std::int64_t repeated_messages_ = 0;
   StreamPosition position_;  // of the last message whose bytes are all returned
   StreamPosition received_;  // of the last message received
 };

@@ -5,10 +5,12 @@
 // the pair's channels, and the same steps to an unreplicated slamd (the uninterrupted run). At
 // seeded steps the leader is killed with SIGKILL: the standby takes the lease when it lapses,
 // applies the rest of the stream and what it heard that the stream lacks, and publishes; a new
-// standby is the failed process restarted on its data directory (superseded by the stream). A
-// supervisor restarts any process that exits deposed. Robots change nothing. At the end the pair's
-// data directory and the uninterrupted one recover to the same estimator (every factor once,
-// estimates within 1e-9 after convergence): nothing lost, nothing doubled. A leader frozen
+// standby is the failed process restarted on its data directory (superseded by the stream),
+// starting from the newest snapshot in NATS (snapshots every 50 updates, the stream truncated
+// before the older of the two kept). A supervisor restarts any process that exits deposed.
+// Robots change nothing. At the end the pair's data directory and the uninterrupted one recover
+// to the same estimator (every factor once, estimates within 1e-9 after convergence): nothing
+// lost, nothing doubled. A leader frozen
 // (SIGSTOP) instead of killed, thawed after the takeover, finds itself deposed and exits 3; so
 // does a leader cut off from NATS by a network partition (each process reaches NATS through an
 // address of its own on a veth device, the leader's deleted with `ip addr`, then restored),
@@ -68,7 +70,7 @@ constexpr const char* kConfig =
     "refine { enabled: true budget_s: 0.002 }\n"
     "isam2 { refine_threshold: 1e-10 }\n"
     "publish { status_rate_hz: 20 estimate_covariance: false }\n"
-    "journal { sync: ALWAYS }\n"
+    "journal { sync: ALWAYS snapshot_every_updates: 50 }\n"
     "log_level: \"info\"\n";
 
 // How the leader fails: killed; frozen (SIGSTOP: no lease renewals, no appends) and thawed after
@@ -294,6 +296,10 @@ void RunFailover(Fault fault, int faults, const char* tag) {
       // Restarted on its data directory, superseded by the stream: the new standby.
       ASSERT_NO_FATAL_FAILURE(testing::Launch(pair_configs[l], client, &old));
       ASSERT_TRUE(testing::WaitForLog(client, old, "moved to", 30.0)) << old.log;
+      // Snapshots every 50 updates, two kept in NATS: the stream is truncated, and the new
+      // standby starts from the newest snapshot there.
+      EXPECT_TRUE(testing::WaitForLog(client, old, "standby starts from the snapshot", 30.0))
+          << old.log;
     }
     ASSERT_GT(testing::SendUntilEstimated(client, &pair, messages[k], pose, 30.0, 0.5), 0)
         << "step " << k << " never acknowledged by the pair";
@@ -322,6 +328,14 @@ void RunFailover(Fault fault, int faults, const char* tag) {
   EXPECT_EQ(pair.other_rejects - pair.rejects[slamd::reject_t::REASON_REPLICATION_UNAVAILABLE], 0)
       << reasons;
   if (fault == Fault::kKill) EXPECT_EQ(pair.other_rejects, 0) << reasons;
+
+  // The stream was truncated before the oldest snapshot kept in NATS.
+  auto stream_client = NatsClient::Connect({.servers = nats.UrlList()});
+  ASSERT_TRUE(stream_client.ok());
+  const auto range =
+      OpenStream(stream_client.value()->jetstream(), {.name = "SLAMD", .subject = "slamd.journal"});
+  ASSERT_TRUE(range.ok()) << range.status().ToString();
+  EXPECT_GT(range.value().first, 1);
 
   const ServerParams params = testing::ConfigParams(ref_config);
   const testing::Recovered pair_state = testing::RecoverAndConverge(leader.data_dir, params);

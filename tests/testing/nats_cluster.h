@@ -35,14 +35,15 @@ inline bool HaveNatsServer() { return std::system("command -v nats-server >/dev/
 // Every record of a replicated journal's stream from its beginning, in order (until none comes
 // for 2 s). Opening the reader is retried for 30 s (a cluster that just lost or regained servers
 // may take a while to place the consumer).
+// *repeated_messages: the messages that held only bytes already read (batches sent again).
 inline std::vector<journal::JournalRecord> ReadWholeStream(
-    const server::StreamJournalOptions& options) {
+    const server::StreamJournalOptions& options, std::int64_t* repeated_messages = nullptr) {
   std::vector<journal::JournalRecord> out;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-  auto reader = server::StreamReader::Open(options, 1);
+  auto reader = server::StreamReader::Open(options, {.sequence = 1});
   while (!reader.ok() && std::chrono::steady_clock::now() < deadline) {
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    reader = server::StreamReader::Open(options, 1);
+    reader = server::StreamReader::Open(options, {.sequence = 1});
   }
   EXPECT_TRUE(reader.ok()) << reader.status().ToString();
   if (!reader.ok()) return out;
@@ -54,6 +55,7 @@ inline std::vector<journal::JournalRecord> ReadWholeStream(
     out.push_back(r);
   }
   EXPECT_EQ(reader.value()->buffered_bytes(), 0) << "the stream ends inside a record";
+  if (repeated_messages) *repeated_messages = reader.value()->repeated_messages();
   return out;
 }
 

@@ -206,6 +206,7 @@ TEST(ConfigLoaderTest, Replication) {
 replication {
   servers: "nats://a:4222,nats://b:4222" stream: "S1" subject: "s.j" replicas: 5
   ack_timeout_ms: 250 lease_ttl_ms: 2000 lease_bucket: "L" standby_keep_s: 12.5
+  keep_snapshots: 3
 })");
   ASSERT_TRUE(p.ok()) << p.status().ToString();
   EXPECT_EQ(p->replication.servers, "nats://a:4222,nats://b:4222");
@@ -216,11 +217,14 @@ replication {
   EXPECT_EQ(p->replication.lease_ttl_ms, 2000);
   EXPECT_EQ(p->replication.lease_bucket, "L");
   EXPECT_EQ(p->replication.standby_keep_s, 12.5);
+  EXPECT_EQ(p->replication.keep_snapshots, 3);
   EXPECT_TRUE(ServerParams{}.replication.servers.empty());  // off by default
   for (const auto& [text, error] : std::vector<std::pair<std::string, std::string>>{
            {"replication { replicas: 0 }", "replication.replicas = 0; violates >= 1"},
            {"replication { lease_ttl_ms: 50 }", "replication.lease_ttl_ms = 50; violates >= 100"},
-           {"replication { standby_keep_s: 0 }", "replication.standby_keep_s = 0"}}) {
+           {"replication { standby_keep_s: 0 }", "replication.standby_keep_s = 0"},
+           {"replication { keep_snapshots: -1 }",
+            "replication.keep_snapshots = -1; violates >= 0"}}) {
     const core::Result<ServerParams> q = ParseConfigText(text, "c");
     ASSERT_FALSE(q.ok()) << text;
     EXPECT_NE(q.status().message().find(error), std::string::npos) << q.status().message();
