@@ -50,7 +50,8 @@ core::Result<StreamRange> OpenStream(jsCtx* js, const StreamSpec& spec) {
   }
   const bool same_subject = si->Config->SubjectsLen == 1 && spec.subject == si->Config->Subjects[0];
   const StreamRange range{.first = static_cast<std::int64_t>(si->State.FirstSeq),
-                          .last = static_cast<std::int64_t>(si->State.LastSeq)};
+                          .last = static_cast<std::int64_t>(si->State.LastSeq),
+                          .bytes = static_cast<std::int64_t>(si->State.Bytes)};
   jsStreamInfo_Destroy(si);
   if (!same_subject) {
     return core::FailedPrecondition(

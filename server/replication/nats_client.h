@@ -69,6 +69,7 @@ struct StreamSpec {
 struct StreamRange {
   std::int64_t first = 0;  // the oldest message kept (0: empty)
   std::int64_t last = 0;   // the newest (0: never written)
+  std::int64_t bytes = 0;  // kept, as the servers count them
 };
 core::Result<StreamRange> OpenStream(jsCtx* js, const StreamSpec& spec);
 

@@ -336,6 +336,10 @@ void RunFailover(Fault fault, int faults, const char* tag) {
       OpenStream(stream_client.value()->jetstream(), {.name = "SLAMD", .subject = "slamd.journal"});
   ASSERT_TRUE(range.ok()) << range.status().ToString();
   EXPECT_GT(range.value().first, 1);
+  std::printf("[ stream ] journal stream: messages %lld-%lld kept (%lld bytes)\n",
+              static_cast<long long>(range.value().first),
+              static_cast<long long>(range.value().last),
+              static_cast<long long>(range.value().bytes));
 
   const ServerParams params = testing::ConfigParams(ref_config);
   const testing::Recovered pair_state = testing::RecoverAndConverge(leader.data_dir, params);
