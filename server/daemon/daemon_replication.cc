@@ -346,42 +346,49 @@ void Daemon::TakeOver() {
     estimator_->Process(pending);
     JournalUpdate(pending);
   }
-  std::deque<Heard> heard;
-  {
-    std::lock_guard lock(heard_mutex_);
-    heard.swap(heard_);
-    standby_ = false;  // intake queues from now on
-  }
-  const size_t heard_count = heard.size();
   // What the robots sent while this slamd followed and the stream did not bring (had the stream
-  // brought it, it was applied; a re-sent copy would be recognised as held). In chunks the
-  // queue has room for.
+  // brought it, it was applied; a re-sent copy would be recognised as held), in the order it was
+  // heard: intake keeps adding to heard_ while this journals and queues it, in chunks the queue
+  // has room for, and takes the leader's way only once heard_ is empty (so nothing heard later
+  // is queued before what was heard earlier: a closure before its pose would be refused).
   const int chunk = std::max(1, queue_.capacity() / 2);
-  size_t journaled = 0;
-  while (!heard.empty()) {
+  size_t journaled = 0, heard_count = 0;
+  for (;;) {
+    std::deque<Heard> heard;
     {
-      std::lock_guard lock(intake_mutex_);
-      for (int n = 0; n < chunk && !heard.empty(); ++n, heard.pop_front()) {
-        const Heard& h = heard.front();
-        std::string key = h.channel + '\0';
-        key.append(h.bytes.begin(), h.bytes.end());
-        if (streamed_.count(key) != 0) continue;  // the stream had it: applied already
-        core::Result<Inbound> in = DecodeInbound(h.type, h.bytes);
-        if (!in.ok()) continue;  // it was valid when heard
-        const core::Result<std::int64_t> seq =
-            journal_->AppendMessage(h.channel, h.type, h.bytes, WallMicros());
-        if (!seq.ok()) {
-          NoteJournalError(seq.status());
-          continue;
-        }
-        in.value().received_us = h.steady_us;
-        in.value().journal_sequence = seq.value();
-        intake_held_.push_back(std::move(in).value());
-        ++journaled;
+      std::lock_guard lock(heard_mutex_);
+      if (heard_.empty()) {
+        standby_ = false;  // intake queues from now on
+        break;
       }
-      QueueHeldLocked();
+      heard.swap(heard_);
     }
-    StepEstimator(0.0);
+    heard_count += heard.size();
+    while (!heard.empty()) {
+      {
+        std::lock_guard lock(intake_mutex_);
+        for (int n = 0; n < chunk && !heard.empty(); ++n, heard.pop_front()) {
+          const Heard& h = heard.front();
+          std::string key = h.channel + '\0';
+          key.append(h.bytes.begin(), h.bytes.end());
+          if (streamed_.count(key) != 0) continue;  // the stream had it: applied already
+          core::Result<Inbound> in = DecodeInbound(h.type, h.bytes);
+          if (!in.ok()) continue;  // it was valid when heard
+          const core::Result<std::int64_t> seq =
+              journal_->AppendMessage(h.channel, h.type, h.bytes, WallMicros());
+          if (!seq.ok()) {
+            NoteJournalError(seq.status());
+            continue;
+          }
+          in.value().received_us = h.steady_us;
+          in.value().journal_sequence = seq.value();
+          intake_held_.push_back(std::move(in).value());
+          ++journaled;
+        }
+        QueueHeldLocked();
+      }
+      StepEstimator(0.0);
+    }
   }
   streamed_.clear();  // a standby's
   streamed_order_.clear();
