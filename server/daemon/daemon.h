@@ -243,6 +243,7 @@ class Daemon {
   std::unique_ptr<LeaderLease> lease_;
   std::atomic<bool> standby_{false};
   std::atomic<bool> deposed_{false};  // the lease was lost while leading: this slamd must stop
+  std::atomic<bool> taking_over_{false};  // TakeOver: intake keeps queries in heard_ too
   std::unique_ptr<StreamReader> follower_;
   std::unique_ptr<JournalReplay> replay_;
   // A standby started from a snapshot in NATS: its local position (the data directory's

@@ -59,7 +59,9 @@ void Daemon::OnInbound(std::string_view channel, const Msg& msg, const std::stri
     Inbound in{std::move(value), SteadyMicros()};
     constexpr bool kJournaled = Spec::kRole != MessageRole::kQuery;
     if (standby_) {  // the leader answers; kept in case this slamd takes over
-      if (!kJournaled) return;
+      // A query is the leader's, unless this slamd is taking over: then it is answered after
+      // what was heard before it.
+      if (!kJournaled && !taking_over_) return;
       std::vector<std::uint8_t> bytes(static_cast<size_t>(msg.getEncodedSize()));
       msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
       if (Hear(channel, type, std::move(bytes))) return;

@@ -155,7 +155,14 @@ core::Status Daemon::Follow(bool* superseded) {
       return core::Status(started.status().code(), "replication: " + started.status().message());
     }
   }
-  core::Result<std::unique_ptr<StreamReader>> follower = StreamReader::Open(StreamOptions(r), from);
+  // Creating the consumer can time out on a loaded cluster (its answer lost although the
+  // consumer was made, seen in the failover tests): tried three times.
+  core::Result<std::unique_ptr<StreamReader>> follower = core::Unavailable("not tried");
+  for (int attempt = 0; attempt < 3 && follower.status().code() == core::StatusCode::kUnavailable;
+       ++attempt) {
+    follower = StreamReader::Open(StreamOptions(r), from);
+    if (!follower.ok()) log_->warn("replication: {}", follower.status().ToString());
+  }
   if (!follower.ok()) return follower.status();
   follower_ = std::move(follower).value();
   replay_ = std::make_unique<JournalReplay>(
@@ -311,6 +318,7 @@ void Daemon::StandbyStep() {
 void Daemon::TakeOver() {
   const ServerParams::Replication& r = params_.replication;
   const std::int64_t t0 = SteadyMicros();
+  taking_over_ = true;
   journal::JournalRecord record;
   // The rest of the stream; then the replicated journal continues from this data directory.
   // Reading stops at the first pause of 5 ms: TakeOverReplication refuses while the stream holds
@@ -374,13 +382,17 @@ void Daemon::TakeOver() {
           if (streamed_.count(key) != 0) continue;  // the stream had it: applied already
           core::Result<Inbound> in = DecodeInbound(h.type, h.bytes);
           if (!in.ok()) continue;  // it was valid when heard
+          in.value().received_us = h.steady_us;
+          if (std::holds_alternative<QueryRequest>(in.value().measurement)) {
+            intake_held_.push_back(std::move(in).value());  // asked during the takeover
+            continue;
+          }
           const core::Result<std::int64_t> seq =
               journal_->AppendMessage(h.channel, h.type, h.bytes, WallMicros());
           if (!seq.ok()) {
             NoteJournalError(seq.status());
             continue;
           }
-          in.value().received_us = h.steady_us;
           in.value().journal_sequence = seq.value();
           intake_held_.push_back(std::move(in).value());
           ++journaled;
