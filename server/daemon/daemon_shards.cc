@@ -22,8 +22,8 @@ namespace {
 // whole cost two O(n³) products every summary_every_ms. Settled shards then stop sending.
 bool SummaryChanged(const ShardSummaryMessage& last, const ShardSummaryMessage& next,
                     double pose_tolerance) {
-  if (last.poses != next.poses || last.x0.size() != next.x0.size() ||
-      last.A.cols() != next.A.cols()) {
+  if (last.keys != next.keys || last.map_landmarks != next.map_landmarks ||
+      last.x0.size() != next.x0.size() || last.A.cols() != next.A.cols()) {
     return true;
   }
   for (std::size_t i = 0; i < next.x0.size(); ++i) {
@@ -189,8 +189,8 @@ void Daemon::SendSummaries(const ShardSummaryMessage& summary) {
               : bus_->Publish(channels_.Inbound<ShardSummarySpec>(), bytes);
     }
     if (!s.ok()) {
-      log_->warn("shard summary for '{}' ({} poses, {} bytes): {}", neighbour,
-                 summary.poses.size(), bytes.size(), s.ToString());
+      log_->warn("shard summary for '{}' ({} variables, {} bytes): {}", neighbour,
+                 summary.keys.size(), bytes.size(), s.ToString());
       continue;
     }
     ++shard_exchange_.summaries_sent;

@@ -300,6 +300,10 @@ class Estimator::Builder final : public GraphBuilder {
   CameraTable& cameras() override { return e_.cameras_; }
   LandmarkTracks& tracks() override { return e_.tracks_; }
   void RejectPart(Verdict verdict) override { s_.parts.push_back({in_, std::move(verdict)}); }
+  void NoteShardLandmarks(const std::string& shard,
+                          const std::vector<std::uint64_t>& landmarks) override {
+    e_.shard_boundary_.NoteLandmarks(shard, landmarks);  // what it holds, whatever the update
+  }
 
  private:
   Estimator& e_;

@@ -24,13 +24,31 @@ core::Result<std::optional<ShardSummaryMessage>> Estimator::ShardSummary(std::in
   // The boundary (shard_boundary.h), grown as factors were applied, and by the factors in the
   // graph (a state restored from an older snapshot, the summaries of removed variables); then
   // the keys only the received summaries name.
+  // The shared map's landmarks its own factors name: those another shard holds too join the
+  // boundary, and the list goes with the summary (so the others find the ones they share).
   shard_boundary_.KeepOnly(isam_->linearization_point());
   const auto& slots = isam_->factor_slots();
+  std::set<std::uint64_t> own_landmarks;
   for (std::size_t i = 0; i < slots.size(); ++i) {
-    if (slots[i]) shard_boundary_.Grow(*slots[i], received_slots.contains(static_cast<int>(i)));
+    if (!slots[i]) continue;
+    const bool from_summary = received_slots.contains(static_cast<int>(i));
+    shard_boundary_.Grow(*slots[i], from_summary);
+    for (core::Key k : slots[i]->keys()) {
+      if (!from_summary && core::KeySymbol(k) == kMapLandmarkSymbol) {
+        own_landmarks.insert(core::KeyIndex(k));
+      }
+    }
   }
+  shard_boundary_.GrowShared(own_landmarks);
+  ShardSummaryMessage m{.utime = utime,
+                        .from_shard = shards.self,
+                        .map_landmarks = {own_landmarks.begin(), own_landmarks.end()}};
+  const auto landmarks_only = [&]() -> std::optional<ShardSummaryMessage> {
+    if (m.map_landmarks.empty()) return std::nullopt;
+    return std::move(m);
+  };
   const std::set<core::Key>& boundary = shard_boundary_.keys();
-  if (boundary.empty()) return std::optional<ShardSummaryMessage>();
+  if (boundary.empty()) return landmarks_only();
   std::set<core::Key> beyond;
   for (const core::FactorPtr& f : received) {
     for (core::Key k : f->keys()) {
@@ -42,11 +60,14 @@ core::Result<std::optional<ShardSummaryMessage>> Estimator::ShardSummary(std::in
   core::Result<core::FactorPtr> summary = core::SeparatorSummary(
       *isam_, *marginals_, keys, received, {.kept_keys = static_cast<int>(boundary.size())});
   if (!summary.ok()) return summary.status();
-  if (!*summary) return std::optional<ShardSummaryMessage>();
+  if (!*summary) return landmarks_only();
   const auto& c = static_cast<const core::LinearContainerFactor&>(**summary);
-  ShardSummaryMessage m{.utime = utime, .from_shard = shards.self};
   for (core::Key k : c.keys()) {
-    m.poses.emplace_back(registry_.Name(core::KeyRobot(k)), core::KeyIndex(k));
+    if (core::KeySymbol(k) == kMapLandmarkSymbol) {
+      m.keys.push_back({"", KeyKind::kMapLandmark, core::KeyIndex(k)});
+    } else {
+      m.keys.push_back({registry_.Name(core::KeyRobot(k)), KeyKind::kPose, core::KeyIndex(k)});
+    }
   }
   m.x0 = c.linearization_point();
   m.A = c.A();

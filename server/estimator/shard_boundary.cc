@@ -34,6 +34,19 @@ void ShardBoundary::Grow(const core::FactorGraph& factors,
   for (std::size_t i = 0; i < factors.size(); ++i) Grow(*factors[i], received[i]);
 }
 
+void ShardBoundary::NoteLandmarks(const std::string& shard,
+                                  const std::vector<std::uint64_t>& landmarks) {
+  landmarks_of_[shard] = std::set<std::uint64_t>(landmarks.begin(), landmarks.end());
+}
+
+void ShardBoundary::GrowShared(const std::set<std::uint64_t>& own) {
+  for (const auto& [shard, theirs] : landmarks_of_) {
+    for (std::uint64_t id : own) {
+      if (theirs.contains(id)) keys_.insert(MapLandmarkKey(id));
+    }
+  }
+}
+
 void ShardBoundary::KeepOnly(const core::Values& graph) {
   std::erase_if(keys_, [&](core::Key k) { return !graph.Contains(k); });
 }

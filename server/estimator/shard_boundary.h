@@ -1,14 +1,20 @@
-// A map shard's boundary (docs/SCALING.md): the poses its summary is on. Both ends of its own
-// factors that name another shard's pose, and its own poses in the summaries other shards sent.
+// A map shard's boundary (docs/SCALING.md): the variables its summary is on. Both ends of its own
+// factors that name another shard's pose, its own poses in the summaries other shards sent, and
+// the shared map's landmarks that its own factors name and another shard holds (the lists the
+// summaries carry; kept since the last summary of each shard, not in snapshots).
 // It grows as factors are applied (so a journal replayed after a crash grows it as the live run
 // did) and keeps a pose while the graph has it: one whose closure was retracted stays, as the
 // other shards may hold it only through this shard's summaries. Kept in snapshots.
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <map>
 #include <set>
 #include <span>
+#include <string>
 #include <tuple>
+#include <vector>
 
 #include "core/factors/factor_graph.h"
 #include "core/factors/values.h"
@@ -32,6 +38,11 @@ class ShardBoundary {
             std::span<const std::tuple<std::size_t, MeasurementId, core::Key>> ids);
   // Drops the poses `graph` no longer has (removed variables).
   void KeepOnly(const core::Values& graph);
+  // The shared map's landmarks `shard` holds (its latest list replaces the one before).
+  void NoteLandmarks(const std::string& shard, const std::vector<std::uint64_t>& landmarks);
+  // Grows it by those of `own` (the shared map's landmarks its own factors name) another shard
+  // holds.
+  void GrowShared(const std::set<std::uint64_t>& own);
 
   const std::set<core::Key>& keys() const { return keys_; }
   template <typename It>
@@ -45,6 +56,7 @@ class ShardBoundary {
   const ShardMap& shards_;
   const RobotRegistry& robots_;
   std::set<core::Key> keys_;
+  std::map<std::string, std::set<std::uint64_t>> landmarks_of_;  // by shard
 };
 
 }  // namespace slamd::server

@@ -109,6 +109,9 @@ class GraphBuilder {
   virtual LandmarkTracks& tracks() = 0;
   // Rejects a part of the message being applied (a feature of a frame) while the rest goes on.
   virtual void RejectPart(Verdict verdict) = 0;
+  // Map shards: the shared map's landmarks another shard holds (its latest summary's list).
+  virtual void NoteShardLandmarks(const std::string& shard,
+                                  const std::vector<std::uint64_t>& landmarks) = 0;
 };
 
 // "robot 'a' pose 3", for messages.

@@ -1,11 +1,13 @@
 // shard_summary_t (msgs/lcm/shard_summary_t.lcm): what a neighbouring map shard knows about the
-// poses it shares with this one (docs/SCALING.md).
+// poses and shared-map landmarks it shares with this one (docs/SCALING.md), and which landmarks
+// of the shared map it holds.
 //
-// Applied: a LinearContainerFactor on those poses that replaces the previous summary from the
-// same shard in the same update. A shared pose of a robot this shard does not own and has not
-// seen is added at the summary's x₀; one of its own robots' poses it has not seen yet holds the
-// summary until that pose arrives. A shard that is not the one named in to_shard rejects it
-// (kUnknownRobot: "not this shard").
+// Applied: a LinearContainerFactor on those variables that replaces the previous summary from
+// the same shard in the same update. A shared pose of a robot this shard does not own and has
+// not seen, or a landmark it does not hold, is added at the summary's x₀; one of its own robots'
+// poses it has not seen yet holds the summary until that pose arrives. The landmark list goes to
+// the shard's boundary (shard_boundary.h), also when the summary has no keys. A shard that is not
+// the one named in to_shard rejects it (kUnknownRobot: "not this shard").
 #pragma once
 
 #include <Eigen/Core>
@@ -15,6 +17,7 @@
 
 #include "core/variables/variable.h"
 #include "server/ingest/conversion.h"
+#include "server/ingest/measurements.h"
 #include "server/messages/message_spec.h"
 #include "slamd/shard_summary_t.hpp"
 
@@ -24,14 +27,16 @@ struct ShardSummaryMessage {
   std::int64_t utime = 0;
   std::string from_shard;
   std::string to_shard;
-  std::vector<std::pair<std::string, std::uint64_t>> poses;  // (robot, pose index)
-  std::vector<core::Variable> x0;                            // Pose2 or Pose3, one per pose
-  Eigen::MatrixXd A;                                         // rows x Σ tangent dims
+  std::vector<WireKey> keys;       // poses and shared-map landmarks (robot "")
+  std::vector<core::Variable> x0;  // one per key: Pose2 / Point2, or Pose3 / Point3
+  Eigen::MatrixXd A;               // rows x Σ tangent dims (0 x 0 without keys)
   Eigen::VectorXd b;
+  std::vector<std::uint64_t> map_landmarks;  // the shared map's landmarks it holds, ascending
 };
 
-// Bounds of a summary: poses, and the rows of A (at most its columns).
-inline constexpr int kMaxSummaryPoses = 4096;
+// Bounds of a summary: its keys (the rows of A are at most its columns), its landmark list.
+inline constexpr int kMaxSummaryKeys = 4096;
+inline constexpr int kMaxSummaryMapLandmarks = 100000;
 
 Verdict Validate(const slamd::shard_summary_t& msg, const Limits& limits = {});
 Checked<ShardSummaryMessage> Convert(const slamd::shard_summary_t& msg, const Limits& limits = {});

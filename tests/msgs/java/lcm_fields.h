@@ -134,8 +134,9 @@ inline void Put(Fields& f, const std::string& path, const slamd::remove_factor_t
   PUT(utime), PUT(target), PUT(robot_a), PUT(index_a), PUT(robot_b), PUT(index_b), PUT(kind);
 }
 inline void Put(Fields& f, const std::string& path, const slamd::shard_summary_t& m) {
-  PUT(utime), PUT(from_shard), PUT(to_shard), PUT(dimension), PUT(num_poses), PUT(poses);
+  PUT(utime), PUT(from_shard), PUT(to_shard), PUT(dimension), PUT(num_keys), PUT(keys);
   PUT(num_values), PUT(values), PUT(rows), PUT(b), PUT(num_a), PUT(a);
+  PUT(num_map_landmarks), PUT(map_landmarks);
 }
 inline void Put(Fields& f, const std::string& path, const slamd::status_t& m) {
   PUT(utime), PUT(update_sequence), PUT(rebuilds), PUT(num_robots), PUT(num_variables);

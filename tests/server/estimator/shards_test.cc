@@ -115,11 +115,10 @@ void ExpectCentral(std::vector<std::unique_ptr<Estimator>>& shards, Estimator& c
   }
 }
 
-// `n` shards fed World(n, pairs) and `then` (after `rounds` exchanges), exchanging `rounds` more
-// times, against one estimator fed the same.
-void RunShards(int n, const std::vector<std::pair<int, int>>& pairs, int rounds,
+// `n` shards fed `world` and `then` (after `rounds` exchanges), exchanging `rounds` more times,
+// against one estimator fed the same.
+void RunShards(int n, const std::vector<Inbound>& world, int rounds,
                const std::vector<Inbound>& then = {}) {
-  const std::vector<Inbound> world = World(n, pairs);
   auto central = Make();
   ASSERT_TRUE(central->Process(world).status.ok());
   Settle(*central, "central");
@@ -146,14 +145,46 @@ void RunShards(int n, const std::vector<std::pair<int, int>>& pairs, int rounds,
   ExpectCentral(shards, *central, 1e-6);
 }
 
-TEST(Shards, TwoShardsEqualOneEstimator) { RunShards(2, {{0, 1}, {1, 0}}, 10); }
+TEST(Shards, TwoShardsEqualOneEstimator) { RunShards(2, World(2, {{0, 1}, {1, 0}}), 10); }
 
-TEST(Shards, AChainOfThreeShardsEqualsOneEstimator) { RunShards(3, {{0, 1}, {2, 1}}, 12); }
+TEST(Shards, AChainOfThreeShardsEqualsOneEstimator) {
+  RunShards(3, World(3, {{0, 1}, {2, 1}}), 12);
+}
+
+// No closure between the robots: what ties their maps together is the landmarks of the shared
+// map that both see (bearing and range), between their lines. The shards find them from each
+// other's landmark lists, then summarise onto them.
+std::vector<Inbound> SharedLandmarkWorld(int robots) {
+  std::vector<Inbound> out = World(robots, {});
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> n(0.0, 0.02);
+  for (int r = 0; r < robots; ++r) {
+    for (int i = 0; i < kPoses; ++i) {
+      for (int k = 0; k < 9; ++k) {  // landmark k at (2k + 0.5, 1.5 + 3 (k % (robots - 1)))
+        const double x = 2.0 * k + 0.5, y = 1.5 + 3.0 * (k % std::max(1, robots - 1));
+        const double dx = x - i, dy = y - 3.0 * r;
+        if (std::abs(dx) > 1.6 || std::abs(dy) > 2.0) continue;
+        out.push_back(estimator_test::Landmark(
+            "r" + std::to_string(r), i, 100 + k, std::atan2(dy, dx) + n(rng),
+            std::hypot(dx, dy) + n(rng), LandmarkNamespace::kMap));
+      }
+    }
+  }
+  return out;
+}
+
+TEST(Shards, LandmarksOfTheSharedMapSeenFromTwoShardsEqualOneEstimator) {
+  RunShards(2, SharedLandmarkWorld(2), 10);
+}
+
+TEST(Shards, LandmarksOfTheSharedMapAcrossAChainOfThreeShardsEqualOneEstimator) {
+  RunShards(3, SharedLandmarkWorld(3), 12);
+}
 
 // A retracted inter-shard closure: the pose it named stays shared (the other shard holds it
 // through the summaries), and the shards end at the estimate without it.
 TEST(Shards, ARetractedClosureBetweenShardsLeavesTheOneEstimatorsAnswer) {
-  RunShards(2, {{0, 1}}, 10,
+  RunShards(2, World(2, {{0, 1}}), 10,
             {estimator_test::Remove(RemoveTarget::kLoopClosure, "r0", 11, "r1", 12)});
 }
 
@@ -175,7 +206,7 @@ TEST(Shards, TheBoundaryOutlivesARetractionAndASnapshot) {
   ASSERT_TRUE(r.rejections.empty()) << r.rejections[0].verdict.message;
   const auto before = shards[0]->ShardSummary(0);
   ASSERT_TRUE(before.ok() && before->has_value());
-  EXPECT_EQ((*before)->poses.size(), 6u);  // r0:11 and r1:12 still shared
+  EXPECT_EQ((*before)->keys.size(), 6u);  // r0:11 and r1:12 still shared
   JournalPosition position;
   const core::Result<EstimatorState> state =
       DecodeState(EncodeState(shards[0]->ExportState(), {}), &position);
@@ -187,7 +218,7 @@ TEST(Shards, TheBoundaryOutlivesARetractionAndASnapshot) {
           .value();
   const auto after = restored->ShardSummary(0);
   ASSERT_TRUE(after.ok() && after->has_value());
-  EXPECT_EQ((*after)->poses, (*before)->poses);
+  EXPECT_EQ((*after)->keys, (*before)->keys);
 }
 
 // A crash after a retraction and before the next snapshot: the journal replayed from the last
@@ -239,12 +270,12 @@ TEST(Shards, AReplayedRetractionKeepsTheBoundaryOfTheLiveRun) {
   }
   const auto after = replayed.value()->ShardSummary(0);
   ASSERT_TRUE(after.ok() && after->has_value()) << after.status().ToString();
-  EXPECT_EQ((*after)->poses, (*before)->poses);
+  EXPECT_EQ((*after)->keys, (*before)->keys);
 }
 
 // Every shard closes loops with every other: no shard's information is counted twice.
 TEST(Shards, FourShardsClosingLoopsWithEachOtherEqualOneEstimator) {
-  RunShards(4, {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {0, 2}, {3, 1}}, 12);
+  RunShards(4, World(4, {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {0, 2}, {3, 1}}), 12);
 }
 
 TEST(Shards, ShardsTakeTheirRobotsAndTheirClosures) {
@@ -273,7 +304,7 @@ TEST(Shards, ASummaryReplacesTheLastWaitsForItsPosesAndGoesToItsShard) {
   auto summary = s0->ShardSummary(0);
   ASSERT_TRUE(summary.ok() && summary->has_value());
   (*summary)->to_shard = "S1";
-  EXPECT_EQ((*summary)->poses.size(), 6u);  // both ends of 3 closures
+  EXPECT_EQ((*summary)->keys.size(), 6u);  // both ends of 3 closures
   // S1 has none of r1's poses yet: held until they come.
   ProcessResult r = s1->Process({Inbound{**summary, 0}});
   EXPECT_TRUE(r.rejections.empty());

@@ -207,24 +207,27 @@ inline slamd::frame_observations_t FrameMessage(int kind = 1, bool covariance = 
   return m;
 }
 
-// A summary from shard "east" to "west" on two 2D poses (alpha:4, bravo:3): an upper-triangular
-// 4 x 6 A (rows < columns, as when some directions carry nothing).
+// A summary from shard "east" to "west" on two 2D poses (alpha:4, bravo:3) and a landmark of
+// the shared map (m7): an upper-triangular 5 x 8 A (rows < columns, as when some directions
+// carry nothing); east holds the map landmarks 2, 7 and 9.
 inline slamd::shard_summary_t ShardSummary() {
   slamd::shard_summary_t m;
   m.utime = 1700000000000009;
   m.from_shard = "east";
   m.to_shard = "west";
   m.dimension = 2;
-  m.poses = {Key("alpha", 1, 4), Key("bravo", 1, 3)};
-  m.num_poses = 2;
-  m.values = {1.0, 2.0, 0.5, -1.0, 0.25, -3.0};
-  m.num_values = 6;
-  m.rows = 4;
-  m.b = {0.1, -0.2, 0.0, 0.3};
-  for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 6; ++c) m.a.push_back(c >= r ? 1.0 + r + 0.5 * c : 0.0);
+  m.keys = {Key("alpha", 1, 4), Key("bravo", 1, 3), Key("", 3, 7)};
+  m.num_keys = 3;
+  m.values = {1.0, 2.0, 0.5, -1.0, 0.25, -3.0, 4.0, 5.0};
+  m.num_values = 8;
+  m.rows = 5;
+  m.b = {0.1, -0.2, 0.0, 0.3, 0.4};
+  for (int r = 0; r < 5; ++r) {
+    for (int c = 0; c < 8; ++c) m.a.push_back(c >= r ? 1.0 + r + 0.5 * c : 0.0);
   }
-  m.num_a = 24;
+  m.num_a = 40;
+  m.map_landmarks = {2, 7, 9};
+  m.num_map_landmarks = 3;
   return m;
 }
 

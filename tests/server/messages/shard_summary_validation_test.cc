@@ -31,42 +31,56 @@ std::vector<Case> ShardSummaryCases() {
           "Dimension5", g, [](M& m) { m.dimension = 5; }, R::kBadKind,
           "shard_summary_t.dimension: 5"),
       Make<M>(
-          "NoPoses", g,
-          [](M& m) {
-            m.poses.clear();
-            m.num_poses = 0;
-          },
-          R::kTooManyElements, "shard_summary_t.num_poses: 0"),
+          "KeyCountDisagrees", g, [](M& m) { m.num_keys = 2; }, R::kSizeMismatch,
+          "shard_summary_t.num_keys"),
       Make<M>(
-          "PoseCountDisagrees", g, [](M& m) { m.num_poses = 3; }, R::kSizeMismatch,
-          "shard_summary_t.num_poses"),
+          "TooManyKeys", g, [](M& m) { m.num_keys = 4097; }, R::kTooManyElements,
+          "shard_summary_t.num_keys: 4097 not in [0, 4096]"),
       Make<M>(
-          "LandmarkKey", g, [](M& m) { m.poses[1].kind = 2; }, R::kBadKind,
-          "shard_summary_t.poses[1].kind"),
+          "RobotLandmarkKey", g, [](M& m) { m.keys[1].kind = 2; }, R::kBadKind,
+          "shard_summary_t.keys[1].kind"),
       Make<M>(
-          "PoseIndexNegative", g, [](M& m) { m.poses[0].index = -1; }, R::kIndexOutOfRange,
-          "shard_summary_t.poses[0].index"),
+          "MapLandmarkWithRobot", g, [](M& m) { m.keys[2].robot = "alpha"; }, R::kUnusedFieldSet,
+          "shard_summary_t.keys[2].robot"),
       Make<M>(
-          "RepeatedPose", g, [](M& m) { m.poses[1] = m.poses[0]; }, R::kDuplicate,
-          "shard_summary_t.poses[1]"),
+          "PoseIndexNegative", g, [](M& m) { m.keys[0].index = -1; }, R::kIndexOutOfRange,
+          "shard_summary_t.keys[0].index"),
+      Make<M>(
+          "RepeatedPose", g, [](M& m) { m.keys[1] = m.keys[0]; }, R::kDuplicate,
+          "shard_summary_t.keys[1]"),
       Make<M>(
           "ValuesFor3d", g, [](M& m) { m.dimension = 3; }, R::kSizeMismatch,
           "shard_summary_t.num_values"),
       Make<M>(
-          "ValueNaN", g, [](M& m) { m.values[2] = std::numeric_limits<double>::quiet_NaN(); },
-          R::kNotFinite, "shard_summary_t.values[2]"),
+          "ValueNaN", g, [](M& m) { m.values[7] = std::numeric_limits<double>::quiet_NaN(); },
+          R::kNotFinite, "shard_summary_t.values[7]"),
       Make<M>(
           "MoreRowsThanColumns", g,
           [](M& m) {
-            m.rows = 7;
-            m.b.resize(7);
+            m.rows = 9;
+            m.b.resize(9);
           },
-          R::kSizeMismatch, "shard_summary_t.rows: 7 not in [1, 6]"),
+          R::kSizeMismatch, "shard_summary_t.rows: 9 not in [1, 8]"),
+      Make<M>(
+          "RowsWithoutKeys", g,
+          [](M& m) {
+            m.keys.clear();
+            m.num_keys = 0;
+            m.values.clear();
+            m.num_values = 0;
+          },
+          R::kSizeMismatch, "shard_summary_t.rows: 5 not in [0, 0]"),
+      Make<M>(
+          "LandmarkListNotAscending", g, [](M& m) { m.map_landmarks[2] = 7; }, R::kDuplicate,
+          "shard_summary_t.map_landmarks[2]: not above"),
+      Make<M>(
+          "LandmarkListCountDisagrees", g, [](M& m) { m.num_map_landmarks = 4; }, R::kSizeMismatch,
+          "shard_summary_t.num_map_landmarks"),
       Make<M>(
           "ACountDisagrees", g,
           [](M& m) {
             m.a.pop_back();
-            m.num_a = 23;
+            m.num_a = 39;
           },
           R::kSizeMismatch, "shard_summary_t.num_a"),
       Make<M>(
@@ -85,20 +99,41 @@ TEST(ShardSummaryMessage, GoodOneConvertsAndRoundTrips) {
   const slamd::shard_summary_t m = ShardSummary();
   const Checked<ShardSummaryMessage> v = Convert(m);
   ASSERT_TRUE(v.ok()) << v.verdict().message;
-  ASSERT_EQ(v.value().poses.size(), 2u);
-  EXPECT_EQ(v.value().poses[1].first, "bravo");
-  EXPECT_EQ(v.value().A.rows(), 4);
-  EXPECT_EQ(v.value().A.cols(), 6);
-  EXPECT_EQ(v.value().A(1, 4), m.a[1 * 6 + 4]);  // row-major on the wire
+  ASSERT_EQ(v.value().keys.size(), 3u);
+  EXPECT_EQ(v.value().keys[1].robot, "bravo");
+  EXPECT_EQ(v.value().keys[2], (WireKey{"", KeyKind::kMapLandmark, 7}));
+  EXPECT_EQ(v.value().A.rows(), 5);
+  EXPECT_EQ(v.value().A.cols(), 8);
+  EXPECT_EQ(v.value().A(1, 4), m.a[1 * 8 + 4]);  // row-major on the wire
   EXPECT_EQ(std::get<core::Pose2>(v.value().x0[1]).x(), -1.0);
+  EXPECT_EQ(std::get<core::Point2>(v.value().x0[2]).y(), 5.0);
+  EXPECT_EQ(v.value().map_landmarks, (std::vector<std::uint64_t>{2, 7, 9}));
   slamd::shard_summary_t back;
   ToLcm(v.value(), &back);
   EXPECT_EQ(back.a, m.a);
   EXPECT_EQ(back.b, m.b);
   EXPECT_EQ(back.values, m.values);
-  EXPECT_EQ(back.num_poses, 2);
+  EXPECT_EQ(back.num_keys, 3);
+  EXPECT_EQ(back.keys[2].kind, slamd::key_t::KIND_MAP_LANDMARK);
+  EXPECT_EQ(back.map_landmarks, m.map_landmarks);
   EXPECT_EQ(ShardSummarySpec::Shard(back), "west");
   EXPECT_EQ(ShardSummarySpec::Robot(back), "east");
+}
+
+TEST(ShardSummaryMessage, OneWithoutKeysCarriesTheLandmarkList) {
+  slamd::shard_summary_t m = ShardSummary();
+  m.keys.clear();
+  m.num_keys = 0;
+  m.values.clear();
+  m.num_values = 0;
+  m.rows = 0;
+  m.b.clear();
+  m.a.clear();
+  m.num_a = 0;
+  const Checked<ShardSummaryMessage> v = Convert(m);
+  ASSERT_TRUE(v.ok()) << v.verdict().message;
+  EXPECT_TRUE(v.value().keys.empty());
+  EXPECT_EQ(v.value().map_landmarks.size(), 3u);
 }
 
 }  // namespace
