@@ -113,9 +113,9 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
   std::unique_ptr<Daemon> daemon(new Daemon(params, bus, std::move(estimator), std::move(journal)));
   bool superseded = false;
   SLAMD_RETURN_IF_ERROR(daemon->StartReplication(&superseded));
-  if (superseded || daemon->follow_start_) {  // a standby: the recovered state was moved aside
+  if (superseded || daemon->follow_.start) {  // a standby: the recovered state was moved aside
     pending.clear();
-    recovered_snapshot = daemon->follow_start_;
+    recovered_snapshot = daemon->follow_.start;
   }
   if (!pending.empty()) {
     // Accepted and journaled before the restart but never processed: first, as one update.
@@ -124,8 +124,8 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
     const ProcessResult r = daemon->estimator_->Process(pending);
     daemon->JournalUpdate(pending);
     for (const Rejection& rej : r.rejections) daemon->PublishRejection(rej);
-  } else if (daemon->follow_start_) {
-    daemon->processed_sequence_ = daemon->follow_start_->last_message_sequence;
+  } else if (daemon->follow_.start) {
+    daemon->processed_sequence_ = daemon->follow_.start->last_message_sequence;
   } else if (daemon->journal_) {
     daemon->processed_sequence_ = daemon->journal_->last_sequence();
   }
@@ -138,7 +138,7 @@ core::Result<std::unique_ptr<Daemon>> Daemon::Create(const ServerParams& params,
   }
   SLAMD_RETURN_IF_ERROR(daemon->Subscribe());
   SLAMD_RETURN_IF_ERROR(daemon->StartShards());
-  daemon->hearing_since_us_ = SteadyMicros();
+  daemon->follow_.hearing_since_us = SteadyMicros();
   return daemon;
 }
 

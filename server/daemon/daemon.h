@@ -44,15 +44,12 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
-#include <deque>
 #include <memory>
 #include <mutex>
-#include <optional>
 #include <set>
 #include <span>
 #include <string>
 #include <thread>
-#include <unordered_set>
 #include <utility>
 #include <vector>
 
@@ -60,12 +57,11 @@
 #include "server/daemon/ingest_queue.h"
 #include "server/daemon/shard_exchange.h"
 #include "server/daemon/snapshot_writer.h"
+#include "server/daemon/standby_state.h"
 #include "server/estimator/estimator.h"
-#include "server/estimator/journal_replay.h"
 #include "server/journal/journal.h"
 #include "server/replication/leader_lease.h"
 #include "server/replication/stream_journal.h"
-#include "server/replication/stream_reader.h"
 #include "server/replication/stream_snapshots.h"
 #include "server/transport/bus.h"
 #include "server/transport/channels.h"
@@ -238,32 +234,13 @@ class Daemon {
   // Receipt times of applied messages whose estimates have not gone out (they wait for the
   // replicated journal) [µs, steady clock].
   std::vector<std::int64_t> unpublished_received_us_;
-  // A replicated pair: the lease (null without one); while standby_, the followed stream and its
-  // replay (estimator thread) and what intake heard (heard_mutex_).
+  // A replicated pair: the lease (null without one), and while standby_, what it follows and
+  // hears.
   std::unique_ptr<LeaderLease> lease_;
   std::atomic<bool> standby_{false};
   std::atomic<bool> deposed_{false};  // the lease was lost while leading: this slamd must stop
-  std::atomic<bool> taking_over_{false};  // TakeOver: intake keeps queries in heard_ too
-  std::unique_ptr<StreamReader> follower_;
-  std::unique_ptr<JournalReplay> replay_;
-  // A standby started from a snapshot in NATS: its local position (the data directory's
-  // snapshot), the last message it includes, and how many of the followed records other than
-  // messages it still includes (FollowPoint::skip).
-  std::optional<JournalPosition> follow_start_;
-  std::int64_t follow_included_ = 0;
-  std::int64_t follow_skip_ = 0;
-  struct Heard {
-    std::string channel, type;
-    std::vector<std::uint8_t> bytes;
-    std::int64_t steady_us = 0;
-  };
-  std::mutex heard_mutex_;
-  std::deque<Heard> heard_;
-  std::int64_t hearing_since_us_ = 0;  // subscribed to the robots' channels [µs, steady clock]
-  // The messages the followed stream brought (channel, NUL, LCM bytes) for as long as heard ones
-  // are kept (estimator thread), so a takeover journals only what the stream lacks.
-  std::unordered_multiset<std::string> streamed_;
-  std::deque<std::pair<std::int64_t, std::string>> streamed_order_;  // (steady µs, key)
+  std::atomic<bool> taking_over_{false};  // TakeOver: intake keeps queries heard too
+  StandbyState follow_;                   // while standby_
   std::atomic<bool> stop_lease_{false};
   std::thread lease_thread_;
   ShardExchange shard_exchange_;  // map shards (daemon_shards.cc)

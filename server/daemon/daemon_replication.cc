@@ -131,9 +131,9 @@ core::Result<bool> Daemon::StartFromStreamSnapshot(FollowPoint* from) {
                         {.keep = params_.journal.keep_snapshots});
   if (!file.ok()) return file.status();
   estimator_ = std::move(restored).value();
-  follow_start_ = local;
-  follow_included_ = position.last_message_sequence;
-  follow_skip_ = snapshot.follow.skip;
+  follow_.start = local;
+  follow_.included = position.last_message_sequence;
+  follow_.skip = snapshot.follow.skip;
   *from = snapshot.follow;
   log_->info(
       "replication: standby starts from {} (message {}), following the journal stream from its "
@@ -164,9 +164,9 @@ core::Status Daemon::Follow(bool* superseded) {
     if (!follower.ok()) log_->warn("replication: {}", follower.status().ToString());
   }
   if (!follower.ok()) return follower.status();
-  follower_ = std::move(follower).value();
-  replay_ = std::make_unique<JournalReplay>(
-      estimator_.get(), follow_start_ ? follow_start_->last_message_sequence : 0);
+  follow_.reader = std::move(follower).value();
+  follow_.replay = std::make_unique<JournalReplay>(
+      estimator_.get(), follow_.start ? follow_.start->last_message_sequence : 0);
   // Rebuilds started in the replay catch up as the stream's swap records say (as in recovery).
   estimator_->SetReplaying(true);
   standby_ = true;
@@ -248,25 +248,26 @@ bool Daemon::Hear(std::string_view channel, std::string_view type,
                   std::vector<std::uint8_t> bytes) {
   const std::int64_t now = SteadyMicros();
   const auto keep_us = static_cast<std::int64_t>(params_.replication.standby_keep_s * 1e6);
-  std::lock_guard lock(heard_mutex_);
-  if (!standby_) return false;  // TakeOver took heard_ under this lock
-  while (!heard_.empty() && heard_.front().steady_us < now - keep_us) heard_.pop_front();
-  heard_.push_back({std::string(channel), std::string(type), std::move(bytes), now});
+  std::lock_guard lock(follow_.heard_mutex);
+  if (!standby_) return false;  // TakeOver took what was heard under this lock
+  while (!follow_.heard.empty() && follow_.heard.front().steady_us < now - keep_us)
+    follow_.heard.pop_front();
+  follow_.heard.push_back({std::string(channel), std::string(type), std::move(bytes), now});
   return true;
 }
 
 bool Daemon::ApplyFollowed(const journal::JournalRecord& record) {
   const std::string where = "stream " + params_.replication.stream + " after message " +
-                            std::to_string(follower_->position().sequence);
+                            std::to_string(follow_.reader->position().sequence);
   // What the state this standby started from includes is neither applied nor journaled.
   bool included = false;
   if (record.has_message()) {
-    included = record.message().sequence() <= follow_included_;
-  } else if (follow_skip_ > 0) {
+    included = record.message().sequence() <= follow_.included;
+  } else if (follow_.skip > 0) {
     included = true;
-    --follow_skip_;
+    --follow_.skip;
   }
-  core::Status s = included ? core::Status::Ok() : replay_->Apply(record, where, false);
+  core::Status s = included ? core::Status::Ok() : follow_.replay->Apply(record, where, false);
   if (s.ok() && !included) s = journal_->AppendCopy(record);
   if (s.ok() && record.has_boundary() && !included) {
     processed_sequence_ = record.boundary().last_message_sequence();
@@ -274,13 +275,14 @@ bool Daemon::ApplyFollowed(const journal::JournalRecord& record) {
   if (s.ok() && record.has_message()) {  // remembered as long as what intake hears
     const std::int64_t now = SteadyMicros();
     const auto keep_us = static_cast<std::int64_t>(params_.replication.standby_keep_s * 1e6);
-    while (!streamed_order_.empty() && streamed_order_.front().first < now - keep_us) {
-      streamed_.erase(streamed_.find(streamed_order_.front().second));
-      streamed_order_.pop_front();
+    while (!follow_.streamed_order.empty() &&
+           follow_.streamed_order.front().first < now - keep_us) {
+      follow_.streamed.erase(follow_.streamed.find(follow_.streamed_order.front().second));
+      follow_.streamed_order.pop_front();
     }
     std::string key = record.message().channel() + '\0' + record.message().lcm_payload();
-    streamed_.insert(key);
-    streamed_order_.emplace_back(now, std::move(key));
+    follow_.streamed.insert(key);
+    follow_.streamed_order.emplace_back(now, std::move(key));
   }
   if (!s.ok()) {
     log_->critical("replication: standby cannot follow: {}", s.ToString());
@@ -292,7 +294,7 @@ bool Daemon::ApplyFollowed(const journal::JournalRecord& record) {
 void Daemon::StandbyStep() {
   journal::JournalRecord record;
   for (int n = 0; n < 1000 && !deposed_; ++n) {  // then a look at the lease
-    core::Result<bool> got = follower_->Next(&record, n == 0 ? 50 : 0);
+    core::Result<bool> got = follow_.reader->Next(&record, n == 0 ? 50 : 0);
     if (!got.ok()) {
       log_->error("replication: standby: {}", got.status().ToString());
       break;
@@ -306,8 +308,8 @@ void Daemon::StandbyStep() {
   // What the old leader accepted and never got into the stream exists only in what standbys
   // heard: one that has not heard the robots for two lease lengths leaves the lease to one that
   // has (unless it holds the lease already, or no one else takes it).
-  const bool heard_enough =
-      SteadyMicros() - hearing_since_us_ >= std::int64_t{2000} * params_.replication.lease_ttl_ms;
+  const bool heard_enough = SteadyMicros() - follow_.hearing_since_us >=
+                            std::int64_t{2000} * params_.replication.lease_ttl_ms;
   if (!lease_->held() && !heard_enough) return;
   core::Result<bool> taken = lease_->TryAcquire();
   if (!taken.ok() || !taken.value()) return;
@@ -328,11 +330,11 @@ void Daemon::TakeOver() {
   for (int attempt = 0; attempt < 100 && !replica.ok() && !deposed_; ++attempt) {
     core::Result<bool> got = true;
     while (got.ok() && got.value()) {
-      got = follower_->Next(&record, 5);
+      got = follow_.reader->Next(&record, 5);
       if (got.ok() && got.value() && !ApplyFollowed(record)) return;
     }
     replica = TakeOverReplication(params_.data_dir, StreamOptions(r), journal_.get(),
-                                  follower_->position().sequence);
+                                  follow_.reader->position().sequence);
     if (!replica.ok()) log_->warn("replication: taking over: {}", replica.status().ToString());
   }
   if (!replica.ok()) {
@@ -343,10 +345,10 @@ void Daemon::TakeOver() {
   replica_ = std::move(replica).value();
   const core::Status snapshots = OpenStreamSnapshots();
   if (!snapshots.ok()) log_->error("{}: snapshots stay local", snapshots.ToString());
-  const std::int64_t stream_end = follower_->position().sequence;
-  follower_.reset();
-  std::vector<Inbound> pending = replay_->TakePending();
-  replay_.reset();
+  const std::int64_t stream_end = follow_.reader->position().sequence;
+  follow_.reader.reset();
+  std::vector<Inbound> pending = follow_.replay->TakePending();
+  follow_.replay.reset();
   estimator_->SetReplaying(false);
   processed_sequence_ = journal_->last_sequence();
   // The old leader's accepted, unprocessed messages first, as one update (as after a restart).
@@ -356,30 +358,30 @@ void Daemon::TakeOver() {
   }
   // What the robots sent while this slamd followed and the stream did not bring (had the stream
   // brought it, it was applied; a re-sent copy would be recognised as held), in the order it was
-  // heard: intake keeps adding to heard_ while this journals and queues it, in chunks the queue
-  // has room for, and takes the leader's way only once heard_ is empty (so nothing heard later
+  // heard: intake keeps adding to follow_.heard while this journals and queues it, in chunks the
+  // queue has room for, and takes the leader's way only once none is left (so nothing heard later
   // is queued before what was heard earlier: a closure before its pose would be refused).
   const int chunk = std::max(1, queue_.capacity() / 2);
   size_t journaled = 0, heard_count = 0;
   for (;;) {
-    std::deque<Heard> heard;
+    std::deque<StandbyState::Heard> heard;
     {
-      std::lock_guard lock(heard_mutex_);
-      if (heard_.empty()) {
+      std::lock_guard lock(follow_.heard_mutex);
+      if (follow_.heard.empty()) {
         standby_ = false;  // intake queues from now on
         break;
       }
-      heard.swap(heard_);
+      heard.swap(follow_.heard);
     }
     heard_count += heard.size();
     while (!heard.empty()) {
       {
         std::lock_guard lock(intake_mutex_);
         for (int n = 0; n < chunk && !heard.empty(); ++n, heard.pop_front()) {
-          const Heard& h = heard.front();
+          const StandbyState::Heard& h = heard.front();
           std::string key = h.channel + '\0';
           key.append(h.bytes.begin(), h.bytes.end());
-          if (streamed_.count(key) != 0) continue;  // the stream had it: applied already
+          if (follow_.streamed.count(key) != 0) continue;  // the stream had it: applied already
           core::Result<Inbound> in = DecodeInbound(h.type, h.bytes);
           if (!in.ok()) continue;  // it was valid when heard
           in.value().received_us = h.steady_us;
@@ -402,8 +404,8 @@ void Daemon::TakeOver() {
       StepEstimator(0.0);
     }
   }
-  streamed_.clear();  // a standby's
-  streamed_order_.clear();
+  follow_.streamed.clear();  // a standby's
+  follow_.streamed_order.clear();
   published_sequence_ = 0;  // every robot's estimate, now
   PublishEstimates(*ShareSnapshot(), SteadyMicros());
   log_->warn(
