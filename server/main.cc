@@ -121,7 +121,9 @@ int main(int argc, char** argv) {
   if (signal > 0) {
     log->info("signal {}: stopping intake, finishing the update", signal);
   } else {
-    log->critical("no longer the leader of the replicated pair: stopping (exit 3)");
+    log->critical(
+        "no longer the leader of the replicated pair, or a standby that cannot follow it: "
+        "stopping (exit 3)");
   }
   daemon.value()->Stop();
   daemon.value().reset();

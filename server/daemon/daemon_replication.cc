@@ -295,6 +295,13 @@ void Daemon::StandbyStep() {
   journal::JournalRecord record;
   for (int n = 0; n < 1000 && !deposed_; ++n) {  // then a look at the lease
     core::Result<bool> got = follow_.reader->Next(&record, n == 0 ? 50 : 0);
+    if (!got.ok() && got.status().code() == core::StatusCode::kDataLoss) {
+      // Records it never had are gone (the stream was truncated past it, or is corrupt): it
+      // can no longer become the leader's equal. Restarted, it starts from a snapshot.
+      log_->critical("replication: standby cannot follow: {}", got.status().ToString());
+      deposed_ = true;
+      break;
+    }
     if (!got.ok()) {
       log_->error("replication: standby: {}", got.status().ToString());
       break;
