@@ -1,4 +1,6 @@
 // Estimator::ShardSummary: the message a map shard sends every other shard (docs/SCALING.md).
+#include <algorithm>
+#include <iterator>
 #include <set>
 
 #include "core/factors/linear_container_factor.h"
@@ -40,9 +42,11 @@ core::Result<std::optional<ShardSummaryMessage>> Estimator::ShardSummary(std::in
     }
   }
   shard_boundary_.GrowShared(own_landmarks);
-  ShardSummaryMessage m{.utime = utime,
-                        .from_shard = shards.self,
-                        .map_landmarks = {own_landmarks.begin(), own_landmarks.end()}};
+  // At most what a summary may carry (the lowest ids): the others are not found shared.
+  auto listed = own_landmarks.begin();
+  std::advance(listed, std::min<std::size_t>(own_landmarks.size(), kMaxSummaryMapLandmarks));
+  ShardSummaryMessage m{
+      .utime = utime, .from_shard = shards.self, .map_landmarks = {own_landmarks.begin(), listed}};
   const auto landmarks_only = [&]() -> std::optional<ShardSummaryMessage> {
     if (m.map_landmarks.empty()) return std::nullopt;
     return std::move(m);

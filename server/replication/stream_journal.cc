@@ -225,10 +225,13 @@ core::Status StreamJournal::Reconcile() {
   for (auto b = std::make_reverse_iterator(acked_.end()); b != std::make_reverse_iterator(lost);
        ++b) {
     b->id += "-again" + std::to_string(lost_batches_);
+    others_acked_ -= b->others;  // counted again when stored again
     pending_.push_front(std::move(*b));
   }
   acked_.erase(lost, acked_.end());
   end_.sequence = seq;
+  // Where readers may start: not in messages the stream no longer has.
+  while (!starts_.empty() && starts_.back().point.sequence > seq) starts_.pop_back();
   return core::Status::Ok();
 }
 
