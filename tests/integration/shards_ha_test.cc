@@ -1,7 +1,8 @@
 // Map shards through real processes: a NATS server and, inside this test's own network
 // namespace (scripts/netns-run; ctest labels ha and netns), a 4-robot world streamed over UDP LCM
 // to one unsharded slamd and to 2 and to 4 shards (robots split in order) that exchange
-// summaries over NATS. Every robot's poses from its shard end within 1 mm of the unsharded
+// summaries over NATS; the robots close loops with each other and see landmarks of the shared
+// map between their lines. Every robot's poses from its shard end within 1 mm of the unsharded
 // slamd's, and the shards sent summaries. Shards on two buses (two channel prefixes) with
 // shards.forward_queries answer a query, a map request and a bad query for the other shard's
 // robot on the asker's bus, exactly as the owner answers on its own. A shard that is a replicated
@@ -40,8 +41,10 @@ constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=2097
 constexpr int kRobots = 4;
 constexpr int kPoses = 40;
 
-// kRobots robots on parallel lines 3 m apart (a prior each on its true start, noisy odometry)
-// and closures between every pair of robots at a few poses: (suffix, bytes) in sending order.
+// kRobots robots on parallel lines 3 m apart (a prior each on its true start, noisy odometry),
+// closures between every pair of robots at a few poses, and landmarks of the shared map midway
+// between neighbouring lines every 4 m, each seen (bearing and range) by the robots on both
+// sides: (suffix, bytes) in sending order.
 std::vector<std::pair<std::string, std::vector<std::uint8_t>>> World() {
   std::mt19937_64 rng(9);
   std::normal_distribution<double> n(0.0, 0.03);
@@ -71,6 +74,22 @@ std::vector<std::pair<std::string, std::vector<std::uint8_t>>> World() {
                                 ::slamd::testing::Noise(3, 0.05)},
             &odo);
       add("ODOMETRY", odo);
+      for (int side : {-1, 1}) {  // the landmarks between this line and its neighbours'
+        const int gap = side < 0 ? r - 1 : r;  // between lines gap and gap + 1
+        if (gap < 0 || gap + 1 >= kRobots) continue;
+        for (int k = 0; 4 * k < kPoses; ++k) {
+          const double dx = 4.0 * k + 0.5 - (i + 1), dy = 3.0 * gap + 1.5 - 3.0 * r;
+          if (std::abs(dx) > 1.6) continue;
+          slamd::landmark_observation_t obs;
+          ToLcm(LandmarkMeasurement{4, name(r), std::uint64_t(i + 1), std::uint64_t(100 * gap + k),
+                                    LandmarkKind::kBearingRange2,
+                                    BearingRange{std::atan2(dy, dx) + 0.01 * n(rng),
+                                                 std::hypot(dx, dy) + 0.3 * n(rng)},
+                                    ::slamd::testing::Noise(2, 0.02), LandmarkNamespace::kMap},
+                &obs);
+          add("LANDMARK", obs);
+        }
+      }
     }
     if (i % 9 != 8) continue;
     for (int a = 0; a < kRobots; ++a) {
