@@ -14,7 +14,8 @@
 // (SIGSTOP) instead of killed, thawed after the takeover, finds itself deposed and exits 3; so
 // does a leader cut off from NATS by a network partition (each process reaches NATS through an
 // address of its own on a veth device, the leader's deleted with `ip addr`, then restored),
-// while the robots still reach it.
+// while the robots still reach it. A standby started on a stream truncated past what it could
+// start from exits 3, and restarted with snapshots starts from the newest.
 // Failover times (fault to the first estimate from the new leader) are printed; the targets are
 // measured by scripts/bench-failover.
 #include <gtest/gtest.h>
@@ -357,6 +358,61 @@ TEST(FailoverHaTest, AFrozenLeaderComesBackDeposedAndWritesNothing) {
 
 TEST(FailoverHaTest, ALeaderPartitionedFromNatsComesBackDeposedAndLosesNothing) {
   RunFailover(Fault::kPartition, 1, "ha_failover_partition");
+}
+
+// A standby that cannot follow: started on a stream its leader has truncated, with no snapshot of
+// NATS to start from (keep_snapshots: 0 on its side), it finds records missing and exits 3;
+// restarted with snapshots it starts from the newest and follows.
+TEST(FailoverHaTest, AStandbyMissingTruncatedRecordsExitsAndStartsAgainFromASnapshot) {
+  ASSERT_TRUE(testing::OnlyLoopback()) << testing::kNotInNetns;
+  if (!testing::HaveNatsServer()) GTEST_SKIP() << "nats-server is not installed";
+  const std::string path = testing::SharedDatasetPath("manhattan.g2o");
+  SLAMD_SKIP_IF_NO_SHARED_DATASET(path);
+  const std::vector<core::DatasetStep> steps =
+      core::MakeIncrementalSteps(core::ReadDataset(path).value());
+  int factors = 0;
+  const std::vector<StepMessages> messages =
+      testing::MakeWireSteps(steps, 300, kRobot, 1e-3, &factors);
+  testing::TempDir tmp("ha_standby_truncated");
+  testing::NatsCluster nats(tmp.str() + "/nats", 1);
+  ASSERT_NO_FATAL_FAILURE(nats.StartAll());
+  ASSERT_TRUE(nats.WaitForJetStream(30.0));
+  const auto config = [&](const std::string& name, int keep) {
+    const std::string file = tmp.str() + "/" + name + ".textproto";
+    std::ofstream(file) << kConfig << "replication { servers: \"" << nats.Urls()
+                        << "\" replicas: 1 lease_ttl_ms: 1000 keep_snapshots: " << keep << " }\n";
+    return file;
+  };
+  Server pair{.prefix = "T_"};
+  auto process = [&](const std::string& name) {
+    Server p{.prefix = pair.prefix,
+             .data_dir = tmp.str() + "/" + name,
+             .log = tmp.str() + "/" + name + ".log"};
+    std::filesystem::create_directories(p.data_dir);
+    return p;
+  };
+  Server leader = process("leader"), standby = process("standby");
+  Client client(kUrl, kRobot);
+  client.Attach(&pair);
+  const testing::KillOnExit cleanup({&leader, &standby});
+  const std::int64_t t0 = testing::WallUs();
+  ASSERT_NO_FATAL_FAILURE(testing::Launch(config("leader", 2), client, &leader));
+  ASSERT_TRUE(client.PumpUntil([&] { return pair.status_utime > t0; }, 30.0)) << leader.log;
+  for (int k = 0; k < static_cast<int>(messages.size()); ++k) {
+    ASSERT_GT(testing::SendUntilEstimated(client, &pair, messages[k], core::KeyIndex(steps[k].pose),
+                                          30.0, 0.5),
+              0)
+        << k;
+  }
+  ASSERT_TRUE(testing::WaitForLog(client, leader, "stored in the stream", 10.0)) << leader.log;
+  ASSERT_NO_FATAL_FAILURE(testing::Launch(config("standby", 0), client, &standby));
+  EXPECT_EQ(ExitWithin(standby.pid, 30.0), 3) << standby.log;
+  standby.pid = -1;
+  EXPECT_TRUE(testing::WaitForLog(client, standby, "no longer in the stream", 1.0)) << standby.log;
+  ASSERT_NO_FATAL_FAILURE(testing::Launch(config("standby", 2), client, &standby));
+  EXPECT_TRUE(testing::WaitForLog(client, standby, "standby starts from the snapshot", 30.0))
+      << standby.log;
+  EXPECT_TRUE(testing::WaitForLog(client, standby, "standby, following", 30.0)) << standby.log;
 }
 
 }  // namespace
