@@ -30,6 +30,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <optional>
 #include <random>
 #include <set>
 #include <string>
@@ -167,7 +168,14 @@ void RunFailover(Fault fault, int faults, const char* tag) {
   ASSERT_TRUE(nats.WaitForJetStream(30.0));
   // Each process's config: its own address to NATS when it is to be partitioned.
   std::array<std::string, 2> pair_configs;
+  // The partition's device goes with the test (after its processes): the namespace is the next
+  // test's, which expects loopback only.
+  struct DeviceGone {
+    ~DeviceGone() { Ip(std::string("link del ") + kPartitionDevice); }
+  };
+  std::optional<DeviceGone> device_gone;
   if (fault == Fault::kPartition) {
+    device_gone.emplace();
     const std::string d = kPartitionDevice;
     ASSERT_TRUE(Ip("link add " + d + " type veth peer name " + d + "1") &&
                 Ip("link set " + d + " up") && Ip("link set " + d + "1 up") &&
