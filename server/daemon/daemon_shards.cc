@@ -58,10 +58,17 @@ core::Status Daemon::StartShards() {
   shard_exchange_.nats = std::move(client).value();
   const std::string subject = params_.shards.subject + "." + shards.self;
   SLAMD_RETURN_IF_ERROR(shard_exchange_.nats->Subscribe(
-      subject, [this, subject](std::span<const std::uint8_t> bytes) {
-        slamd::shard_summary_t msg;
-        const core::Status decoded = internal::DecodeAs(bytes, &msg);
+      subject, [this, subject](std::span<const std::uint8_t> chunk) {
         const std::string channel = "nats:" + subject;
+        core::Result<std::optional<std::vector<std::uint8_t>>> whole =
+            shard_exchange_.summary_chunks.Add(chunk);
+        if (!whole.ok()) {
+          OnDecodeError(channel, whole.status());
+          return;
+        }
+        if (!whole.value()) return;  // more chunks to come
+        slamd::shard_summary_t msg;
+        const core::Status decoded = internal::DecodeAs(*whole.value(), &msg);
         if (!decoded.ok()) {
           OnDecodeError(channel, decoded);
           return;
@@ -183,10 +190,17 @@ void Daemon::SendSummaries(const ShardSummaryMessage& summary) {
   for (const std::string& neighbour : params_.estimator.shards.Neighbours()) {
     msg.to_shard = neighbour;
     core::Status s = Encode(msg, &bytes);
-    if (s.ok()) {
-      s = shard_exchange_.nats
-              ? shard_exchange_.nats->Publish(params_.shards.subject + "." + neighbour, bytes)
-              : bus_->Publish(channels_.Inbound<ShardSummarySpec>(), bytes);
+    if (s.ok() && shard_exchange_.nats) {
+      // In chunks below NATS's default max_payload (1 MiB), in order on one subject.
+      constexpr std::size_t kChunkBytes = 512 << 10;
+      for (const std::vector<std::uint8_t>& chunk :
+           SplitIntoChunks(params_.estimator.shards.self, ++shard_exchange_.summaries_numbered,
+                           bytes, kChunkBytes)) {
+        if (s.ok())
+          s = shard_exchange_.nats->Publish(params_.shards.subject + "." + neighbour, chunk);
+      }
+    } else if (s.ok()) {
+      s = bus_->Publish(channels_.Inbound<ShardSummarySpec>(), bytes);
     }
     if (!s.ok()) {
       log_->warn("shard summary for '{}' ({} variables, {} bytes): {}", neighbour,

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "server/messages/shard_summary.h"
+#include "server/replication/message_chunks.h"
 #include "server/replication/nats_client.h"
 #include "server/replication/relay_bus.h"
 
@@ -25,6 +26,10 @@ struct ShardExchange {
   // (estimator thread).
   std::int64_t last_sent_us = 0, last_sent_sequence = -1;
   ShardSummaryMessage last_sent;
+  // Over NATS a summary travels in chunks (message_chunks.h): the number of the last one sent
+  // (estimator thread), and the other shards' being put together (the subscription's thread).
+  std::uint64_t summaries_numbered = 0;
+  ChunkAssembler summary_chunks;
   // Messages for robots another shard owns (dropped), summaries sent and their bytes, queries
   // forwarded to their owner.
   std::atomic<std::int64_t> not_owned{0}, summaries_sent{0}, summary_bytes{0};

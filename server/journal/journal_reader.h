@@ -27,7 +27,7 @@
 // are a prefix of a valid header (a crash during creation) is a torn tail at offset 0.
 //
 // The file size is taken at Open(); bytes appended later are not seen. Memory: one record at a
-// time (<= 1 MiB) plus a 64 KiB scan buffer. Not thread-safe.
+// time (<= kJournalMaxRecordPayload) plus a 64 KiB scan buffer. Not thread-safe.
 #pragma once
 
 #include <cstdint>
