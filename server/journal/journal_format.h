@@ -56,6 +56,15 @@ std::string EncodeJournalHeader();
 // ("bad magic ...", "unsupported version 7 (this build reads 1)").
 std::string CheckJournalHeader(const char* header);
 
+// Whether `first` can be a record payload's first byte: the tag of one of JournalRecord's kinds
+// (msgs/proto/journal.proto: fields 1..5, all messages, so (field << 3) | 2). Scanning for the
+// next valid record probes only such positions: a plausible length alone passes 1 byte in 256
+// (lengths up to 16 MiB), and each probe checks up to 16 MiB.
+inline bool PlausibleRecordStart(char first) {
+  const auto b = static_cast<unsigned char>(first);
+  return (b & 7u) == 2u && (b >> 3) >= 1u && (b >> 3) <= 5u;
+}
+
 // Masked CRC32C over the 4 little-endian length bytes followed by the payload.
 uint32_t JournalRecordChecksum(const char* length_le, const char* payload, std::size_t n);
 

@@ -144,6 +144,11 @@ int64_t JournalReader::FindNextValid(int64_t from, std::string* why) {
       const uint32_t length = internal::GetLe32(buf.data() + i);
       if (length == 0 || length > kJournalMaxRecordPayload) continue;
       if (p + i + kJournalRecordHeaderSize + int64_t{length} > file_size_) continue;
+      if (i + kJournalRecordHeaderSize < n &&
+          !internal::PlausibleRecordStart(
+              buf[static_cast<std::size_t>(i + kJournalRecordHeaderSize)])) {
+        continue;
+      }
       int64_t frame = 0;
       const Probe probe = ProbeAt(p + i, scratch_.get(), &frame, why);
       if (probe == Probe::kValid) return p + i;

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "server/journal/crc32c.h"
+#include "slamd_proto/journal.pb.h"
 
 namespace slamd::server::internal {
 namespace {
@@ -52,6 +53,22 @@ TEST(JournalFormatTest, FrameIsLengthMaskedCrcOfLengthAndPayloadThenPayload) {
 TEST(JournalFormatTest, ZeroBytesNeverFormAValidFrame) {
   const char zeros[8] = {};
   EXPECT_NE(JournalRecordChecksum(zeros, zeros, 0), 0u);
+}
+
+// The scan for the next valid record probes only positions whose first payload byte could start
+// a record: every kind's does (a kind added to JournalRecord must be added there too).
+TEST(JournalFormatTest, EveryRecordKindStartsPlausibly) {
+  const google::protobuf::Descriptor* d = journal::JournalRecord::GetDescriptor();
+  for (int f = 0; f < d->field_count(); ++f) {
+    journal::JournalRecord r;
+    r.GetReflection()->MutableMessage(&r, d->field(f));
+    const std::string bytes = r.SerializeAsString();
+    ASSERT_FALSE(bytes.empty()) << d->field(f)->name();
+    EXPECT_TRUE(PlausibleRecordStart(bytes[0])) << d->field(f)->name();
+  }
+  int plausible = 0;
+  for (int b = 0; b < 256; ++b) plausible += PlausibleRecordStart(static_cast<char>(b)) ? 1 : 0;
+  EXPECT_EQ(plausible, 5);
 }
 
 }  // namespace
