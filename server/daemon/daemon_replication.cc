@@ -132,7 +132,6 @@ core::Result<bool> Daemon::StartFromStreamSnapshot(FollowPoint* from) {
   if (!file.ok()) return file.status();
   estimator_ = std::move(restored).value();
   follow_.start = local;
-  follow_.included = position.last_message_sequence;
   follow_.skip = snapshot.follow.skip;
   *from = snapshot.follow;
   log_->info(
@@ -262,7 +261,7 @@ bool Daemon::ApplyFollowed(const journal::JournalRecord& record) {
   // What the state this standby started from includes is neither applied nor journaled.
   bool included = false;
   if (record.has_message()) {
-    included = record.message().sequence() <= follow_.included;
+    included = follow_.start && record.message().sequence() <= follow_.start->last_message_sequence;
   } else if (follow_.skip > 0) {
     included = true;
     --follow_.skip;

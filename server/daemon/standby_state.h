@@ -23,11 +23,10 @@ namespace slamd::server {
 struct StandbyState {
   std::unique_ptr<StreamReader> reader;
   std::unique_ptr<JournalReplay> replay;
-  // Started from a snapshot in NATS: its local position (the data directory's snapshot), the
-  // last message it includes, and how many of the followed records other than messages it
-  // still includes (FollowPoint::skip).
+  // Started from a snapshot in NATS: its local position (the data directory's snapshot, whose
+  // last_message_sequence is the last message it includes), and how many of the followed
+  // records other than messages it still includes (FollowPoint::skip).
   std::optional<JournalPosition> start;
-  std::int64_t included = 0;
   std::int64_t skip = 0;
 
   struct Heard {

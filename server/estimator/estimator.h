@@ -66,6 +66,7 @@
 #include "server/estimator/background_rebuild.h"
 #include "server/estimator/estimator_params.h"
 #include "server/estimator/factor_numbers.h"
+#include "server/estimator/process_result.h"
 #include "server/estimator/reduced_graph.h"
 #include "server/estimator/robot_registry.h"
 #include "server/estimator/shard_boundary.h"
@@ -75,24 +76,6 @@
 #include "server/snapshot/estimator_state.h"
 
 namespace slamd::server {
-
-struct Rejection {
-  Inbound message;
-  Verdict verdict;
-};
-
-struct ProcessResult {
-  core::Status status;  // of the first failed Isam2 update (ok when none failed)
-  int applied = 0;      // measurements and retractions that took effect
-  // When each of them was received (Inbound::received_us), for the ingest-to-publish latency of
-  // every message, not only the newest of a robot.
-  std::vector<std::int64_t> applied_received_us;
-  std::vector<Rejection> rejections;
-  // Robots of the messages that were already held (the same measurement applied before): the
-  // daemon acknowledges them with these robots' estimates.
-  std::set<std::string> already_held_robots;
-  std::vector<core::Isam2Result> updates;  // every Isam2::Update that ran, in order
-};
 
 class Estimator {
  public:

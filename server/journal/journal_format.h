@@ -27,7 +27,7 @@ inline constexpr char kJournalMagic[8] = {'S', 'L', 'A', 'M', 'D', 'J', 'N', 'L'
 inline constexpr uint32_t kJournalVersion = 1;
 inline constexpr int64_t kJournalHeaderSize = 16;               // [bytes]
 inline constexpr int64_t kJournalRecordHeaderSize = 8;          // length + checksum [bytes]
-// A map shard summary on ~500 shared 2D poses is this large (dense: it grows as their square).
+// A map shard summary on ~470 shared 2D poses is this large (dense: (3k)² doubles for k poses).
 inline constexpr uint32_t kJournalMaxRecordPayload = 16u << 20;  // 16 MiB [bytes]
 
 namespace internal {

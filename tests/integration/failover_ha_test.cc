@@ -154,13 +154,12 @@ void RunFailover(Fault fault, int faults, const char* tag) {
   const int n = EnvInt("SLAMD_FAILOVER_STEPS", kSteps);
   ASSERT_TRUE(testing::OnlyLoopback()) << testing::kNotInNetns;
   if (!testing::HaveNatsServer()) GTEST_SKIP() << "nats-server is not installed";
-  const std::string path = testing::SharedDatasetPath("manhattan.g2o");
-  SLAMD_SKIP_IF_NO_SHARED_DATASET(path);
-  const std::vector<core::DatasetStep> steps =
-      core::MakeIncrementalSteps(core::ReadDataset(path).value());
-  int expected_factors = 0;
-  const std::vector<StepMessages> messages =
-      testing::MakeWireSteps(steps, n, kRobot, 1e-3, &expected_factors);
+  testing::WireDataset data;
+  testing::LoadWireDataset("manhattan.g2o", n, kRobot, &data);
+  if (::testing::Test::IsSkipped()) return;
+  const std::vector<core::DatasetStep>& steps = data.steps;
+  const std::vector<StepMessages>& messages = data.messages;
+  const int expected_factors = data.factors;
 
   testing::TempDir tmp(tag);
   testing::NatsCluster nats(tmp.str() + "/nats", 3);
@@ -374,13 +373,9 @@ TEST(FailoverHaTest, ALeaderPartitionedFromNatsComesBackDeposedAndLosesNothing) 
 TEST(FailoverHaTest, AStandbyMissingTruncatedRecordsExitsAndStartsAgainFromASnapshot) {
   ASSERT_TRUE(testing::OnlyLoopback()) << testing::kNotInNetns;
   if (!testing::HaveNatsServer()) GTEST_SKIP() << "nats-server is not installed";
-  const std::string path = testing::SharedDatasetPath("manhattan.g2o");
-  SLAMD_SKIP_IF_NO_SHARED_DATASET(path);
-  const std::vector<core::DatasetStep> steps =
-      core::MakeIncrementalSteps(core::ReadDataset(path).value());
-  int factors = 0;
-  const std::vector<StepMessages> messages =
-      testing::MakeWireSteps(steps, 300, kRobot, 1e-3, &factors);
+  testing::WireDataset data;
+  testing::LoadWireDataset("manhattan.g2o", 300, kRobot, &data);
+  if (::testing::Test::IsSkipped()) return;
   testing::TempDir tmp("ha_standby_truncated");
   testing::NatsCluster nats(tmp.str() + "/nats", 1);
   ASSERT_NO_FATAL_FAILURE(nats.StartAll());
@@ -406,9 +401,9 @@ TEST(FailoverHaTest, AStandbyMissingTruncatedRecordsExitsAndStartsAgainFromASnap
   const std::int64_t t0 = testing::WallUs();
   ASSERT_NO_FATAL_FAILURE(testing::Launch(config("leader", 2), client, &leader));
   ASSERT_TRUE(client.PumpUntil([&] { return pair.status_utime > t0; }, 30.0)) << leader.log;
-  for (int k = 0; k < static_cast<int>(messages.size()); ++k) {
-    ASSERT_GT(testing::SendUntilEstimated(client, &pair, messages[k], core::KeyIndex(steps[k].pose),
-                                          30.0, 0.5),
+  for (int k = 0; k < static_cast<int>(data.messages.size()); ++k) {
+    ASSERT_GT(testing::SendUntilEstimated(client, &pair, data.messages[k],
+                                          core::KeyIndex(data.steps[k].pose), 30.0, 0.5),
               0)
         << k;
   }

@@ -55,13 +55,12 @@ constexpr const char* kConfig =
 TEST(ReplicationHaTest, ReplicatedJournalRidesOutNatsFailuresAndLosesNothing) {
   ASSERT_TRUE(testing::OnlyLoopback()) << testing::kNotInNetns;
   if (!testing::HaveNatsServer()) GTEST_SKIP() << "nats-server is not installed";
-  const std::string path = testing::SharedDatasetPath("manhattan.g2o");
-  SLAMD_SKIP_IF_NO_SHARED_DATASET(path);
-  const std::vector<core::DatasetStep> steps =
-      core::MakeIncrementalSteps(core::ReadDataset(path).value());
-  int expected_factors = 0;
-  const std::vector<StepMessages> messages =
-      testing::MakeWireSteps(steps, kSteps, kRobot, 1e-3, &expected_factors);
+  testing::WireDataset data;
+  testing::LoadWireDataset("manhattan.g2o", kSteps, kRobot, &data);
+  if (::testing::Test::IsSkipped()) return;
+  const std::vector<core::DatasetStep>& steps = data.steps;
+  const std::vector<StepMessages>& messages = data.messages;
+  const int expected_factors = data.factors;
 
   testing::TempDir tmp("ha_journal");
   NatsCluster nats(tmp.str() + "/nats", 3);

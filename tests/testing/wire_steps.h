@@ -15,6 +15,7 @@
 #include "slamd/loop_closure_t.hpp"
 #include "slamd/odometry_t.hpp"
 #include "slamd/prior_t.hpp"
+#include "tests/testing/datasets.h"
 
 namespace slamd::testing {
 
@@ -89,6 +90,22 @@ inline std::vector<StepMessages> MakeWireSteps(const std::vector<core::DatasetSt
     }
   }
   return out;
+}
+
+// A shared dataset (../shared/datasets/`file`) as a robot streams it: its incremental steps, the
+// messages of steps 0..n-1 (MakeWireSteps, anchor sigma 1e-3) and the factors they carry. The
+// calling test is skipped when the dataset is missing (check ::testing::Test::IsSkipped()).
+struct WireDataset {
+  std::vector<core::DatasetStep> steps;
+  std::vector<StepMessages> messages;
+  int factors = 0;
+};
+inline void LoadWireDataset(const std::string& file, int n, const std::string& robot,
+                            WireDataset* out) {
+  const std::string path = SharedDatasetPath(file);
+  SLAMD_SKIP_IF_NO_SHARED_DATASET(path);
+  out->steps = core::MakeIncrementalSteps(core::ReadDataset(path).value());
+  out->messages = MakeWireSteps(out->steps, n, robot, 1e-3, &out->factors);
 }
 
 }  // namespace slamd::testing
