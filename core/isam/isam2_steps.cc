@@ -234,19 +234,34 @@ Status Isam2::EliminateTop(const std::vector<int>& vars, const std::vector<int>&
   }
   // 6. Constrained COLAMD: the variables of the new factors last (iSAM2 §V-A), so the next
   // update, which most likely touches them again, finds them near the root; their landmarks too
-  // while they are few (Isam2Params::max_landmarks_last).
+  // while they are few (Isam2Params::max_landmarks_last). But where landmarks are most of the
+  // variables, and more than that (bundle adjustment), they all go first, as leaves under the
+  // poses they are seen from, unless a factor ties two of them.
   const auto is_landmark = [&](int v) {
     const VariableType type = theta_.TypeAt(v);
     return type == kVariableType<Point2> || type == kVariableType<Point3>;
   };
+  std::vector<char> landmark(vars.size(), 0);
+  int num_landmarks = 0;
+  for (std::size_t i = 0; i < vars.size(); ++i) {
+    landmark[i] = is_landmark(vars[i]);
+    num_landmarks += landmark[i];
+  }
+  const bool landmarks_first = num_landmarks > params_.max_landmarks_last &&
+                               2 * num_landmarks > static_cast<int>(vars.size());
   const bool landmarks_last =
+      !landmarks_first &&
       std::count_if(last.begin(), last.end(), is_landmark) <= params_.max_landmarks_last;
   std::vector<int> group(vars.size(), 0);
   for (int v : last) {
     if (mark_[v] && (landmarks_last || !is_landmark(v))) group[mark_[v] - 1] = 1;
   }
-  Result<std::vector<int>> order =
-      ConstrainedColamdOrdering(static_cast<int>(vars.size()), incidence, group);
+  const int num_vars = static_cast<int>(vars.size());
+  Result<std::vector<int>> order = FailedPrecondition("landmarks not first");
+  if (landmarks_first) order = IndependentFirstOrdering(num_vars, incidence, landmark, group);
+  if (order.status().code() == StatusCode::kFailedPrecondition) {
+    order = ConstrainedColamdOrdering(num_vars, incidence, group);
+  }
   if (!order.ok()) return order.status();
   order_.clear();
   for (int i : *order) order_.push_back(vars[i]);

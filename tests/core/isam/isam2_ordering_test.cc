@@ -102,5 +102,35 @@ TEST(Isam2OrderingTest, AFramesManyLandmarksStayOutOfTheRootClique) {
   EXPECT_LT(testing::MaxDifference(last, batch.values), 1e-6);
 }
 
+// Where landmarks are most of what an update re-eliminates (and more than max_landmarks_last),
+// every one of them goes first: each is a leaf clique of its own under the poses that see it,
+// update after update, and relinearising everything keeps it so.
+TEST(Isam2OrderingTest, ManyLandmarksAreEliminatedFirstAsLeaves) {
+  const std::vector<Frame> frames = VisualStream(8, 40, 2);
+  auto isam = Isam2::Create({.relinearization = {.skip = 1}}).value();
+  const auto expect_leaves = [&](int update) {
+    const BayesTree& tree = isam->tree();
+    int landmarks = 0;
+    for (int id = 0; id < tree.NumSlots(); ++id) {
+      if (!tree.IsLive(id)) continue;
+      const Clique& c = tree.clique(id);
+      const bool has_landmark = std::any_of(c.frontals().begin(), c.frontals().end(), [&](int v) {
+        return KeySymbol(isam->linearization_point().KeyAt(v)) == 'l';
+      });
+      if (!has_landmark) continue;
+      ++landmarks;
+      EXPECT_EQ(c.num_frontals(), 1) << "update " << update;
+      EXPECT_TRUE(c.children().empty()) << "update " << update;
+    }
+    EXPECT_EQ(landmarks, 40) << "update " << update;
+  };
+  for (size_t i = 0; i < frames.size(); ++i) {
+    ASSERT_TRUE(isam->Update(frames[i].factors, frames[i].values).status.ok());
+    expect_leaves(static_cast<int>(i));
+  }
+  ASSERT_TRUE(isam->Update({}, {}, {.force_full = true}).status.ok());
+  expect_leaves(-1);
+}
+
 }  // namespace
 }  // namespace slamd::core

@@ -154,6 +154,62 @@ TEST(OrderingTest, NewestVariablesLastAsInIsam2) {
   EXPECT_EQ(last_two, (std::set<int>{18, 19}));
 }
 
+// Bundle adjustment's shape: cameras 0..c-1 in a chain, points c..c+p-1 each seen by 2-5
+// cameras, a prior on camera 0.
+FactorIncidence BundleIncidence(int cameras, int points, std::mt19937* rng) {
+  FactorIncidence incidence;
+  incidence.AddFactor({0});
+  for (int i = 0; i + 1 < cameras; ++i) incidence.AddFactor({i, i + 1});
+  std::uniform_int_distribution<int> first(0, cameras - 1), views(2, 5);
+  for (int j = 0; j < points; ++j) {
+    const int a = first(*rng), k = views(*rng);
+    for (int v = 0; v < k; ++v) incidence.AddFactor({(a + 3 * v) % cameras, cameras + j});
+  }
+  return incidence;
+}
+
+// The points first, then the cameras with their groups; as little fill as CCOLAMD with the
+// points in the first group (the Schur complement's fill is the same whatever the points'
+// order); a factor on two points is refused.
+TEST(OrderingTest, IndependentFirstEliminatesThePointsFirst) {
+  std::mt19937 rng(5);
+  for (int trial = 0; trial < 10; ++trial) {
+    const int cameras = 10 + 3 * trial, points = 20 * cameras, n = cameras + points;
+    const FactorIncidence incidence = BundleIncidence(cameras, points, &rng);
+    std::vector<char> independent(n, 0);
+    std::vector<int> group(n, 0);
+    for (int v = cameras; v < n; ++v) independent[v] = 1;
+    group[cameras - 1] = group[cameras / 2] = 1;  // the newest, forced last
+    const auto order = IndependentFirstOrdering(n, incidence, independent, group);
+    ASSERT_TRUE(order.ok()) << order.status().ToString();
+    ASSERT_TRUE(IsPermutation(*order));
+    for (int k = 0; k < n; ++k) EXPECT_EQ(independent[(*order)[k]], k < points) << k;
+    const std::set<int> last_two = {(*order)[n - 2], (*order)[n - 1]};
+    EXPECT_EQ(last_two, (std::set<int>{cameras - 1, cameras / 2}));
+
+    std::vector<int> points_first(n, 1);
+    for (int v = cameras; v < n; ++v) points_first[v] = 0;
+    points_first[cameras - 1] = points_first[cameras / 2] = 2;
+    const auto reference = ConstrainedColamdOrdering(n, incidence, points_first);
+    ASSERT_TRUE(reference.ok());
+    EXPECT_LE(FactorBlockNonZeros(n, incidence, *order),
+              FactorBlockNonZeros(n, incidence, *reference) * 21 / 20)
+        << "trial " << trial;
+  }
+  FactorIncidence two_points;
+  two_points.AddFactor({0, 1});
+  two_points.AddFactor({1, 2});
+  const auto refused = IndependentFirstOrdering(3, two_points, {0, 1, 1}, {0, 0, 0});
+  EXPECT_EQ(refused.status().code(), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(IndependentFirstOrdering(3, two_points, {0, 1}, {0, 0, 0}).status().code(),
+            StatusCode::kInvalidArgument);
+  // A point with no factor, a camera with none: still a permutation, the point first.
+  const auto loose = IndependentFirstOrdering(4, two_points, {0, 0, 0, 1}, {0, 0, 0, 0});
+  ASSERT_TRUE(loose.ok());
+  EXPECT_EQ(loose->front(), 3);
+  EXPECT_TRUE(IsPermutation(*loose));
+}
+
 TEST(OrderingTest, ColamdBeatsNaturalOrderOnGrids) {
   const int rows = 30, cols = 30, n = rows * cols;
   std::vector<int> identity(n);
