@@ -152,17 +152,26 @@ void ScatterFactor(const HessianFactor& h, const int* offset, int n, double* M, 
     }
   }
   const double* data = h.data();
-  // info is fully symmetric, so any block can be read in whichever orientation lands in M's
-  // lower triangle; pairs a >= b cover every block once.
+  // Pairs a >= b cover info's lower triangle once (blocks are in info's order). A block lands
+  // in M's lower triangle as it is when the variables keep their order in M (a child's
+  // separator does: it is ordered as its parent eliminates), else transposed (an orphan's cached
+  // factor under a new order).
   for (int a = 0; a <= q; ++a) {
     for (int b = 0; b <= a; ++b) {
-      const internal::ScatterBlock* row = &blocks[a];
-      const internal::ScatterBlock* col = &blocks[b];
-      if (row->target < col->target) std::swap(row, col);
-      for (int cc = 0; cc < col->dim; ++cc) {
-        const double* src = data + static_cast<size_t>(col->source + cc) * hld + row->source;
-        double* dst = M + static_cast<size_t>(col->target + cc) * ld + row->target;
-        for (int rr = (a == b ? cc : 0); rr < row->dim; ++rr) dst[rr] += src[rr];
+      const internal::ScatterBlock& row = blocks[a];
+      const internal::ScatterBlock& col = blocks[b];
+      if (row.target >= col.target) {
+        for (int cc = 0; cc < col.dim; ++cc) {
+          const double* src = data + static_cast<size_t>(col.source + cc) * hld + row.source;
+          double* dst = M + static_cast<size_t>(col.target + cc) * ld + row.target;
+          for (int rr = (a == b ? cc : 0); rr < row.dim; ++rr) dst[rr] += src[rr];
+        }
+      } else {  // a > b: M(col.target + j, row.target + i) += info(row.source + i, col.source + j)
+        for (int i = 0; i < row.dim; ++i) {
+          const double* src = data + static_cast<size_t>(col.source) * hld + row.source + i;
+          double* dst = M + static_cast<size_t>(row.target + i) * ld + col.target;
+          for (int j = 0; j < col.dim; ++j) dst[j] += src[static_cast<size_t>(j) * hld];
+        }
       }
     }
   }
@@ -172,23 +181,6 @@ void ScatterFactor(const HessianFactor& h, const int* offset, int n, double* M, 
 void Prefetch(const double* data, size_t size) {
   const char* bytes = reinterpret_cast<const char*>(data);
   for (size_t b = 0; b < size * sizeof(double); b += 64) __builtin_prefetch(bytes + b);
-}
-
-// The strict upper triangle of the n x n column-major matrix a from its lower triangle, in
-// tiles: a plain loop writes along rows, one cache line per entry, which made the cached
-// factor's copy the costliest part of a large clique's assembly.
-void MirrorLowerToUpper(double* a, int n) {
-  constexpr int kTile = 8;
-  const size_t ld = static_cast<size_t>(n);
-  for (int jb = 0; jb < n; jb += kTile) {
-    const int je = std::min(n, jb + kTile);
-    for (int ib = jb; ib < n; ib += kTile) {
-      const int ie = std::min(n, ib + kTile);
-      for (int j = jb; j < je; ++j) {
-        for (int i = std::max(ib, j + 1); i < ie; ++i) a[j + i * ld] = a[i + j * ld];
-      }
-    }
-  }
 }
 
 }  // namespace
@@ -402,10 +394,6 @@ Status Eliminator::EliminateClique(const EliminationProblem& problem, int sym, B
       Prefetch(f.data(), static_cast<size_t>(f.rows()) * (f.Dim() + 1));
     }
   }
-  for (int c = forest.first_child[sym]; c != -1; c = forest.next_sibling[c]) {
-    const HessianFactor& h = tree->clique(tree_id_[c]).cached_factor();
-    Prefetch(h.data(), static_cast<size_t>(h.Dim() + 1) * (h.Dim() + 1));
-  }
   const int id = tree_id_[sym];
   Clique& clique = tree->mutable_clique(id);
   // 3e and 3f overwrite the whole conditional and cached factor, so they are not zeroed here.
@@ -447,9 +435,18 @@ Status Eliminator::EliminateClique(const EliminationProblem& problem, int sym, B
       (*hessian_cliques)[hes_list_[i]] = id;
     }
   }
+  // The children's cached factors, each loaded while the one before is assembled (loading all
+  // first, a root under thousands of points would pass over ~100 MB before it used any).
+  const auto cached_of = [&](int c) -> const HessianFactor& {
+    return tree->clique(tree_id_[c]).cached_factor();
+  };
+  const auto prefetch = [&](int c) {
+    if (c != -1) Prefetch(cached_of(c).data(), HessianFactor::DataDoubles(cached_of(c).Dim()));
+  };
+  prefetch(forest.first_child[sym]);
   for (int c = forest.first_child[sym]; c != -1; c = forest.next_sibling[c]) {
-    ScatterFactor(tree->clique(tree_id_[c]).cached_factor(), offset, n, M, ref.data(),
-                  &ws->scatter_blocks);
+    prefetch(forest.next_sibling[c]);
+    ScatterFactor(cached_of(c), offset, n, M, ref.data(), &ws->scatter_blocks);
   }
 
   // 3d. Partial Cholesky of the frontal block: M's first nf columns become [Rᵀ; Sᵀ; −dᵀ] and
@@ -495,7 +492,7 @@ Status Eliminator::EliminateClique(const EliminationProblem& problem, int sym, B
     for (int c = r; c < n; ++c) conditional(r, c) = col[c];
     conditional(r, n) = -col[n];
   }
-  // 3f. The cached factor: the trailing (separator + rhs) block, made symmetric, and the
+  // 3f. The cached factor: the trailing (separator + rhs) block's lower triangle, and the
   //     propagated pivot references of the separator scalars.
   HessianFactor& cached = clique.mutable_cached_factor();
   auto info = cached.mutable_info();
@@ -504,7 +501,6 @@ Status Eliminator::EliminateClique(const EliminationProblem& problem, int sym, B
     const double* col = M + static_cast<size_t>(nf + c) * ld + nf;
     std::copy(col + c, col + ns1, &info(c, c));
   }
-  MirrorLowerToUpper(info.data(), ns1);
   std::copy_n(&ref[nf], n - nf, cached.mutable_reference().data());
   return Status::Ok();
 }

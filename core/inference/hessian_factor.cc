@@ -89,7 +89,7 @@ double HessianFactor::Error(std::span<const int> var_offsets, const Eigen::Vecto
     y.segment(offset(k), dim(k)) = delta.segment(var_offsets[var(k)], dim(k));
   }
   y(n) = 1.0;
-  return y.dot(info() * y);
+  return y.dot(info().selfadjointView<Eigen::Lower>() * y);
 }
 
 void HessianFactor::RenumberVariables(std::span<const int> new_id) {

@@ -8,9 +8,12 @@
 // which iSAM2 reuses for subtrees it does not re-eliminate), and what the elimination assembles
 // into a clique's dense matrix.
 //
-// Storage: info is a contiguous column-major (D + 1) x (D + 1) array that is kept fully
-// symmetric (both triangles valid). Variable k occupies rows/columns [offset(k), offset(k+1));
-// the last row/column holds the linear term and the constant. Reset() reuses capacity.
+// Storage: info is a contiguous column-major (D + 1) x (D + 1) array of which only the lower
+// triangle (with the diagonal) is read: Create and FromJacobian fill both, the elimination only
+// the lower one (a clique's cached factor is written once per re-elimination and read at most
+// once or twice; mirroring it was a quarter of eliminating a bundle adjustment's points).
+// Variable k occupies rows/columns [offset(k), offset(k+1)); the last row/column holds the
+// linear term and the constant. Reset() reuses capacity.
 //
 // Pivot reference: next to info, each of the D scalars carries reference(i) >= info(i, i), a
 // bound on the magnitude of the information that was summed (and cancelled by Schur complements)
