@@ -47,35 +47,40 @@ void TreeGradient(const TopDownCliques& cliques, std::span<const int> var_offset
   }
 }
 
-TreeModelTerms ModelTerms(const TopDownCliques& cliques, std::span<const int> var_offsets,
-                          const Eigen::VectorXd& v, std::vector<double>* scratch) {
-  TreeModelTerms terms;
+TreeModelPair ModelTermsOfPair(const TopDownCliques& cliques, std::span<const int> var_offsets,
+                               const Eigen::VectorXd& a, const Eigen::VectorXd& b,
+                               std::vector<double>* scratch) {
+  TreeModelPair terms;
   for (int id : cliques.order) {
     const Clique& c = cliques.tree.clique(id);
     const int nf = c.FrontalDim();
     const int n = nf + c.SeparatorDim();
-    scratch->resize(n + nf);
-    Gather(c, var_offsets, v, scratch->data());
-    Eigen::Map<Eigen::VectorXd> rv(scratch->data() + n, nf);
-    rv.noalias() =
-        c.conditional().leftCols(n) * Eigen::Map<const Eigen::VectorXd>(scratch->data(), n);
-    terms.quadratic += rv.squaredNorm();
-    terms.linear += c.d().dot(rv);
+    scratch->resize(2 * n + 2 * nf);
+    Eigen::Map<Eigen::MatrixXd> x(scratch->data(), n, 2);  // [a b] at the clique's variables
+    Gather(c, var_offsets, a, x.col(0).data());
+    Gather(c, var_offsets, b, x.col(1).data());
+    Eigen::Map<Eigen::MatrixXd> r(scratch->data() + 2 * n, nf, 2);
+    r.noalias() = c.conditional().leftCols(n) * x;
+    terms.aa += r.col(0).squaredNorm();
+    terms.ab += r.col(0).dot(r.col(1));
+    terms.bb += r.col(1).squaredNorm();
+    terms.da += c.d().dot(r.col(0));
+    terms.db += c.d().dot(r.col(1));
   }
   return terms;
 }
 
-void DoglegPoint(const Eigen::VectorXd& gauss_newton, const Eigen::VectorXd& cauchy, double radius,
-                 Eigen::VectorXd* step) {
+DoglegWeights DoglegPoint(const Eigen::VectorXd& gauss_newton, const Eigen::VectorXd& cauchy,
+                          double radius, Eigen::VectorXd* step) {
   const double gn_norm = gauss_newton.norm();
   if (gn_norm <= radius) {
     *step = gauss_newton;
-    return;
+    return {.on_gauss_newton = 1.0};
   }
   const double cauchy_norm = cauchy.norm();
   if (cauchy_norm >= radius) {
     *step = (radius / cauchy_norm) * cauchy;
-    return;
+    return {.on_cauchy = radius / cauchy_norm};
   }
   // |c + τ (n − c)| = radius for τ in [0, 1]: a τ² + 2 b τ + (|c|² − radius²) = 0.
   const Eigen::VectorXd leg = gauss_newton - cauchy;
@@ -84,6 +89,7 @@ void DoglegPoint(const Eigen::VectorXd& gauss_newton, const Eigen::VectorXd& cau
   const double c = cauchy_norm * cauchy_norm - radius * radius;  // < 0
   const double tau = (-b + std::sqrt(b * b - a * c)) / a;
   *step = cauchy + tau * leg;
+  return {.on_gauss_newton = tau, .on_cauchy = 1.0 - tau};
 }
 
 }  // namespace slamd::core

@@ -42,12 +42,30 @@ struct TreeModelTerms {
   // The decrease of m from 0 to v.
   double Decrease() const { return 2.0 * linear - quadratic; }
 };
-TreeModelTerms ModelTerms(const TopDownCliques& cliques, std::span<const int> var_offsets,
-                          const Eigen::VectorXd& v, std::vector<double>* scratch);
+
+// The terms of two vectors a and b and their cross term, from one pass over the tree: those
+// of any α a + β b (every point of the dog-leg path combines the Gauss-Newton step and the
+// gradient) then need no further pass.
+struct TreeModelPair {
+  double aa = 0.0, ab = 0.0, bb = 0.0;  // (Ra)ᵀRa, (Ra)ᵀRb, (Rb)ᵀRb
+  double da = 0.0, db = 0.0;            // dᵀRa, dᵀRb
+  TreeModelTerms Of(double alpha, double beta) const {
+    return {.quadratic = alpha * alpha * aa + 2.0 * alpha * beta * ab + beta * beta * bb,
+            .linear = alpha * da + beta * db};
+  }
+};
+TreeModelPair ModelTermsOfPair(const TopDownCliques& cliques, std::span<const int> var_offsets,
+                               const Eigen::VectorXd& a, const Eigen::VectorXd& b,
+                               std::vector<double>* scratch);
 
 // The point of the dog-leg path 0 → cauchy → gauss_newton at distance `radius` from 0 (or
-// gauss_newton itself when it lies within the radius). *step may not alias the inputs.
-void DoglegPoint(const Eigen::VectorXd& gauss_newton, const Eigen::VectorXd& cauchy, double radius,
-                 Eigen::VectorXd* step);
+// gauss_newton itself when it lies within the radius), and its weights: *step =
+// on_gauss_newton x gauss_newton + on_cauchy x cauchy. *step may not alias the inputs.
+struct DoglegWeights {
+  double on_gauss_newton = 0.0;
+  double on_cauchy = 0.0;
+};
+DoglegWeights DoglegPoint(const Eigen::VectorXd& gauss_newton, const Eigen::VectorXd& cauchy,
+                          double radius, Eigen::VectorXd* step);
 
 }  // namespace slamd::core

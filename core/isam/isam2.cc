@@ -234,8 +234,11 @@ Isam2Result::TrustRegion Isam2::TrustRegionStep() {
   const TopDownCliques cliques(tree_);  // for every sum over cliques below
   TreeGradient(cliques, offsets_, &gradient_, &dogleg_scratch_);
   const double g2 = gradient_.squaredNorm();
-  const double rg2 = ModelTerms(cliques, offsets_, gradient_, &dogleg_scratch_).quadratic;
-  const double gain = ModelTerms(cliques, offsets_, gauss_newton, &dogleg_scratch_).Decrease();
+  // Every step below is α δ_gn + β g: one pass gives the model's terms of all of them.
+  const TreeModelPair model =
+      ModelTermsOfPair(cliques, offsets_, gauss_newton, gradient_, &dogleg_scratch_);
+  const double rg2 = model.bb;
+  const double gain = model.Of(1.0, 0.0).Decrease();
   const double cost_theta = SumAt(nullptr, true);
   out.radius = radius_;
   // θ at the model's minimum (g = 0), or nothing to gain beyond round-off: the Gauss-Newton step,
@@ -244,12 +247,13 @@ Isam2Result::TrustRegion Isam2::TrustRegionStep() {
     out.gauss_newton = true;
     return out;
   }
-  cauchy_ = (g2 / rg2) * gradient_;
+  const double to_cauchy = g2 / rg2;
+  cauchy_ = to_cauchy * gradient_;
   const Isam2Params::TrustRegion& p = params_.trust_region;
   while (true) {
-    DoglegPoint(gauss_newton, cauchy_, radius_, &step_);
+    const DoglegWeights w = DoglegPoint(gauss_newton, cauchy_, radius_, &step_);
     ++out.attempts;
-    const double predicted = ModelTerms(cliques, offsets_, step_, &dogleg_scratch_).Decrease();
+    const double predicted = model.Of(w.on_gauss_newton, w.on_cauchy * to_cauchy).Decrease();
     const double actual = cost_theta - SumAt(&step_, true);
     const double rho = predicted > 0.0 ? actual / predicted : -1.0;
     const double step_norm = step_.norm();

@@ -77,14 +77,26 @@ TEST(DoglegTest, GradientAndModelTermsAreThoseOfTheDenseSystem) {
   std::normal_distribution<double> normal;
   Eigen::VectorXd v(n);
   for (int j = 0; j < n; ++j) v[j] = normal(rng);
-  const TreeModelTerms terms = ModelTerms(cliques, offsets, v, &scratch);
+  // The terms of one vector: those of the pair (v, v) at (1, 0).
+  const auto terms_of = [&](const Eigen::VectorXd& x) {
+    return ModelTermsOfPair(cliques, offsets, x, x, &scratch).Of(1.0, 0.0);
+  };
+  const TreeModelTerms terms = terms_of(v);
   EXPECT_NEAR(terms.quadratic, (a * v).squaredNorm(), 1e-8 * terms.quadratic);
   const double linear = (a * delta).dot(a * v);
   EXPECT_NEAR(terms.linear, linear, 1e-8 * std::abs(linear) + 1e-9);
   // The model's decrease is largest at the Gauss-Newton step, where it is |Rδ|².
-  const TreeModelTerms at_gn = ModelTerms(cliques, offsets, delta, &scratch);
+  const TreeModelTerms at_gn = terms_of(delta);
   EXPECT_NEAR(at_gn.Decrease(), (a * delta).squaredNorm(), 1e-8 * at_gn.quadratic);
-  EXPECT_GT(at_gn.Decrease(), ModelTerms(cliques, offsets, 0.5 * delta, &scratch).Decrease());
+  EXPECT_GT(at_gn.Decrease(), terms_of(0.5 * delta).Decrease());
+  // The pair's terms give those of any combination as its own pass does.
+  const TreeModelPair pair = ModelTermsOfPair(cliques, offsets, delta, v, &scratch);
+  for (const auto& [alpha, beta] : {std::pair{1.0, 0.0}, {0.0, 1.0}, {0.3, -2.0}, {1.5, 0.7}}) {
+    const TreeModelTerms direct = terms_of(alpha * delta + beta * v);
+    const TreeModelTerms combined = pair.Of(alpha, beta);
+    EXPECT_NEAR(combined.quadratic, direct.quadratic, 1e-10 * direct.quadratic) << alpha;
+    EXPECT_NEAR(combined.linear, direct.linear, 1e-10 * (std::abs(direct.linear) + 1.0)) << alpha;
+  }
 }
 
 // Which slots the cliques take depends on the free list's history (trimmed at rest or not); the
@@ -109,12 +121,13 @@ TEST(DoglegTest, TheStepDoesNotDependOnWhichSlotsTheCliquesTook) {
     TreeGradient(TopDownCliques(plain->tree()), offsets, &g_plain, &scratch);
     TreeGradient(TopDownCliques(trimmed->tree()), offsets, &g_trimmed, &scratch);
     ASSERT_EQ((g_plain - g_trimmed).cwiseAbs().maxCoeff(), 0.0) << plain->num_updates();
-    const TreeModelTerms m_plain =
-        ModelTerms(TopDownCliques(plain->tree()), offsets, g_plain, &scratch);
-    const TreeModelTerms m_trimmed =
-        ModelTerms(TopDownCliques(trimmed->tree()), offsets, g_plain, &scratch);
-    ASSERT_EQ(m_plain.quadratic, m_trimmed.quadratic);
-    ASSERT_EQ(m_plain.linear, m_trimmed.linear);
+    const TreeModelPair m_plain =
+        ModelTermsOfPair(TopDownCliques(plain->tree()), offsets, g_plain, g_trimmed, &scratch);
+    const TreeModelPair m_trimmed =
+        ModelTermsOfPair(TopDownCliques(trimmed->tree()), offsets, g_plain, g_trimmed, &scratch);
+    ASSERT_EQ(m_plain.aa, m_trimmed.aa);
+    ASSERT_EQ(m_plain.ab, m_trimmed.ab);
+    ASSERT_EQ(m_plain.da, m_trimmed.da);
     const Values a = plain->CalculateEstimate(), b = trimmed->CalculateEstimate();
     ASSERT_EQ(a.size(), b.size());
     for (int v = 0; v < static_cast<int>(a.size()); ++v) {
@@ -130,10 +143,11 @@ TEST(DoglegTest, PointsLieOnThePathAtTheRadius) {
   Eigen::VectorXd step;
   DoglegPoint(gn, cauchy, 10.0, &step);  // the Gauss-Newton step within the radius
   EXPECT_EQ(step, Eigen::VectorXd(gn));
-  DoglegPoint(gn, cauchy, 0.5, &step);  // short of the Cauchy point: along the gradient
+  EXPECT_EQ(DoglegPoint(gn, cauchy, 0.5, &step).on_gauss_newton, 0.0);  // along the gradient
   EXPECT_NEAR(step.norm(), 0.5, 1e-12);
   EXPECT_NEAR(step[0], step[1], 1e-12);
-  DoglegPoint(gn, cauchy, 3.0, &step);  // on the second leg, at the radius
+  const DoglegWeights w = DoglegPoint(gn, cauchy, 3.0, &step);  // on the second leg, at the radius
+  EXPECT_LT((step - (w.on_gauss_newton * gn + w.on_cauchy * cauchy)).norm(), 1e-12);
   EXPECT_NEAR(step.norm(), 3.0, 1e-12);
   const Eigen::Vector3d leg = gn - cauchy;
   const double tau = (step - cauchy).dot(leg) / leg.squaredNorm();
