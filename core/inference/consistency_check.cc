@@ -150,10 +150,7 @@ Status CheckMatrices(const BayesTree& tree) {
     const auto cond = c.conditional();
     if (cond.rows() != nf || cond.cols() != nf + ns + 1)
       return Fail(C(id) + ": [R S d] has the wrong size");
-    const auto info = c.cached_factor().info();
-    if (info.rows() != ns + 1 || info.cols() != ns + 1) {
-      return Fail(C(id) + ": cached factor has the wrong size");
-    }
+    if (c.cached_factor().Dim() != ns) return Fail(C(id) + ": cached factor has the wrong size");
     if (!cond.allFinite()) return Fail(C(id) + ": [R S d] is not finite");
     for (int j = 0; j < nf; ++j) {
       if (!(cond(j, j) > 0.0)) return Fail(C(id) + ": R has a non-positive diagonal entry");

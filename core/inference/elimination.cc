@@ -130,7 +130,6 @@ void ScatterFactor(const HessianFactor& h, const int* offset, int n, double* M, 
                    std::vector<internal::ScatterBlock>* scatter_blocks) {
   const int p = h.num_vars();
   const int ld = n + 1;
-  const int hld = h.Dim() + 1;
   scatter_blocks->resize(p + 1);
   internal::ScatterBlock* blocks = scatter_blocks->data();
   for (int k = 0; k < p; ++k) blocks[k] = {offset[h.var(k)], h.dim(k), h.offset(k)};
@@ -151,7 +150,6 @@ void ScatterFactor(const HessianFactor& h, const int* offset, int n, double* M, 
       blocks[++q] = blocks[k];
     }
   }
-  const double* data = h.data();
   // Pairs a >= b cover info's lower triangle once (blocks are in info's order). A block lands
   // in M's lower triangle as it is when the variables keep their order in M (a child's
   // separator does: it is ordered as its parent eliminates), else transposed (an orphan's cached
@@ -162,15 +160,17 @@ void ScatterFactor(const HessianFactor& h, const int* offset, int n, double* M, 
       const internal::ScatterBlock& col = blocks[b];
       if (row.target >= col.target) {
         for (int cc = 0; cc < col.dim; ++cc) {
-          const double* src = data + static_cast<size_t>(col.source + cc) * hld + row.source;
+          // info(row.source + rr, col.source + cc), rr >= cc on the diagonal block.
+          const double* src = h.column(col.source + cc) + (row.source - col.source - cc);
           double* dst = M + static_cast<size_t>(col.target + cc) * ld + row.target;
           for (int rr = (a == b ? cc : 0); rr < row.dim; ++rr) dst[rr] += src[rr];
         }
       } else {  // a > b: M(col.target + j, row.target + i) += info(row.source + i, col.source + j)
-        for (int i = 0; i < row.dim; ++i) {
-          const double* src = data + static_cast<size_t>(col.source) * hld + row.source + i;
-          double* dst = M + static_cast<size_t>(row.target + i) * ld + col.target;
-          for (int j = 0; j < col.dim; ++j) dst[j] += src[static_cast<size_t>(j) * hld];
+        for (int j = 0; j < col.dim; ++j) {
+          const double* src = h.column(col.source + j) + (row.source - col.source - j);
+          for (int i = 0; i < row.dim; ++i) {
+            M[static_cast<size_t>(row.target + i) * ld + col.target + j] += src[i];
+          }
         }
       }
     }
@@ -492,14 +492,13 @@ Status Eliminator::EliminateClique(const EliminationProblem& problem, int sym, B
     for (int c = r; c < n; ++c) conditional(r, c) = col[c];
     conditional(r, n) = -col[n];
   }
-  // 3f. The cached factor: the trailing (separator + rhs) block's lower triangle, and the
-  //     propagated pivot references of the separator scalars.
+  // 3f. The cached factor: the trailing (separator + rhs) block's lower triangle, packed, and
+  //     the propagated pivot references of the separator scalars.
   HessianFactor& cached = clique.mutable_cached_factor();
-  auto info = cached.mutable_info();
   const int ns1 = n - nf + 1;
   for (int c = 0; c < ns1; ++c) {
     const double* col = M + static_cast<size_t>(nf + c) * ld + nf;
-    std::copy(col + c, col + ns1, &info(c, c));
+    std::copy(col + c, col + ns1, cached.mutable_column(c));
   }
   std::copy_n(&ref[nf], n - nf, cached.mutable_reference().data());
   return Status::Ok();

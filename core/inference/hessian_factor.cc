@@ -43,7 +43,7 @@ Result<HessianFactor> HessianFactor::Create(std::span<const int> vars, std::span
   }
   HessianFactor h;
   h.Reset(vars, dims);
-  h.mutable_info() = info;
+  h.Pack(info);
   h.SetReferenceToDiagonal();
   return h;
 }
@@ -53,9 +53,23 @@ HessianFactor HessianFactor::FromJacobian(const JacobianFactor& jacobian) {
   for (int k = 0; k < jacobian.num_vars(); ++k) dims[k] = jacobian.dim(k);
   HessianFactor h;
   h.Reset(jacobian.vars(), dims);
-  h.mutable_info().noalias() = jacobian.Ab().transpose() * jacobian.Ab();
+  h.Pack(jacobian.Ab().transpose() * jacobian.Ab());
   h.SetReferenceToDiagonal();
   return h;
+}
+
+void HessianFactor::Pack(const Eigen::MatrixXd& info) {
+  const int n = Dim() + 1;
+  for (int j = 0; j < n; ++j) std::copy_n(&info(j, j), n - j, mutable_column(j));
+}
+
+Eigen::MatrixXd HessianFactor::Info() const {
+  const int n = Dim() + 1;
+  Eigen::MatrixXd info(n, n);
+  for (int j = 0; j < n; ++j) {
+    for (int i = j; i < n; ++i) info(i, j) = info(j, i) = column(j)[i - j];
+  }
+  return info;
 }
 
 void HessianFactor::Reset(std::span<const int> vars, std::span<const int> dims) {
@@ -79,7 +93,7 @@ void HessianFactor::Reshape(std::span<const int> vars, std::span<const int> dims
 }
 
 void HessianFactor::SetReferenceToDiagonal() {
-  mutable_reference() = info().diagonal().head(Dim());
+  for (int j = 0; j < Dim(); ++j) mutable_reference()[j] = column(j)[0];
 }
 
 double HessianFactor::Error(std::span<const int> var_offsets, const Eigen::VectorXd& delta) const {
@@ -89,7 +103,14 @@ double HessianFactor::Error(std::span<const int> var_offsets, const Eigen::Vecto
     y.segment(offset(k), dim(k)) = delta.segment(var_offsets[var(k)], dim(k));
   }
   y(n) = 1.0;
-  return y.dot(info().selfadjointView<Eigen::Lower>() * y);
+  double error = 0.0;  // yᵀ info y from the lower triangle: diagonal once, the rest twice
+  for (int j = 0; j <= n; ++j) {
+    const double* c = column(j);
+    double below = 0.0;
+    for (int i = j + 1; i <= n; ++i) below += c[i - j] * y(i);
+    error += y(j) * (c[0] * y(j) + 2.0 * below);
+  }
+  return error;
 }
 
 void HessianFactor::RenumberVariables(std::span<const int> new_id) {

@@ -8,12 +8,12 @@
 // which iSAM2 reuses for subtrees it does not re-eliminate), and what the elimination assembles
 // into a clique's dense matrix.
 //
-// Storage: info is a contiguous column-major (D + 1) x (D + 1) array of which only the lower
-// triangle (with the diagonal) is read: Create and FromJacobian fill both, the elimination only
-// the lower one (a clique's cached factor is written once per re-elimination and read at most
-// once or twice; mirroring it was a quarter of eliminating a bundle adjustment's points).
-// Variable k occupies rows/columns [offset(k), offset(k+1)); the last row/column holds the
-// linear term and the constant. Reset() reuses capacity.
+// Storage: info's lower triangle (with the diagonal), packed by columns: column j holds rows
+// j..D, one after the other (the upper triangle is its mirror and is not stored: a clique's
+// cached factor is most of the Bayes tree's memory, and writing a mirror was a quarter of
+// eliminating a bundle adjustment's points). Variable k occupies rows/columns
+// [offset(k), offset(k+1)); the last row/column holds the linear term and the constant.
+// Reset() reuses capacity.
 //
 // Pivot reference: next to info, each of the D scalars carries reference(i) >= info(i, i), a
 // bound on the magnitude of the information that was summed (and cancelled by Schur complements)
@@ -59,8 +59,11 @@ class HessianFactor {
   }
   // Doubles its storage holds without allocating, and the doubles a factor of dimension D needs.
   std::size_t DataCapacity() const { return data_.capacity(); }
-  static std::size_t DataDoubles(int D) {
-    return static_cast<std::size_t>(D + 1) * (D + 1) + static_cast<std::size_t>(D);
+  static std::size_t DataDoubles(int D) { return PackedDoubles(D + 1) + static_cast<size_t>(D); }
+  // Doubles of an n x n lower triangle, and where its packed column j starts.
+  static std::size_t PackedDoubles(int n) { return static_cast<std::size_t>(n) * (n + 1) / 2; }
+  static std::size_t ColumnStart(int n, int j) {
+    return static_cast<std::size_t>(j) * n - static_cast<std::size_t>(j) * (j - 1) / 2;
   }
   // Gives back the capacity beyond what it holds (Reset/Reshape keep up to 4x for reuse).
   void ShrinkStorage() {
@@ -80,9 +83,15 @@ class HessianFactor {
   // D = Σ dims (info is (D + 1) x (D + 1)).
   int Dim() const { return index_[2 * num_vars_]; }
 
-  Eigen::Map<const Eigen::MatrixXd> info() const { return {data_.data(), Dim() + 1, Dim() + 1}; }
-  Eigen::Map<Eigen::MatrixXd> mutable_info() { return {data_.data(), Dim() + 1, Dim() + 1}; }
-  // Raw column-major storage (leading dimension Dim() + 1), for the elimination kernels.
+  // info(j..D, j): packed column j of the lower triangle, Dim() + 1 - j entries.
+  const double* column(int j) const { return data_.data() + ColumnStart(Dim() + 1, j); }
+  double* mutable_column(int j) { return data_.data() + ColumnStart(Dim() + 1, j); }
+  // The whole packed lower triangle (PackedDoubles(Dim() + 1) entries).
+  std::span<const double> packed_info() const { return {data_.data(), PackedDoubles(Dim() + 1)}; }
+  std::span<double> mutable_packed_info() { return {data_.data(), PackedDoubles(Dim() + 1)}; }
+  // info, both triangles, as a dense matrix (for tests and checks, not the hot paths).
+  Eigen::MatrixXd Info() const;
+  // Start of the storage, for prefetching (DataDoubles(Dim()) doubles).
   const double* data() const { return data_.data(); }
 
   // Per-scalar pivot reference (see the file comment), Dim() entries.
@@ -97,13 +106,13 @@ class HessianFactor {
 
  private:
   int num_vars_ = 0;
-  const double* ReferenceData() const {
-    return data_.data() + static_cast<size_t>(Dim() + 1) * (Dim() + 1);
-  }
-  double* ReferenceData() { return data_.data() + static_cast<size_t>(Dim() + 1) * (Dim() + 1); }
+  const double* ReferenceData() const { return data_.data() + PackedDoubles(Dim() + 1); }
+  double* ReferenceData() { return data_.data() + PackedDoubles(Dim() + 1); }
+  // Stores the lower triangle of the (D + 1)-square `info`.
+  void Pack(const Eigen::MatrixXd& info);
 
   std::vector<int> index_ = {0};      // [vars (p) | offsets (p + 1)]: one allocation for both
-  UninitVector<double> data_ = {0.0};  // [info, column-major (D + 1)² | reference (D)]
+  UninitVector<double> data_ = {0.0};  // [info's lower triangle, packed | reference (D)]
 };
 
 }  // namespace slamd::core

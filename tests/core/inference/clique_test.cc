@@ -26,7 +26,7 @@ TEST(CliqueTest, ResetShapesTheViews) {
   EXPECT_EQ(c.SeparatorDim(), 8);
   EXPECT_EQ(c.conditional().rows(), 4);
   EXPECT_EQ(c.conditional().cols(), 13);
-  EXPECT_EQ(c.cached_factor().info().rows(), 9);
+  EXPECT_EQ(c.cached_factor().Info().rows(), 9);
   EXPECT_EQ(c.parent(), Clique::kNone);
   EXPECT_TRUE(c.children().empty());
 

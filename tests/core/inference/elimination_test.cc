@@ -21,9 +21,6 @@ using testing::MakeRandomSystem;
 using testing::NaturalOrder;
 using testing::RandomLinearSystem;
 
-// A cached factor's info, symmetric (the elimination writes only its lower triangle).
-Eigen::MatrixXd Info(const HessianFactor& h) { return h.info().selfadjointView<Eigen::Lower>(); }
-
 enum class OrderKind { kNatural, kColamd, kReversed, kRandom };
 
 std::vector<int> MakeOrder(const RandomLinearSystem& s, OrderKind kind, unsigned seed) {
@@ -215,7 +212,7 @@ TEST(EliminationTest, RootCachedFactorIsTheMinimumError) {
   for (int root : tree.roots()) {
     const HessianFactor& cached = tree.clique(root).cached_factor();
     ASSERT_EQ(cached.num_vars(), 0);
-    sum += cached.info()(0, 0);
+    sum += cached.column(0)[0];
   }
   EXPECT_NEAR(sum, error, 1e-9 * std::max(1.0, error));
 }
@@ -250,7 +247,7 @@ TEST(EliminationTest, ReusedCliqueStorageIsOverwrittenCompletely) {
   for (int id : top_down) {
     Clique& c = reused.mutable_clique(id);
     c.mutable_conditional().setConstant(nan);
-    c.mutable_cached_factor().mutable_info().setConstant(nan);
+    std::ranges::fill(c.mutable_cached_factor().mutable_packed_info(), nan);
     c.mutable_cached_factor().mutable_reference().setConstant(nan);
   }
   for (auto it = top_down.rbegin(); it != top_down.rend(); ++it) reused.FreeClique(*it);
@@ -268,7 +265,7 @@ TEST(EliminationTest, ReusedCliqueStorageIsOverwrittenCompletely) {
     EXPECT_EQ(a.R().triangularView<Eigen::StrictlyLower>().toDenseMatrix().cwiseAbs().maxCoeff(),
               0.0);
     EXPECT_EQ(a.conditional(), b.conditional()) << "clique " << k;
-    EXPECT_EQ(Info(a.cached_factor()), Info(b.cached_factor())) << "clique " << k;
+    EXPECT_EQ(a.cached_factor().Info(), b.cached_factor().Info()) << "clique " << k;
     EXPECT_EQ(a.cached_factor().reference(), b.cached_factor().reference()) << "clique " << k;
   }
   EXPECT_GT(multi_frontal, 0);  // R has a strictly lower part to get wrong
@@ -365,7 +362,7 @@ TEST(EliminationTest, ThreadsGiveTheSameTreeAndTheSameFailure) {
       EXPECT_EQ(a.children(), b.children());
       // Bitwise: == on the matrices, no tolerance.
       EXPECT_TRUE(a.conditional() == b.conditional()) << "clique " << id;
-      EXPECT_TRUE(Info(a.cached_factor()) == Info(b.cached_factor())) << "clique " << id;
+      EXPECT_TRUE(a.cached_factor().Info() == b.cached_factor().Info()) << "clique " << id;
     }
   }
 }
@@ -550,8 +547,8 @@ TEST_P(PartialEliminationTest, ReproducesTheFullElimination) {
     ASSERT_TRUE(std::ranges::equal(c.frontals(), ref.frontals()));
     ASSERT_TRUE(std::ranges::equal(c.separator(), ref.separator()));
     EXPECT_LT((c.conditional() - ref.conditional()).cwiseAbs().maxCoeff(), 1e-9);
-    EXPECT_LT((Info(c.cached_factor()) - Info(ref.cached_factor())).cwiseAbs().maxCoeff(),
-              1e-9 * std::max(1.0, Info(ref.cached_factor()).cwiseAbs().maxCoeff()));
+    EXPECT_LT((c.cached_factor().Info() - ref.cached_factor().Info()).cwiseAbs().maxCoeff(),
+              1e-9 * std::max(1.0, ref.cached_factor().Info().cwiseAbs().maxCoeff()));
     const int parent = c.parent() == BayesTree::kNone ? -1 : tree.clique(c.parent()).frontal(0);
     const int ref_parent =
         ref.parent() == BayesTree::kNone ? -1 : full.clique(ref.parent()).frontal(0);

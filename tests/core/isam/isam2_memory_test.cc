@@ -70,7 +70,9 @@ TEST(Isam2MemoryTest, StorageKeptForReuseFollowsRecentUpdates) {
     prior = r.new_factor_indices[0];
     least = std::min(least, isam->MemoryUse().tree_free);
   }
-  EXPECT_LT(least, batch.tree_free / 4);
+  // The bound: twice the largest recent top (decayed to 0.999^2500 = 8% of the batch's) plus a
+  // floor of 256 KiB, here about a quarter of what the batch step freed.
+  EXPECT_LT(least, batch.tree_free / 3);
   const Status consistent = CheckConsistency(isam->tree());
   ASSERT_TRUE(consistent.ok()) << consistent.ToString();
 }
