@@ -257,10 +257,11 @@ Status Isam2::EliminateTop(const std::vector<int>& vars, const std::vector<int>&
     if (mark_[v] && (landmarks_last || !is_landmark(v))) group[mark_[v] - 1] = 1;
   }
   const int num_vars = static_cast<int>(vars.size());
-  Result<std::vector<int>> order = FailedPrecondition("landmarks not first");
-  if (landmarks_first) order = IndependentFirstOrdering(num_vars, incidence, landmark, group);
-  if (order.status().code() == StatusCode::kFailedPrecondition) {
-    order = ConstrainedColamdOrdering(num_vars, incidence, group);
+  Result<std::vector<int>> order =
+      landmarks_first ? IndependentFirstOrdering(num_vars, incidence, landmark, group)
+                      : ConstrainedColamdOrdering(num_vars, incidence, group);
+  if (landmarks_first && order.status().code() == StatusCode::kFailedPrecondition) {
+    order = ConstrainedColamdOrdering(num_vars, incidence, group);  // a factor ties two landmarks
   }
   if (!order.ok()) return order.status();
   order_.clear();
