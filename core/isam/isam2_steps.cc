@@ -235,8 +235,8 @@ Status Isam2::EliminateTop(const std::vector<int>& vars, const std::vector<int>&
   // 6. Constrained COLAMD: the variables of the new factors last (iSAM2 §V-A), so the next
   // update, which most likely touches them again, finds them near the root; their landmarks too
   // while they are few (Isam2Params::max_landmarks_last). But where landmarks are most of the
-  // variables, and more than that (bundle adjustment), they all go first, as leaves under the
-  // poses they are seen from, unless a factor ties two of them.
+  // variables, and more than that, and the poses they leave are densely tied (bundle adjustment
+  // of a compact scene), they all go first, as leaves under the poses they are seen from.
   const auto is_landmark = [&](int v) {
     const VariableType type = theta_.TypeAt(v);
     return type == kVariableType<Point2> || type == kVariableType<Point3>;
@@ -258,10 +258,13 @@ Status Isam2::EliminateTop(const std::vector<int>& vars, const std::vector<int>&
   }
   const int num_vars = static_cast<int>(vars.size());
   Result<std::vector<int>> order =
-      landmarks_first ? IndependentFirstOrdering(num_vars, incidence, landmark, group)
-                      : ConstrainedColamdOrdering(num_vars, incidence, group);
+      landmarks_first
+          ? IndependentFirstOrdering(num_vars, incidence, landmark, group, kLandmarksFirstDensity)
+          : ConstrainedColamdOrdering(num_vars, incidence, group);
   if (landmarks_first && order.status().code() == StatusCode::kFailedPrecondition) {
-    order = ConstrainedColamdOrdering(num_vars, incidence, group);  // a factor ties two landmarks
+    // The poses left are too sparsely tied for the points-first order to fill in as little as
+    // CCOLAMD's, or a factor ties two landmarks.
+    order = ConstrainedColamdOrdering(num_vars, incidence, group);
   }
   if (!order.ok()) return order.status();
   order_.clear();

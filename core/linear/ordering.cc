@@ -1,6 +1,8 @@
 #include "core/linear/ordering.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numeric>
 #include <string>
@@ -152,9 +154,40 @@ Result<std::vector<int>> ConstrainedColamdOrdering(int num_vars, const FactorInc
   return order;
 }
 
+namespace {
+
+// Whether the rows of `incidence` tie together at least `min_density` of the pairs of its
+// num_vars variables (num_vars <= kMaxDensityVars; a bit per pair).
+bool DenseEnough(int num_vars, const FactorIncidence& incidence, double min_density) {
+  if (min_density <= 0.0 || num_vars < 2) return true;
+  const double all = 0.5 * num_vars * (num_vars - 1.0);
+  const long needed = static_cast<long>(std::ceil(min_density * all));
+  std::vector<std::uint64_t> bits((static_cast<std::size_t>(num_vars) * num_vars + 63) / 64, 0);
+  long pairs = 0;
+  for (int f = 0; f < incidence.NumFactors(); ++f) {
+    for (int i = incidence.offsets[f]; i < incidence.offsets[f + 1]; ++i) {
+      for (int j = incidence.offsets[f]; j < i; ++j) {
+        const int a = std::max(incidence.vars[i], incidence.vars[j]);
+        const int b = std::min(incidence.vars[i], incidence.vars[j]);
+        if (a == b) continue;
+        const std::size_t bit = static_cast<std::size_t>(a) * num_vars + b;
+        std::uint64_t& word = bits[bit / 64];
+        const std::uint64_t mask = std::uint64_t{1} << (bit % 64);
+        if (word & mask) continue;
+        word |= mask;
+        if (++pairs >= needed) return true;
+      }
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
 Result<std::vector<int>> IndependentFirstOrdering(int num_vars, const FactorIncidence& incidence,
                                                   const std::vector<char>& independent,
-                                                  const std::vector<int>& group) {
+                                                  const std::vector<int>& group,
+                                                  double min_density) {
   SLAMD_RETURN_IF_ERROR(ValidateIncidence(num_vars, incidence));
   if (static_cast<int>(independent.size()) != num_vars ||
       static_cast<int>(group.size()) != num_vars) {
@@ -222,8 +255,13 @@ Result<std::vector<int>> IndependentFirstOrdering(int num_vars, const FactorInci
       reduced.offsets.push_back(static_cast<int>(reduced.vars.size()));
     }
   }
-  Result<std::vector<int>> rest =
-      ConstrainedColamdOrdering(static_cast<int>(rest_var.size()), reduced, rest_group);
+  const int num_rest = static_cast<int>(rest_var.size());
+  if (min_density > 0.0 &&
+      (num_rest > kMaxDensityVars || !DenseEnough(num_rest, reduced, min_density))) {
+    return FailedPrecondition("the system left after the independent variables is sparser than " +
+                              std::to_string(min_density));
+  }
+  Result<std::vector<int>> rest = ConstrainedColamdOrdering(num_rest, reduced, rest_group);
   if (!rest.ok()) return rest.status();
   // The marked variables sorted by where their neighbours are eliminated (the first, then the
   // last): those seen from the same poses come together, so the parents' assembly of their

@@ -51,17 +51,28 @@ Result<std::vector<int>> ColamdOrdering(int num_vars, const FactorIncidence& inc
 Result<std::vector<int>> ConstrainedColamdOrdering(int num_vars, const FactorIncidence& incidence,
                                                    const std::vector<int>& group);
 
-// The variables marked in `independent` first (in index order), then the others by CCOLAMD with
-// their groups (as ConstrainedColamdOrdering) on the system that eliminating the first leaves:
-// each marked variable's factors merge into one row over its unmarked neighbours. No factor may
-// touch two marked variables (an independent set, as the points of bundle adjustment are), so
-// eliminating them first fills in only among each one's neighbours: the Schur complement. The
-// cost is that of reading the incidence plus CCOLAMD on the rest, where CCOLAMD on the whole
-// graph costs ~30 ms on Ladybug-49's 7,800 variables. kFailedPrecondition when a factor touches
-// two marked variables; sizes as ConstrainedColamdOrdering.
+// The variables marked in `independent` first (sorted by where their neighbours are
+// eliminated), then the others by CCOLAMD with their groups (as ConstrainedColamdOrdering) on the
+// system that eliminating the first leaves: each marked variable's factors merge into one row
+// over its unmarked neighbours. No factor may touch two marked variables (an independent set, as
+// the points of bundle adjustment are), so eliminating them first fills in only among each one's
+// neighbours: the Schur complement. The cost is that of reading the incidence plus CCOLAMD on
+// the rest, where CCOLAMD on the whole graph costs ~30 ms on Ladybug-49's 7,800 variables.
+//
+// That order is as good as CCOLAMD's only where the system left is dense anyway: on a long
+// camera trajectory (few cameras share a point) CCOLAMD eliminates some cameras before their
+// points and fills in far less (a simulated city: 2.6x the flops with the points first). So
+// `min_density`: the least fraction of pairs of unmarked variables that a row of the system left
+// ties together (Ladybug-49: 0.83-0.85; the city: 0.15-0.36); a sparser system, or one of more
+// than kMaxDensityVars unmarked variables, is refused.
+//
+// kFailedPrecondition when a factor touches two marked variables or the system left is too
+// sparse (the caller orders by CCOLAMD instead); sizes as ConstrainedColamdOrdering.
+inline constexpr int kMaxDensityVars = 1024;
 Result<std::vector<int>> IndependentFirstOrdering(int num_vars, const FactorIncidence& incidence,
                                                   const std::vector<char>& independent,
-                                                  const std::vector<int>& group);
+                                                  const std::vector<int>& group,
+                                                  double min_density = 0.0);
 
 // inverse[perm[k]] = k. `perm` must be a permutation of 0..n-1 (checked by SLAMD_DCHECK only).
 std::vector<int> InversePermutation(const std::vector<int>& perm);

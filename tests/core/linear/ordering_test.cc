@@ -6,6 +6,7 @@
 #include <numeric>
 #include <random>
 #include <set>
+#include <tuple>
 #include <vector>
 
 namespace slamd::core {
@@ -208,6 +209,40 @@ TEST(OrderingTest, IndependentFirstEliminatesThePointsFirst) {
   ASSERT_TRUE(loose.ok());
   EXPECT_EQ(loose->front(), 3);
   EXPECT_TRUE(IsPermutation(*loose));
+}
+
+// The points first only where the cameras they leave are densely tied: every pair of 6
+// cameras shares a point (density 1), against a trajectory of 60 whose points are seen by two
+// neighbours (density 1/30).
+TEST(OrderingTest, IndependentFirstRefusesWhatItLeavesSparse) {
+  const auto points_between = [](int cameras, const std::vector<std::pair<int, int>>& pairs) {
+    FactorIncidence incidence;
+    incidence.AddFactor({0});
+    for (int j = 0; j < static_cast<int>(pairs.size()); ++j) {
+      incidence.AddFactor({pairs[j].first, cameras + j});
+      incidence.AddFactor({pairs[j].second, cameras + j});
+    }
+    return incidence;
+  };
+  std::vector<std::pair<int, int>> all_pairs, neighbours;
+  for (int a = 0; a < 6; ++a) {
+    for (int b = a + 1; b < 6; ++b) all_pairs.emplace_back(a, b);
+  }
+  for (int a = 0; a + 1 < 60; ++a) neighbours.emplace_back(a, a + 1);
+  for (const auto& [cameras, pairs, dense] :
+       {std::tuple{6, all_pairs, true}, std::tuple{60, neighbours, false}}) {
+    const int n = cameras + static_cast<int>(pairs.size());
+    std::vector<char> points(n, 0);
+    for (int v = cameras; v < n; ++v) points[v] = 1;
+    const FactorIncidence incidence = points_between(cameras, pairs);
+    const std::vector<int> group(n, 0);
+    const auto order = IndependentFirstOrdering(n, incidence, points, group, 0.5);
+    EXPECT_EQ(order.ok(), dense) << cameras << " cameras";
+    if (!dense) {
+      EXPECT_EQ(order.status().code(), StatusCode::kFailedPrecondition);
+      EXPECT_TRUE(IndependentFirstOrdering(n, incidence, points, group).ok());  // no minimum
+    }
+  }
 }
 
 TEST(OrderingTest, ColamdBeatsNaturalOrderOnGrids) {
