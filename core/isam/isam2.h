@@ -58,9 +58,6 @@ class Isam2 {
   // kErrorFloor x the threshold counts as that floor in the prediction.
   static constexpr double kStaleScreen = 0.25;
   static constexpr double kErrorFloor = 0.01;
-  // The landmarks of a re-eliminated top go first when the poses left are tied at least this
-  // densely (IndependentFirstOrdering's min_density).
-  static constexpr double kLandmarksFirstDensity = 0.5;
   // Trust region: a model decrease below this x (1 + cost) is round-off (Gauss-Newton taken).
   static constexpr double kNegligibleDecrease = 1e-12;
 

@@ -101,7 +101,7 @@ struct Isam2Params {
   // clique (3 unknowns a point, O(n³)), where ordered freely they are eliminated before their
   // cameras (the Schur complement). A robot seeing a few landmarks keeps them at the root. When
   // more than this many landmarks are re-eliminated, they are most of what is, and the cameras
-  // they leave are densely tied (Isam2::kLandmarksFirstDensity), all of them go first, ahead of
+  // they leave are densely tied (half the pairs share a point), all of them go first, ahead of
   // the rest's COLAMD (Ladybug-49: COLAMD on the whole top cost as much as a third of the
   // elimination). >= 0.
   int max_landmarks_last = 8;

@@ -9,6 +9,13 @@
 #include "core/linear/ordering.h"
 
 namespace slamd::core {
+namespace {
+
+// The landmarks of a re-eliminated top go first when the poses left are tied at least this
+// densely (IndependentFirstOrdering's min_density).
+constexpr double kLandmarksFirstDensity = 0.5;
+
+}  // namespace
 
 Status Isam2::CheckInput(const FactorGraph& new_factors, const Values& new_values,
                          const Isam2UpdateOptions& options) const {

@@ -240,6 +240,7 @@ Result<std::vector<int>> IndependentFirstOrdering(int num_vars, const FactorInci
     if (owner[f] >= 0) by_owner[cursor[owner[f]]++] = f;
   }
   std::vector<int> seen(rest_var.size(), -1);
+  std::vector<int> row_of(num_vars, -1);  // a marked variable's row in `reduced` (-1: none)
   for (int v : order) {
     for (int k = ptr[v]; k < ptr[v + 1]; ++k) {
       const int f = by_owner[k];
@@ -252,6 +253,7 @@ Result<std::vector<int>> IndependentFirstOrdering(int num_vars, const FactorInci
       }
     }
     if (reduced.vars.size() > static_cast<size_t>(reduced.offsets.back())) {
+      row_of[v] = reduced.NumFactors();
       reduced.offsets.push_back(static_cast<int>(reduced.vars.size()));
     }
   }
@@ -269,19 +271,13 @@ Result<std::vector<int>> IndependentFirstOrdering(int num_vars, const FactorInci
   // Ladybug-49's top took 1.5x as long).
   std::vector<int> rest_pos(rest_var.size());
   for (int k = 0; k < static_cast<int>(rest->size()); ++k) rest_pos[(*rest)[k]] = k;
-  std::vector<std::pair<int, int>> span(num_vars, {-1, -1});
+  std::vector<std::pair<int, int>> span(num_vars, {std::numeric_limits<int>::max(), -1});
   for (int v : order) {
-    int lo = std::numeric_limits<int>::max(), hi = -1;
-    for (int k = ptr[v]; k < ptr[v + 1]; ++k) {
-      const int f = by_owner[k];
-      for (int i = incidence.offsets[f]; i < incidence.offsets[f + 1]; ++i) {
-        const int r = rest_id[incidence.vars[i]];
-        if (r < 0) continue;
-        lo = std::min(lo, rest_pos[r]);
-        hi = std::max(hi, rest_pos[r]);
-      }
+    if (row_of[v] < 0) continue;  // no neighbours: last
+    for (int i = reduced.offsets[row_of[v]]; i < reduced.offsets[row_of[v] + 1]; ++i) {
+      span[v].first = std::min(span[v].first, rest_pos[reduced.vars[i]]);
+      span[v].second = std::max(span[v].second, rest_pos[reduced.vars[i]]);
     }
-    span[v] = {lo, hi};
   }
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return span[a] < span[b]; });
   for (int r : *rest) order.push_back(rest_var[r]);

@@ -58,6 +58,14 @@ constexpr const char* kRobot = "manhattan";
 constexpr int kSteps = 700;
 constexpr int kKills = 3;
 
+// One process of `pair` (its prefix: robots see one server), its data directory and log under
+// `dir`.
+Server PairProcess(const Server& pair, const std::string& dir, const std::string& name) {
+  Server p{.prefix = pair.prefix, .data_dir = dir + "/" + name, .log = dir + "/" + name + ".log"};
+  std::filesystem::create_directories(p.data_dir);
+  return p;
+}
+
 // The benchmark (scripts/bench-failover) runs the kill test with other settings:
 //   SLAMD_FAILOVER_RATE   messages per second, sent without waiting (0: lock-step, the default)
 //   SLAMD_FAILOVER_STEPS  steps of manhattan streamed (default 700)
@@ -196,13 +204,7 @@ void RunFailover(Fault fault, int faults, const char* tag) {
   Server pair{.prefix = "F_"};
   Server reference{
       .prefix = "U_", .data_dir = tmp.str() + "/reference", .log = tmp.str() + "/reference.log"};
-  auto process = [&](const std::string& name) {
-    Server p{.prefix = pair.prefix,
-             .data_dir = tmp.str() + "/" + name,
-             .log = tmp.str() + "/" + name + ".log"};
-    std::filesystem::create_directories(p.data_dir);
-    return p;
-  };
+  auto process = [&](const std::string& name) { return PairProcess(pair, tmp.str(), name); };
   std::filesystem::create_directories(reference.data_dir);
   Client client(kUrl, kRobot);
   client.Attach(&pair);
@@ -387,13 +389,7 @@ TEST(FailoverHaTest, AStandbyMissingTruncatedRecordsExitsAndStartsAgainFromASnap
     return file;
   };
   Server pair{.prefix = "T_"};
-  auto process = [&](const std::string& name) {
-    Server p{.prefix = pair.prefix,
-             .data_dir = tmp.str() + "/" + name,
-             .log = tmp.str() + "/" + name + ".log"};
-    std::filesystem::create_directories(p.data_dir);
-    return p;
-  };
+  auto process = [&](const std::string& name) { return PairProcess(pair, tmp.str(), name); };
   Server leader = process("leader"), standby = process("standby");
   Client client(kUrl, kRobot);
   client.Attach(&pair);

@@ -10,6 +10,7 @@
 #include <random>
 #include <vector>
 
+#include "core/inference/back_substitution.h"
 #include "core/inference/bayes_tree.h"
 #include "core/inference/elimination.h"
 #include "core/inference/jacobian_factor.h"
@@ -138,6 +139,39 @@ inline std::vector<int> NaturalOrder(int n) {
   std::vector<int> order(n);
   std::iota(order.begin(), order.end(), 0);
   return order;
+}
+
+// Elimination orders for the tests, and the solution a tree gives by back-substitution.
+enum class OrderKind { kNatural, kColamd, kReversed, kRandom };
+
+inline std::vector<int> MakeOrder(const RandomLinearSystem& s, OrderKind kind, unsigned seed) {
+  std::vector<int> order = NaturalOrder(s.NumVars());
+  switch (kind) {
+    case OrderKind::kNatural:
+      break;
+    case OrderKind::kColamd: {
+      auto colamd = ColamdOrdering(s.NumVars(), s.Incidence());
+      EXPECT_TRUE(colamd.ok());
+      order = colamd.value();
+      break;
+    }
+    case OrderKind::kReversed:
+      std::reverse(order.begin(), order.end());
+      break;
+    case OrderKind::kRandom: {
+      std::mt19937 rng(seed + 1000);
+      std::shuffle(order.begin(), order.end(), rng);
+      break;
+    }
+  }
+  return order;
+}
+
+inline Eigen::VectorXd Solve(const BayesTree& tree, const RandomLinearSystem& s) {
+  const std::vector<int> offsets = s.Offsets();
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(s.Dim());
+  BackSubstitute(tree, offsets, &x);
+  return x;
 }
 
 }  // namespace slamd::core::testing

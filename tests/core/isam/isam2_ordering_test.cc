@@ -78,6 +78,19 @@ int LargestClique(const std::vector<Frame>& frames, int max_landmarks_last, Valu
   return largest;
 }
 
+// Every frame's factors solved at once, from the frames' initial values.
+BatchResult BatchOptimum(const std::vector<Frame>& frames) {
+  FactorGraph all;
+  Values initial;
+  for (const Frame& f : frames) {
+    for (const FactorPtr& factor : f.factors) all.Add(factor);
+    for (int slot = 0; slot < static_cast<int>(f.values.size()); ++slot) {
+      EXPECT_TRUE(initial.Insert(f.values.KeyAt(slot), f.values.VariableAt(slot)).ok());
+    }
+  }
+  return Optimize(all, initial, {.relative_tolerance = 1e-12});
+}
+
 TEST(Isam2OrderingTest, AFramesManyLandmarksStayOutOfTheRootClique) {
   const std::vector<Frame> frames = VisualStream(12, 30, 1);
   Values free, last;
@@ -88,15 +101,7 @@ TEST(Isam2OrderingTest, AFramesManyLandmarksStayOutOfTheRootClique) {
   // holds more than one point.
   EXPECT_GE(largest_last, 90 + 6);
   EXPECT_LE(largest_free, 6 * 12 + 3) << largest_free << " against " << largest_last;
-  FactorGraph all;
-  Values initial;
-  for (const Frame& f : frames) {
-    for (const FactorPtr& factor : f.factors) all.Add(factor);
-    for (int slot = 0; slot < static_cast<int>(f.values.size()); ++slot) {
-      ASSERT_TRUE(initial.Insert(f.values.KeyAt(slot), f.values.VariableAt(slot)).ok());
-    }
-  }
-  const BatchResult batch = Optimize(all, initial, {.relative_tolerance = 1e-12});
+  const BatchResult batch = BatchOptimum(frames);
   ASSERT_TRUE(batch.status.ok()) << batch.status.ToString();
   EXPECT_LT(testing::MaxDifference(free, batch.values), 1e-6);
   EXPECT_LT(testing::MaxDifference(last, batch.values), 1e-6);
@@ -163,15 +168,7 @@ TEST(Isam2OrderingTest, LandmarksTiedTogetherAreOrderedByColamd) {
                                                NoiseModel::Isotropic(3, 0.1).value());
   Values settled;
   LargestClique(frames, 8, &settled);  // every update succeeds (checked inside)
-  FactorGraph all;
-  Values initial;
-  for (const Frame& f : frames) {
-    for (const FactorPtr& factor : f.factors) all.Add(factor);
-    for (int slot = 0; slot < static_cast<int>(f.values.size()); ++slot) {
-      ASSERT_TRUE(initial.Insert(f.values.KeyAt(slot), f.values.VariableAt(slot)).ok());
-    }
-  }
-  const BatchResult batch = Optimize(all, initial, {.relative_tolerance = 1e-12});
+  const BatchResult batch = BatchOptimum(frames);
   ASSERT_TRUE(batch.status.ok()) << batch.status.ToString();
   EXPECT_LT(testing::MaxDifference(settled, batch.values), 1e-6);
 }
