@@ -193,11 +193,12 @@ void Daemon::SendSummaries(const ShardSummaryMessage& summary) {
     if (s.ok() && shard_exchange_.nats) {
       // In chunks below NATS's default max_payload (1 MiB), in order on one subject.
       constexpr std::size_t kChunkBytes = 512 << 10;
+      const std::string subject = params_.shards.subject + "." + neighbour;
       for (const std::vector<std::uint8_t>& chunk :
            SplitIntoChunks(params_.estimator.shards.self, ++shard_exchange_.summaries_numbered,
                            bytes, kChunkBytes)) {
-        if (s.ok())
-          s = shard_exchange_.nats->Publish(params_.shards.subject + "." + neighbour, chunk);
+        s = shard_exchange_.nats->Publish(subject, chunk);
+        if (!s.ok()) break;  // the rest would be dropped by the receiver anyway
       }
     } else if (s.ok()) {
       s = bus_->Publish(channels_.Inbound<ShardSummarySpec>(), bytes);
