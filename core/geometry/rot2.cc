@@ -1,12 +1,16 @@
 #include "core/geometry/rot2.h"
 
 #include <cmath>
+#include <limits>
 
 namespace slamd::core {
 
 Rot2 Rot2::FromCosSin(double c, double s) {
   const double n = std::hypot(c, s);
   if (n == 0.0) return Rot2();
+  // Unit length to rounding: kept, so that a stored (cos, sin) reads back bit for bit (dividing
+  // by hypot's 1 ± ulp would change the last bit, and a journal replay would drift from the run).
+  if (std::abs(n - 1.0) <= 4 * std::numeric_limits<double>::epsilon()) return Rot2(c, s);
   return Rot2(c / n, s / n);
 }
 

@@ -21,8 +21,8 @@ class Rot2 {
   // Rotation by `theta` radians (any real value; wrapped implicitly).
   static Rot2 FromAngle(double theta) { return Rot2(std::cos(theta), std::sin(theta)); }
 
-  // Rotation whose (cos, sin) is the direction of (c, s); (c, s) is normalised to unit length.
-  // (0, 0) has no direction and yields the identity.
+  // Rotation whose (cos, sin) is the direction of (c, s); (c, s) is normalised to unit length
+  // (kept as given when unit length to rounding). (0, 0) has no direction and yields the identity.
   static Rot2 FromCosSin(double c, double s);
 
   // Angle in (-pi, pi].

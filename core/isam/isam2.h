@@ -90,9 +90,13 @@ class Isam2 {
   // Only the cliques of those factors and their ancestors are re-eliminated; the other variables
   // are renumbered (O(variables + factors), no arithmetic). Dense: the remaining marginals and
   // linear system at θ are exactly the full graph's: the estimate does not move. Factor indices
-  // stay.
+  // stay. `at` (optional) holds the values to marginalise at in place of θ, for `keys` and their
+  // blanket: a journal replay repeats a removal made where the live θ was (which variables an
+  // update relinearised depends on δ, which a restored solver re-solved; the summary must not).
+  // (Its other values are ignored.) InvalidArgument when a value is missing or of another type.
   Isam2RemovalResult RemoveVariables(std::span<const Key> keys,
-                                     const NodeRemovalParams& params = {});
+                                     const NodeRemovalParams& params = {},
+                                     const Values* at = nullptr);
 
   // The rest of the back-substitution an Update with Isam2UpdateOptions::solve_first left; no-op
   // without one. Returns the number of cliques it solved.

@@ -8,16 +8,35 @@
 namespace slamd::core {
 
 Isam2RemovalResult Isam2::RemoveVariables(std::span<const Key> keys,
-                                          const NodeRemovalParams& params) {
+                                          const NodeRemovalParams& params, const Values* at) {
   CheckNoPendingSolve("RemoveVariables");
   Stopwatch timer;
   Isam2RemovalResult out;
-  // MarginalizeOut validates the keys (unknown, repeated) and that the marginal exists.
-  Result<NodeRemoval> removal = MarginalizeOut(factors_, theta_, keys, params);
+  if (at) {
+    for (Key key : at->keys()) {
+      const int slot = theta_.SlotOf(key);
+      if (slot >= 0 && theta_.TypeAt(slot) != TypeOf(at->Get(key))) {
+        out.status = InvalidArgument("RemoveVariables: " + KeyToString(key) +
+                                     " has another type in the values to marginalise at");
+        return out;
+      }
+    }
+  }
+  for (Key key : keys) {  // removed variables are dropped from θ by slot below
+    if (!theta_.Contains(key)) {
+      out.status = InvalidArgument("RemoveVariables: unknown variable " + KeyToString(key));
+      return out;
+    }
+  }
+  // MarginalizeOut validates the keys (repeated), the values and that the marginal exists.
+  const Values& point = at ? *at : theta_;
+  Result<NodeRemoval> removal = MarginalizeOut(factors_, point, keys, params);
   if (!removal.ok()) {
     out.status = removal.status();
     return out;
   }
+  for (Key key : keys) (void)out.marginalized_at.Insert(key, point.Get(key));
+  for (Key key : removal->blanket) (void)out.marginalized_at.Insert(key, point.Get(key));
   for (int f : removal->removed_factors) out.removed_dimension += factors_[f]->dim();
   undo_.Clear(static_cast<int>(theta_.size()), static_cast<int>(factors_.size()));
   std::vector<int> affected, last;

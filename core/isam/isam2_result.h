@@ -8,6 +8,7 @@
 
 #include "core/base/key.h"
 #include "core/base/status.h"
+#include "core/factors/values.h"
 
 namespace slamd::core {
 
@@ -109,6 +110,7 @@ struct Isam2RemovalResult {
   // Indices of the summary's factors on the blanket (NodeRemoval::summary); empty if none.
   std::vector<int> summary_factors;
   KeyVector blanket;               // the variables they are on
+  Values marginalized_at;          // theta (or `at`) of the removed variables and blanket
   double constant_chi2 = 0.0;      // NodeRemoval::constant_chi2
   int reeliminated_variables = 0;  // the top of the tree the removed factors touched
   double seconds = 0.0;

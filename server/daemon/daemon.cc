@@ -17,6 +17,7 @@
 #include "server/snapshot/state_codec.h"
 #include "server/transport/typed_subscribe.h"
 #include "slamd/reject_t.hpp"
+#include "slamd_proto/journal.pb.h"
 
 namespace slamd::server {
 namespace {
@@ -231,11 +232,18 @@ int Daemon::StepEstimator(double timeout_s) {
 }
 
 void Daemon::ApplyPoseWindow() {
-  const std::vector<core::Key> removed = estimator_->ApplyPoseWindow();
-  if (removed.empty()) return;
-  log_->debug("lifelong window: removed {} variables", removed.size());
+  const NodeRemovalRecord removed = estimator_->ApplyPoseWindow();
+  if (removed.keys.empty()) return;
+  log_->debug("lifelong window: removed {} variables", removed.keys.size());
   if (!journal_) return;
-  const core::Status s = journal_->AppendRemoval(estimator_->snapshot()->update_sequence, removed);
+  journal::Removal record;
+  record.set_update_sequence(estimator_->snapshot()->update_sequence);
+  record.mutable_keys()->Add(removed.keys.begin(), removed.keys.end());
+  for (size_t i = 0; i < removed.at.size(); ++i) {
+    const int slot = static_cast<int>(i);
+    EncodeValue(removed.at.KeyAt(slot), removed.at.VariableAt(slot), record.add_at());
+  }
+  const core::Status s = journal_->AppendRemoval(record);
   if (!s.ok()) NoteJournalError(s);
 }
 

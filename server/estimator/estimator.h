@@ -77,6 +77,14 @@
 
 namespace slamd::server {
 
+// Variables node removal took out, and the values they and their Markov blanket were
+// marginalised at: what the journal keeps, so that a replay makes the same summary wherever its
+// own θ drifted (Isam2::RemoveVariables' `at`).
+struct NodeRemovalRecord {
+  std::vector<core::Key> keys;
+  core::Values at;
+};
+
 class Estimator {
  public:
   // InvalidArgument when a params struct does not validate.
@@ -119,11 +127,13 @@ class Estimator {
   void SetReplaying(bool replaying) { replaying_ = replaying; }  // no catch-up rounds on helpers
 
   // Lifelong window (EstimatorParams::window, pose_window.cc): when due and no rebuild is in
-  // flight, removes old poses but keyframes by RemoveVariables; the keys, for the journal.
-  std::vector<core::Key> ApplyPoseWindow();
-  // Node removal (Isam2::RemoveVariables) in chunks; FailedPrecondition while a rebuild is in
-  // flight. A chunk that fails leaves those before it removed (*removed: how many keys were).
-  core::Status RemoveVariables(std::span<const core::Key> keys, std::size_t* removed = nullptr);
+  // flight, removes old poses but keyframes by RemoveVariables; what it removed, for the journal.
+  NodeRemovalRecord ApplyPoseWindow();
+  // Node removal (Isam2::RemoveVariables) in chunks, at `at` (a journaled record's values) or θ;
+  // FailedPrecondition while a rebuild is in flight. A chunk that fails leaves those before it
+  // removed (*done: the keys that were and their values).
+  core::Status RemoveVariables(std::span<const core::Key> keys, NodeRemovalRecord* done = nullptr,
+                               const core::Values* at = nullptr);
 
   // Isam2::Refine(budget_s, max_rounds); a new snapshot when anything moved. (While a rebuild is
   // in flight, the swap discards what it did: the daemon refines only when none is.)
@@ -214,7 +224,9 @@ class Estimator {
   // Options for an update of Process: solve_first when it may finish later.
   core::Isam2UpdateOptions ProcessUpdateOptions() const;
   void StartRebuild();
-  core::Status RemoveChunk(std::span<const core::Key> keys);  // RemoveVariables' steps
+  // RemoveVariables' steps; adds what it removed to *done.
+  core::Status RemoveChunk(std::span<const core::Key> keys, const core::Values* at,
+                           NodeRemovalRecord* done);
   // Reduced pose graph (estimator_reduced.cc): a robot's policy (nullptr: off); a pose's alias
   // (staged or committed; nullptr for a node or unknown pose) and its estimate (anchor ∘ offset).
   const EstimatorParams::ReducedGraph* ReducedFor(std::uint8_t robot) const;

@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "server/messages/inbound_codec.h"
+#include "server/snapshot/state_codec.h"
 #include "slamd_proto/journal.pb.h"
 
 namespace slamd::server {
@@ -43,9 +44,14 @@ core::Status JournalReplay::Apply(const journal::JournalRecord& record, const st
     estimator_->Refine(std::numeric_limits<double>::infinity(), record.refinement().rounds());
     ++refinements_;
   } else if (record.has_removal()) {
-    const auto& keys = record.removal().keys();
-    const core::Status removed =
-        estimator_->RemoveVariables({keys.data(), static_cast<size_t>(keys.size())});
+    const journal::Removal& removal = record.removal();
+    core::Values at;  // none in a journal written before they were kept: the replay's θ
+    core::Status removed = DecodeValues(removal.at(), "removal", &at);
+    if (removed.ok()) {
+      removed = estimator_->RemoveVariables(
+          {removal.keys().data(), static_cast<size_t>(removal.keys_size())}, nullptr,
+          at.empty() ? nullptr : &at);
+    }
     if (!removed.ok()) notes_.push_back(where + ": " + removed.message());
     if (removed.ok()) ++removals_;
   } else if (record.has_rebuild_swap()) {

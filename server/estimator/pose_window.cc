@@ -20,7 +20,7 @@ constexpr std::size_t kMaxRemovedPerPass = 256;
 
 }  // namespace
 
-std::vector<core::Key> Estimator::ApplyPoseWindow() {
+NodeRemovalRecord Estimator::ApplyPoseWindow() {
   const bool any = params_.window.keep_poses > 0 ||
                    std::any_of(params_.robot_windows.begin(), params_.robot_windows.end(),
                                [](const auto& r) { return r.window.keep_poses > 0; });
@@ -87,29 +87,27 @@ std::vector<core::Key> Estimator::ApplyPoseWindow() {
   if (removed.empty()) return {};
   if (removed.size() > kMaxRemovedPerPass) removed.resize(kMaxRemovedPerPass);
   // A chunk that fails (nothing of it changed) ends the pass; the next tries again.
-  std::size_t done = 0;
+  NodeRemovalRecord done;
   (void)RemoveVariables(removed, &done);
-  removed.resize(done);
-  return removed;
+  return done;
 }
 
-core::Status Estimator::RemoveVariables(std::span<const core::Key> keys, std::size_t* removed) {
-  if (removed) *removed = 0;
+core::Status Estimator::RemoveVariables(std::span<const core::Key> keys, NodeRemovalRecord* done,
+                                        const core::Values* at) {
+  NodeRemovalRecord local;
+  if (!done) done = &local;
+  *done = {};
   FinishUpdate();
   if (Rebuilding()) {
     return core::FailedPrecondition("node removal while a rebuild is in flight");
   }
   core::Status status;
-  std::size_t done = 0;
-  for (; done < keys.size() && status.ok(); done += kRemovalChunk) {
-    const std::size_t n = std::min(kRemovalChunk, keys.size() - done);
-    status = RemoveChunk(keys.subspan(done, n));
-    if (!status.ok()) break;
+  for (std::size_t first = 0; first < keys.size() && status.ok(); first += kRemovalChunk) {
+    status =
+        RemoveChunk(keys.subspan(first, std::min(kRemovalChunk, keys.size() - first)), at, done);
   }
-  done = std::min(done, keys.size());
-  if (removed) *removed = done;
-  if (done == 0) return status;
-  counters_.removed_variables += static_cast<std::int64_t>(done);
+  if (done->keys.empty()) return status;
+  counters_.removed_variables += static_cast<std::int64_t>(done->keys.size());
   marginals_ = std::make_unique<core::Isam2Marginals>(
       isam_.get(), core::MarginalsParams{.threads = marginals_threads_});
   chi2_sequence_ = -1;  // the chi2 changed with the factors
@@ -117,9 +115,14 @@ core::Status Estimator::RemoveVariables(std::span<const core::Key> keys, std::si
   return status;
 }
 
-core::Status Estimator::RemoveChunk(std::span<const core::Key> keys) {
-  const core::Isam2RemovalResult r = isam_->RemoveVariables(keys);
+core::Status Estimator::RemoveChunk(std::span<const core::Key> keys, const core::Values* at,
+                                    NodeRemovalRecord* done) {
+  const core::Isam2RemovalResult r = isam_->RemoveVariables(keys, {}, at);
   if (!r.status.ok()) return r.status;
+  done->keys.insert(done->keys.end(), keys.begin(), keys.end());
+  for (core::Key key : r.marginalized_at.keys()) {
+    (void)done->at.Insert(key, r.marginalized_at.Get(key));  // a later chunk's may repeat one
+  }
   // The measurements of the removed factors are forgotten: their variables are gone, so the same
   // measurement sent again cannot be told apart from a new one by the graph.
   std::vector<int> number_of(isam_->factor_slots().size(), -1);

@@ -139,11 +139,9 @@ core::Status Journal::AppendRebuildSwap(std::int64_t update_sequence, std::span<
   return AppendLocked(record);
 }
 
-core::Status Journal::AppendRemoval(std::int64_t update_sequence,
-                                    std::span<const std::uint64_t> keys) {
+core::Status Journal::AppendRemoval(const journal::Removal& removal) {
   journal::JournalRecord record;
-  record.mutable_removal()->set_update_sequence(update_sequence);
-  for (std::uint64_t k : keys) record.mutable_removal()->add_keys(k);
+  *record.mutable_removal() = removal;
   std::lock_guard lock(mutex_);
   return AppendLocked(record);
 }

@@ -26,6 +26,10 @@
 #include "server/journal/journal_segments.h"
 #include "server/journal/journal_writer.h"
 
+namespace slamd::journal {
+class Removal;  // msgs/proto/journal.proto
+}
+
 namespace slamd::server {
 
 struct JournalOptions {
@@ -61,8 +65,8 @@ class Journal {
   // After the estimator swapped in a rebuilt solver (Estimator::FinishRebuild), with the
   // rebuild's catch-up rounds (Estimator::last_swap_rounds).
   core::Status AppendRebuildSwap(std::int64_t update_sequence, std::span<const int> rounds);
-  // After the estimator removed `keys` (its lifelong window) at update `update_sequence`.
-  core::Status AppendRemoval(std::int64_t update_sequence, std::span<const std::uint64_t> keys);
+  // After the estimator removed variables (its lifelong window).
+  core::Status AppendRemoval(const journal::Removal& removal);
   // Appends a record another journal wrote (a standby copying the replicated journal): a
   // message keeps its sequence, which must follow the last one (FailedPrecondition otherwise).
   core::Status AppendCopy(const journal::JournalRecord& record);

@@ -68,17 +68,6 @@ core::Result<core::Variable> ReadVariable(const pb::Variable& in, const std::str
   return v;
 }
 
-core::Status ReadValues(const google::protobuf::RepeatedPtrField<pb::KeyedVariable>& in,
-                        const char* what, core::Values* out) {
-  for (const pb::KeyedVariable& kv : in) {
-    core::Result<core::Variable> v = ReadVariable(kv.value(), what);
-    if (!v.ok()) return v.status();
-    const core::Status s = out->Insert(kv.key(), v.value());
-    if (!s.ok()) return core::DataLoss(std::string("snapshot: ") + what + ": " + s.message());
-  }
-  return core::Status::Ok();
-}
-
 // Any registered factor type, as its core::FactorRecord.
 void WriteFactor(const core::Factor& f, pb::Factor* out) {
   const core::FactorRecord r = core::EncodeFactor(f);
@@ -191,6 +180,22 @@ class ChunkedWriter {
 
 }  // namespace
 
+void EncodeValue(core::Key key, const core::Variable& value, snapshot::KeyedVariable* out) {
+  out->set_key(key);
+  WriteVariable(value, out->mutable_value());
+}
+
+core::Status DecodeValues(const google::protobuf::RepeatedPtrField<snapshot::KeyedVariable>& in,
+                          const char* what, core::Values* out) {
+  for (const pb::KeyedVariable& kv : in) {
+    core::Result<core::Variable> v = ReadVariable(kv.value(), what);
+    if (!v.ok()) return v.status();
+    const core::Status s = out->Insert(kv.key(), v.value());
+    if (!s.ok()) return core::DataLoss(std::string("snapshot: ") + what + ": " + s.message());
+  }
+  return core::Status::Ok();
+}
+
 std::string EncodeState(const EstimatorState& state, const JournalPosition& position) {
   ChunkedWriter writer;
   pb::EstimatorState& out = *writer.message();
@@ -202,9 +207,9 @@ std::string EncodeState(const EstimatorState& state, const JournalPosition& posi
     writer.Added();
   }
   for (size_t i = 0; i < state.linearization_point.size(); ++i) {
-    pb::KeyedVariable* kv = out.add_linearization_point();
-    kv->set_key(state.linearization_point.KeyAt(static_cast<int>(i)));
-    WriteVariable(state.linearization_point.VariableAt(static_cast<int>(i)), kv->mutable_value());
+    const int slot = static_cast<int>(i);
+    EncodeValue(state.linearization_point.KeyAt(slot), state.linearization_point.VariableAt(slot),
+                out.add_linearization_point());
     writer.Added();
   }
   for (const EstimatorState::Applied& a : state.applied) {
@@ -296,7 +301,7 @@ core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition
     state.factors.push_back(std::move(f).value());
   }
   SLAMD_RETURN_IF_ERROR(
-      ReadValues(in.linearization_point(), "linearization point", &state.linearization_point));
+      DecodeValues(in.linearization_point(), "linearization point", &state.linearization_point));
   for (const pb::AppliedMeasurement& m : in.applied()) {
     state.applied.push_back({static_cast<char>(m.type()), m.key_a(), m.key_b(), m.kind(),
                              m.factor(), m.first_key(), m.dim()});

@@ -9,6 +9,7 @@
 
 #include "core/base/status.h"
 #include "server/snapshot/estimator_state.h"
+#include "slamd_proto/snapshot.pb.h"
 
 namespace slamd::server {
 
@@ -24,5 +25,12 @@ std::string EncodeState(const EstimatorState& state, const JournalPosition& posi
 // DataLoss naming what is wrong (unparseable bytes, a factor of unknown type or with the wrong
 // number of keys or values, a noise model that is not square-root information).
 core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition* position);
+
+// One value as a snapshot stores it (exactly), and a list of them back (DataLoss naming `what`
+// and the fault, as DecodeState's): also for records that carry values outside a snapshot (the
+// journal's node removals).
+void EncodeValue(core::Key key, const core::Variable& value, snapshot::KeyedVariable* out);
+core::Status DecodeValues(const google::protobuf::RepeatedPtrField<snapshot::KeyedVariable>& in,
+                          const char* what, core::Values* out);
 
 }  // namespace slamd::server

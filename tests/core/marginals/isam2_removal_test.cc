@@ -6,6 +6,7 @@
 
 #include <random>
 
+#include "core/factors/factor_registry.h"
 #include "core/factors/linear_container_factor.h"
 #include "core/inference/consistency_check.h"
 #include "core/isam/isam2.h"
@@ -161,6 +162,57 @@ TEST(Isam2RemovalTest, RefusalsChangeNothing) {
   EXPECT_EQ(testing::MaxDifference(isam->CalculateEstimate(), before), 0.0);
   // And it still works.
   EXPECT_TRUE(isam->RemoveVariables(KeyVector{MakeKey('x', 3)}).status.ok());
+}
+
+// The summary factors of a removal, as numbers: measured, R and carried values (x0).
+std::vector<double> SummaryNumbers(const Isam2& isam, const Isam2RemovalResult& r) {
+  std::vector<double> out;
+  for (int f : r.summary_factors) {
+    const FactorRecord record = EncodeFactor(*isam.factor_slots()[f]);
+    out.insert(out.end(), record.measured.begin(), record.measured.end());
+    const Eigen::MatrixXd& info = record.sqrt_information;
+    out.insert(out.end(), info.data(), info.data() + info.size());
+    for (const Variable& v : record.values) EncodeVariable(v, &out);
+  }
+  return out;
+}
+
+// A removal at given values (a journal replay repeating a removal where its own θ drifted)
+// makes exactly the summary the removal at those values made; at its own θ it would not. A
+// value missing or of another type is refused before anything changes.
+TEST(Isam2RemovalTest, RemovalAtGivenValuesRepeatsThatRemoval) {
+  const testing::ExampleProblem p = testing::MakePlanarProblem(12, 2, 3);
+  const KeyVector removed{MakeKey('x', 3), MakeKey('x', 4)};
+  auto live = Streamed(p);
+  const Isam2RemovalResult made = live->RemoveVariables(removed);
+  ASSERT_TRUE(made.status.ok()) << made.status.ToString();
+  ASSERT_FALSE(made.blanket.empty());
+  EXPECT_EQ(made.marginalized_at.size(), removed.size() + made.blanket.size());
+  for (Key key : made.blanket) EXPECT_TRUE(made.marginalized_at.Contains(key));
+  const std::vector<double> summary = SummaryNumbers(*live, made);
+
+  // Two solvers of the same graph whose θ moved on (relinearised at the optimum).
+  auto drifted = Streamed(p);
+  auto replay = Streamed(p);
+  for (Isam2* isam : {drifted.get(), replay.get()}) ASSERT_TRUE(isam->Refine(10.0).converged);
+  const Isam2RemovalResult own = drifted->RemoveVariables(removed);
+  ASSERT_TRUE(own.status.ok());
+  EXPECT_NE(SummaryNumbers(*drifted, own), summary);
+
+  const Key blanket = made.blanket[0];
+  Values missing = made.marginalized_at;
+  ASSERT_TRUE(missing.Erase(blanket).ok());
+  Values retyped = missing;
+  const bool pose = std::holds_alternative<Pose2>(made.marginalized_at.Get(blanket));
+  ASSERT_TRUE(retyped.Insert(blanket, pose ? Variable(Point2(0, 0)) : Variable(Pose2())).ok());
+  for (const Values* at : {&missing, &retyped}) {
+    EXPECT_EQ(replay->RemoveVariables(removed, {}, at).status.code(), StatusCode::kInvalidArgument);
+  }
+  EXPECT_EQ(replay->linearization_point().size(), drifted->linearization_point().size() + 2);
+
+  const Isam2RemovalResult repeated = replay->RemoveVariables(removed, {}, &made.marginalized_at);
+  ASSERT_TRUE(repeated.status.ok()) << repeated.status.ToString();
+  EXPECT_EQ(SummaryNumbers(*replay, repeated), summary);
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <set>
 
 #include "server/estimator/recovery.h"
 #include "server/journal/journal_segments.h"
@@ -130,7 +131,15 @@ TEST(RecoveryTest, PoseWindowKeepsTheGraphBoundedAndReplaysExactly) {
   }
   int records = 0;
   const JournalContents journal = ReadJournal(dir.str()).value();
-  for (const journal::JournalRecord& r : journal.records) records += r.has_removal();
+  for (const journal::JournalRecord& r : journal.records) {
+    if (!r.has_removal()) continue;
+    ++records;
+    // The values the removal marginalised at: the removed poses' and their blanket's.
+    std::set<std::uint64_t> at;
+    for (const auto& v : r.removal().at()) at.insert(v.key());
+    for (std::uint64_t k : r.removal().keys()) EXPECT_EQ(at.count(k), 1u) << k;
+    EXPECT_GT(at.size(), static_cast<size_t>(r.removal().keys_size()));
+  }
   EXPECT_GT(records, 0) << journal.records.size() << " records";
 
   auto d = Daemon::Create(p, &bus).value();

@@ -480,8 +480,8 @@ TEST(EstimatorTest, RobotWindowRemovesOnlyThatRobotsOldPoses) {
   std::vector<core::Key> removed;
   for (std::uint64_t i = 0; i < 60; ++i) {
     ASSERT_TRUE(e->Process({Odo("a", i, i + 1, kStep), Odo("b", i, i + 1, kStep)}).status.ok());
-    const std::vector<core::Key> now = e->ApplyPoseWindow();
-    removed.insert(removed.end(), now.begin(), now.end());
+    const NodeRemovalRecord now = e->ApplyPoseWindow();
+    removed.insert(removed.end(), now.keys.begin(), now.keys.end());
   }
   ASSERT_FALSE(removed.empty());
   const std::uint8_t a = *e->registry().Find("a");
