@@ -62,6 +62,7 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   const proto::QueueConfig& q = config.queue();
   if (q.has_depth()) p->queue.depth = q.depth();
   if (q.has_block_timeout_s()) p->queue.block_timeout_s = q.block_timeout_s();
+  if (q.has_coalesce_s()) p->queue.coalesce_s = q.coalesce_s();
   const proto::PublishConfig& pub = config.publish();
   if (pub.has_status_rate_hz()) p->publish.status_rate_hz = pub.status_rate_hz();
   if (pub.has_map_rate_hz()) p->publish.map_rate_hz = pub.map_rate_hz();
@@ -258,6 +259,8 @@ std::string DefaultConfigText() {
       << "  depth: " << d.queue.depth << "  # ingest queue bound [messages], 1..1e7\n"
       << "  block_timeout_s: " << Num(d.queue.block_timeout_s)
       << "  # a full queue blocks intake this long, then rejects [s], 0..10\n"
+      << "  coalesce_s: " << Num(d.queue.coalesce_s)
+      << "  # a camera robot's messages this close make one update [s], 0..0.01\n"
       << "}\n\n"
       << "publish {\n"
       << "  status_rate_hz: " << Num(d.publish.status_rate_hz) << "  # status_t [Hz], 0 = never\n"
@@ -277,7 +280,7 @@ std::string DefaultConfigText() {
       << "  # Isam2::Refine while no message is queued\n"
       << "  budget_s: " << Num(d.refine.budget_s) << "  # per call [s], (0, 10]\n"
       << "  idle_s: " << Num(d.refine.idle_s)
-      << "  # only after this long without a message [s], 0..10\n"
+      << "  # after this long without a message, or in a stream's gaps it fits [s], 0..10\n"
       << "}\n\n"
       << "isam2 {\n"
       << "  relinearization {\n"

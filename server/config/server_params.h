@@ -34,6 +34,11 @@ struct ServerParams {
     int depth = 10000;
     // How long intake blocks on a full queue before it rejects (REASON_QUEUE_FULL) [s]; 0..10.
     double block_timeout_s = 0.05;
+    // The estimator takes a camera robot's messages that come within this long of each other
+    // into one update (its odometry and a frame's observations, sent back to back), waiting
+    // for the quiet at most four times this [s]; 0 = take what is queued at once; 0..0.01.
+    // Robots that send no frames are not waited for.
+    double coalesce_s = 0.0003;
   };
   Queue queue = {};
 
@@ -61,8 +66,9 @@ struct ServerParams {
     bool enabled = true;
     // Time budget of one Refine call [s]; (0, 10].
     double budget_s = 0.005;
-    // ... and only once no message has come for this long [s]: a refinement round touches the
-    // whole map's changed part and would delay the next message of a steady stream; 0..10.
+    // ... once no message has come for this long [s], or, in a steady stream, in a gap it is
+    // predicted to end in (server/daemon/refine_schedule.h): a refinement round cannot be
+    // interrupted and would delay the next message; 0..10.
     double idle_s = 0.02;
   };
   Refine refine = {};

@@ -151,6 +151,7 @@ Daemon::Daemon(const ServerParams& params, Bus* bus, std::unique_ptr<Estimator> 
       estimator_(std::move(estimator)),
       journal_(std::move(journal)),
       queue_(params.queue.depth),
+      refine_schedule_(params.refine.idle_s),
       snapshot_(estimator_->snapshot()) {
   log_ = spdlog::get("slamd");
   if (!log_) log_ = spdlog::default_logger();
@@ -161,7 +162,12 @@ Daemon::~Daemon() { Stop(); }
 int Daemon::StepEstimator(double timeout_s) {
   std::vector<Inbound> popped, batch;
   std::vector<QueryRequest> queries;
-  const int n = queue_.PopAll(&popped, timeout_s);
+  int n = queue_.PopAll(&popped, timeout_s);
+  if (n > 0 && params_.queue.coalesce_s > 0.0 && FromCameraRobot(popped)) {
+    // The rest of a camera robot's burst (a frame's odometry and observations) joins this
+    // update: otherwise the observations wait for the odometry's update.
+    n += queue_.PopRestOfBurst(&popped, params_.queue.coalesce_s, 4 * params_.queue.coalesce_s);
+  }
   for (Inbound& in : popped) {
     if (QueryRequest* q = std::get_if<QueryRequest>(&in.measurement)) {
       queries.push_back(std::move(*q));
@@ -169,7 +175,12 @@ int Daemon::StepEstimator(double timeout_s) {
       batch.push_back(std::move(in));
     }
   }
-  if (n > 0) last_input_us_ = SteadyMicros();
+  if (n > 0) {
+    const std::int64_t now = SteadyMicros();
+    for (const Inbound& in : popped) {
+      refine_schedule_.OnInput(in.received_us > 0 ? in.received_us : now, now);
+    }
+  }
   std::shared_ptr<const EstimateSnapshot> snap;
   bool journaled_refinement = false;
   if (!batch.empty()) {
@@ -198,8 +209,10 @@ int Daemon::StepEstimator(double timeout_s) {
     if (!r.status.ok()) log_->warn("solver update failed: {}", r.status.ToString());
     for (const Rejection& rej : r.rejections) PublishRejection(rej);
     ApplyPoseWindow();
-  } else if (queries.empty() && RefineDue() && IdleMicros() >= params_.refine.idle_s * 1e6) {
+  } else if (queries.empty() && RefineDue() && refine_schedule_.WaitMicros(SteadyMicros()) == 0) {
+    core::Stopwatch refine_time;
     const core::Isam2::RefineResult r = estimator_->Refine(params_.refine.budget_s);
+    refine_schedule_.OnRefine(static_cast<std::int64_t>(refine_time.Seconds() * 1e6));
     if (!r.status.ok()) log_->warn("refine failed: {}", r.status.ToString());
     if (journal_ && r.rounds > 0) {
       const core::Status s = journal_->AppendRefinement(r.rounds);
@@ -229,6 +242,17 @@ int Daemon::StepEstimator(double timeout_s) {
   // After this step's estimates went out: bringing a rebuilt solver up to date takes an update.
   if (estimator_->RebuildReady()) SwapRebuild();
   return n;
+}
+
+bool Daemon::FromCameraRobot(const std::vector<Inbound>& popped) {
+  bool camera_robot = false;
+  for (const Inbound& in : popped) {
+    if (std::holds_alternative<FrameObservations>(in.measurement)) {
+      camera_robots_.insert(MessageRobot(in));
+    }
+    camera_robot = camera_robot || camera_robots_.contains(MessageRobot(in));
+  }
+  return camera_robot;
 }
 
 void Daemon::ApplyPoseWindow() {
@@ -380,7 +404,7 @@ void Daemon::EstimatorLoop() {
     }
     double wait_s = estimator_->Rebuilding() ? 0.001 : 0.05;  // a rebuild is swapped in promptly
     if (RefineDue()) {
-      wait_s = std::clamp(params_.refine.idle_s - IdleMicros() * 1e-6, 0.0, wait_s);
+      wait_s = std::clamp(refine_schedule_.WaitMicros(SteadyMicros()) * 1e-6, 0.0, wait_s);
     }
     StepEstimator(wait_s);
   }
@@ -393,8 +417,6 @@ bool Daemon::RefineDue() const {
   // Not while a rebuild is in flight: the swap would discard the refinement.
   return params_.refine.enabled && !estimator_->snapshot()->settled && !estimator_->Rebuilding();
 }
-
-std::int64_t Daemon::IdleMicros() const { return SteadyMicros() - last_input_us_; }
 
 void Daemon::Start() {
   if (intake_thread_.joinable() || stopped_) return;

@@ -7,9 +7,10 @@
 //                     a reject_t at once; nothing is dropped silently)
 //   estimator thread: queue.PopAll -> Estimator::Process (ONE Isam2 update for everything
 //                     queued) -> reject_t for stateful rejections, estimate_t for each robot whose
-//                     newest pose moved, status_t at publish.status_rate_hz; when no message has
-//                     come for refine.idle_s and refine.enabled, Isam2::Refine(refine.budget_s)
-//                     until settled.
+//                     newest pose moved, status_t at publish.status_rate_hz; while
+//                     refine.enabled, Isam2::Refine(refine.budget_s) until settled, when the
+//                     RefineSchedule sees room: in the gaps of a steady stream, else after
+//                     refine.idle_s without a message.
 //
 // Inbound channels: one per message spec (server/messages/inbound.h), all through the queue;
 // measurements and retractions into Estimator::Process, queries (so a query sees everything
@@ -55,6 +56,7 @@
 
 #include "server/config/server_params.h"
 #include "server/daemon/ingest_queue.h"
+#include "server/daemon/refine_schedule.h"
 #include "server/daemon/shard_exchange.h"
 #include "server/daemon/snapshot_writer.h"
 #include "server/daemon/standby_state.h"
@@ -147,6 +149,9 @@ class Daemon {
   // Swaps in the estimator's rebuilt solver (ready), journals the swap, publishes.
   void SwapRebuild();
   // The estimator's lifelong window (EstimatorParams::window), journaled when it removed any.
+  // Whether `popped` holds a message of a robot that sends camera frames (noting the robots of
+  // its frame_observations_t): their bursts are popped whole (queue.coalesce_s).
+  bool FromCameraRobot(const std::vector<Inbound>& popped);
   void ApplyPoseWindow();
   // The estimator's latest snapshot, made the one queries and snapshot() see.
   std::shared_ptr<const EstimateSnapshot> ShareSnapshot();
@@ -214,8 +219,7 @@ class Daemon {
   // Publishes the map_t pages of `robot` ("*" = all) on `out`; returns how many.
   int PublishMaps(Bus& out, const std::string& robot, bool marginals, std::int64_t request_id,
                   std::int64_t update_sequence, bool* partial);
-  bool RefineDue() const;           // refinement enabled and the estimate not settled
-  std::int64_t IdleMicros() const;  // since the estimator last popped a message [µs]
+  bool RefineDue() const;  // refinement enabled and the estimate not settled
   size_t LatencyWindow() const { return static_cast<size_t>(params_.publish.latency_window); }
   void IntakeLoop();
   void EstimatorLoop();
@@ -270,7 +274,8 @@ class Daemon {
   std::vector<double> publish_us_;
   size_t publish_us_next_ = 0;
   std::int64_t last_map_us_ = 0, last_map_sequence_ = -1;
-  std::int64_t last_input_us_ = 0;       // steady clock
+  RefineSchedule refine_schedule_;
+  std::set<std::string> camera_robots_;  // robots whose frame_observations_t came
   std::int64_t processed_sequence_ = 0;  // last journal sequence handed to the estimator
   // The leader's snapshots in NATS (null when not leading or keep_snapshots = 0); declared
   // before the writer whose thread puts them, so destroyed after it.

@@ -51,6 +51,30 @@ int IngestQueue::PopAll(std::vector<Inbound>* out, double timeout_s) {
   return n;
 }
 
+int IngestQueue::PopRestOfBurst(std::vector<Inbound>* out, double quiet_s, double max_wait_s) {
+  using Clock = std::chrono::steady_clock;
+  std::int64_t newest_us = 0;
+  for (const Inbound& in : *out) newest_us = std::max(newest_us, in.received_us);
+  const Clock::time_point until = Clock::now() + ToDuration(max_wait_s);
+  int added = 0;
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    const Clock::time_point quiet_end = std::min(
+        Clock::time_point(std::chrono::microseconds(newest_us)) + ToDuration(quiet_s), until);
+    const bool more =
+        not_empty_.wait_until(lock, quiet_end, [&] { return closed_ || !queue_.empty(); });
+    if (!more || queue_.empty()) break;  // quiet (or closed)
+    for (Inbound& in : queue_) {
+      newest_us = std::max(newest_us, in.received_us);
+      out->push_back(std::move(in));
+      ++added;
+    }
+    queue_.clear();
+    not_full_.notify_all();
+  }
+  return added;
+}
+
 void IngestQueue::Close() {
   {
     std::lock_guard lock(mutex_);

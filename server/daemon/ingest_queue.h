@@ -31,6 +31,12 @@ class IngestQueue {
   // the end of *out. Returns how many; 0 on timeout or when closed and empty.
   int PopAll(std::vector<Inbound>* out, double timeout_s);
 
+  // After PopAll: while the newest message in *out was received (Inbound::received_us, steady
+  // clock) less than quiet_s ago, waits for more and moves them to *out too, for at most
+  // max_wait_s in all, so that messages sent back to back come out together. Returns how many
+  // it added.
+  int PopRestOfBurst(std::vector<Inbound>* out, double quiet_s, double max_wait_s);
+
   // Refuses further pushes and wakes every waiter; queued messages can still be popped.
   void Close();
 

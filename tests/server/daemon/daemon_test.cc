@@ -18,6 +18,7 @@
 #include "server/transport/lcm_bus.h"
 #include "server/transport/typed_subscribe.h"
 #include "slamd/estimate_t.hpp"
+#include "slamd/frame_observations_t.hpp"
 #include "slamd/loop_closure_t.hpp"
 #include "slamd/map_t.hpp"
 #include "slamd/odometry_t.hpp"
@@ -332,6 +333,61 @@ std::set<std::string> ThreadNames() {
   return names;
 }
 
+// Waits (at most 20 s) until the client has an estimate of `pose`.
+bool AwaitEstimate(Client& client, std::int64_t pose) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (std::chrono::steady_clock::now() < deadline) {
+    {
+      std::lock_guard lock(client.mutex);
+      if (!client.estimates.empty() && client.estimates.back().pose_index == pose) return true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return false;
+}
+
+// Once a robot has sent a camera frame, its messages sent back to back make one update (a
+// frame's odometry and observations), not one each.
+TEST(DaemonTest, CameraRobotsBurstsMakeOneUpdate) {
+  InProcessBus bus;
+  ServerParams p = Params();
+  p.queue.coalesce_s = 0.01;
+  auto daemon = Daemon::Create(p, &bus).value();
+  Client client(bus);
+  daemon->Start();
+  ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", Prior()).ok());
+  ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(0, 1)).ok());
+  ASSERT_TRUE(AwaitEstimate(client, 1));
+  slamd::frame_observations_t frame{};  // one pixel of landmark 7 seen by camera 1
+  frame.utime = 20;
+  frame.robot = "r";
+  frame.pose_index = 1;
+  frame.camera_id = 1;
+  frame.kind = 1;
+  frame.landmark_ids = {7};
+  frame.num_features = 1;
+  frame.values = {100.0, 200.0};
+  frame.num_values = 2;
+  frame.sigmas = {1.0};
+  frame.num_sigmas = 1;
+  frame.num_covariance = 0;
+  frame.robust_parameter = 0.0;
+  ASSERT_TRUE(Publish(bus, "SLAMD_FRAME", frame).ok());
+  // No camera_info_t: the frame is held, but its robot is known to send frames.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (daemon->snapshot()->counters.processed < 3) {
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  const std::int64_t updates = daemon->snapshot()->counters.updates;
+  ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(1, 2)).ok());
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(2, 3)).ok());
+  ASSERT_TRUE(AwaitEstimate(client, 3));
+  daemon->Stop();
+  EXPECT_EQ(daemon->snapshot()->counters.updates, updates + 1);
+}
+
 TEST(DaemonTest, ThreadsProcessEverythingAndStopCleanly) {
   InProcessBus bus;
   ServerParams p = Params();
@@ -341,14 +397,7 @@ TEST(DaemonTest, ThreadsProcessEverythingAndStopCleanly) {
   daemon->Start();
   ASSERT_TRUE(Publish(bus, "SLAMD_PRIOR", Prior()).ok());
   for (int i = 0; i < 200; ++i) ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(i, i + 1)).ok());
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while (std::chrono::steady_clock::now() < deadline) {
-    {
-      std::lock_guard lock(client.mutex);
-      if (!client.estimates.empty() && client.estimates.back().pose_index == 200) break;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
+  EXPECT_TRUE(AwaitEstimate(client, 200));
   // Named, so that top -H and perf tell them apart.
   const std::set<std::string> names = ThreadNames();
   EXPECT_EQ(names.count("slamd-estimator"), 1u);

@@ -2,16 +2,23 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <thread>
 
 namespace slamd::server {
 namespace {
 
-Inbound Msg(std::int64_t utime) {
+Inbound Msg(std::int64_t utime, std::int64_t received_us = 0) {
   return {OdometryMeasurement{utime, "r", 0, 1, core::Pose2(),
                               core::NoiseModel::Isotropic(3, 1.0).value()},
-          0};
+          received_us};
+}
+
+std::int64_t NowMicros() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
 }
 
 TEST(IngestQueueTest, PopAllTakesEverythingInOrder) {
@@ -64,6 +71,52 @@ TEST(IngestQueueTest, WaitForRoomCountsTheMessagesAskedFor) {
   std::vector<Inbound> out;
   q.PopAll(&out, 0.0);
   EXPECT_TRUE(q.WaitForRoom(0.0, 4));
+}
+
+// A message that comes within the quiet time of the newest one popped joins it; one that comes
+// after a quiet time does not.
+TEST(IngestQueueTest, PopRestOfBurstTakesWhatComesUntilQuiet) {
+  IngestQueue q(8);
+  ASSERT_TRUE(q.Push(Msg(0, NowMicros()), 0.0));
+  std::thread producer([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    ASSERT_TRUE(q.Push(Msg(1, NowMicros()), 0.0));
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    ASSERT_TRUE(q.Push(Msg(2, NowMicros()), 0.0));
+    std::this_thread::sleep_for(std::chrono::milliseconds(600));
+    ASSERT_TRUE(q.Push(Msg(3, NowMicros()), 0.0));
+  });
+  std::vector<Inbound> out;
+  ASSERT_EQ(q.PopAll(&out, 1.0), 1);
+  EXPECT_EQ(q.PopRestOfBurst(&out, 0.2, 0.5), 2);
+  producer.join();
+  ASSERT_EQ(out.size(), 3u);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(MessageUtime(out[i]), i);
+  EXPECT_EQ(q.size(), 1);  // the late one is the next update's
+}
+
+TEST(IngestQueueTest, PopRestOfBurstDoesNotWaitForOldMessages) {
+  IngestQueue q(8);
+  // Received 10 s ago (it waited behind a long update): the burst is long over.
+  std::vector<Inbound> out = {Msg(0, NowMicros() - 10'000'000)};
+  ASSERT_TRUE(q.Push(Msg(1, NowMicros() - 9'000'000), 0.0));
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_EQ(q.PopRestOfBurst(&out, 5.0, 5.0), 1);  // takes what is queued, waits for nothing
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(4));
+  // A continuous stream is cut after max_wait_s.
+  out = {Msg(2, NowMicros())};
+  std::atomic<bool> stop{false};
+  std::thread producer([&] {
+    for (int i = 3; !stop; ++i) {
+      ASSERT_TRUE(q.Push(Msg(i, NowMicros()), 1.0));
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  });
+  const auto stream_start = std::chrono::steady_clock::now();
+  EXPECT_GT(q.PopRestOfBurst(&out, 1.0, 0.05), 0);
+  EXPECT_LT(std::chrono::steady_clock::now() - stream_start, std::chrono::milliseconds(900));
+  stop = true;
+  producer.join();
 }
 
 TEST(IngestQueueTest, CloseRefusesPushesButKeepsQueued) {
