@@ -83,12 +83,14 @@ std::string FormatStatus(const slamd::status_t& s) {
                   static_cast<long long>(s.replication_holds));
     out += buf;
   }
-  if (s.shard_summaries_sent > 0 || s.shard_not_owned > 0 || s.shard_queries_forwarded > 0) {
+  if (s.shard_summaries_sent > 0 || s.shard_not_owned > 0 || s.shard_queries_forwarded > 0 ||
+      s.shard_summaries_incomplete > 0) {
     std::snprintf(buf, sizeof(buf),
-                  "shards: %lld summaries sent (%lld bytes)  %lld messages for other shards  "
-                  "%lld queries forwarded\n",
+                  "shards: %lld summaries sent (%lld bytes)  %lld received incomplete  %lld "
+                  "messages for other shards  %lld queries forwarded\n",
                   static_cast<long long>(s.shard_summaries_sent),
                   static_cast<long long>(s.shard_summary_bytes),
+                  static_cast<long long>(s.shard_summaries_incomplete),
                   static_cast<long long>(s.shard_not_owned),
                   static_cast<long long>(s.shard_queries_forwarded));
     out += buf;
@@ -147,6 +149,7 @@ JsonWriter StatusJson(const slamd::status_t& s) {
       .Add("shard_summaries_sent", static_cast<long long>(s.shard_summaries_sent))
       .Add("shard_summary_bytes", static_cast<long long>(s.shard_summary_bytes))
       .Add("shard_queries_forwarded", static_cast<long long>(s.shard_queries_forwarded))
+      .Add("shard_summaries_incomplete", static_cast<long long>(s.shard_summaries_incomplete))
       .Add("removed_variables", static_cast<long long>(s.removed_variables))
       .Add("merged_poses", static_cast<long long>(s.merged_poses))
       .Add("reduced_left_out", static_cast<long long>(s.reduced_left_out))

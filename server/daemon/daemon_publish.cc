@@ -190,6 +190,7 @@ void Daemon::PublishStatus(const EstimateSnapshot& snap) {
   out.shard_summaries_sent = shard_exchange_.summaries_sent;
   out.shard_queries_forwarded = shard_exchange_.queries_forwarded;
   out.shard_summary_bytes = shard_exchange_.summary_bytes;
+  out.shard_summaries_incomplete = shard_exchange_.summary_chunks.dropped();
   out.chi2 = snap.chi2;
   out.residual_dimension = snap.residual_dimension;
   out.settled = snap.settled;

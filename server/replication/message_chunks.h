@@ -6,6 +6,7 @@
 // starts (as a lost message would be).
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <map>
 #include <optional>
@@ -31,8 +32,8 @@ class ChunkAssembler {
   // newer message from the same sender drops what was gathered of the older one.
   core::Result<std::optional<std::vector<std::uint8_t>>> Add(std::span<const std::uint8_t> chunk);
 
-  // Messages dropped incomplete (a chunk was lost).
-  std::int64_t dropped() const { return dropped_; }
+  // Messages dropped incomplete (a chunk was lost); read from any thread (status_t).
+  std::int64_t dropped() const { return dropped_.load(std::memory_order_relaxed); }
 
  private:
   struct Partial {
@@ -42,7 +43,7 @@ class ChunkAssembler {
     int have = 0;
   };
   std::map<std::string, Partial> by_sender_;
-  std::int64_t dropped_ = 0;
+  std::atomic<std::int64_t> dropped_{0};
 };
 
 }  // namespace slamd::server

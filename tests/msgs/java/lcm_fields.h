@@ -150,7 +150,7 @@ inline void Put(Fields& f, const std::string& path, const slamd::status_t& m) {
   PUT(journal_records), PUT(journal_bytes), PUT(journal_disk_bytes), PUT(journal_segments);
   PUT_BOOL(replication_held), PUT(replication_holds), PUT(replicated_batches),
       PUT(replication_pending_bytes), PUT(shard_not_owned), PUT(shard_summaries_sent),
-      PUT(shard_summary_bytes), PUT(shard_queries_forwarded);
+      PUT(shard_summary_bytes), PUT(shard_queries_forwarded), PUT(shard_summaries_incomplete);
   PUT(chi2), PUT(residual_dimension), PUT_BOOL(settled);
 }
 
