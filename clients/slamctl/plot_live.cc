@@ -16,6 +16,11 @@
 namespace slamd::clients::plot {
 namespace {
 
+// "robot intel", or "robot a of shard east" (a sharded slamd's page).
+std::string RobotName(const std::string& shard, const std::string& robot) {
+  return "robot " + robot + (shard.empty() ? "" : " of shard " + shard);
+}
+
 // "page 2 of 4" or "pages 0, 2, 3 of 4": the indices in [0, count) not in `have` (a subset of
 // [0, count)), at most 8 listed; "" when none. Stops after the 8th, so a huge count is cheap.
 std::string MissingPages(const std::set<std::int32_t>& have, std::int32_t count) {
@@ -85,7 +90,8 @@ struct RobotPages {
 };
 
 core::Status CheckPage(const slamd::map_t& page, RobotPages* robot) {
-  const std::string what = "robot " + page.robot + " page " + std::to_string(page.page_index);
+  const std::string what =
+      RobotName(page.shard, page.robot) + " page " + std::to_string(page.page_index);
   if (page.page_count < 1 || page.page_index < 0 || page.page_index >= page.page_count) {
     return core::InvalidArgument(what + ": page_index out of range for page_count " +
                                  std::to_string(page.page_count));
@@ -114,7 +120,7 @@ struct Entry {
   const slamd::map_entry_t* entry;
 };
 
-// Entries of all pages, sorted by index; a repeated index is an error.
+// Entries of all pages, sorted by index; a repeated index is an error. `robot`: RobotName.
 core::Result<std::vector<Entry>> SortedEntries(const RobotPages& pages, bool poses,
                                                const std::string& robot) {
   std::vector<Entry> out;
@@ -127,7 +133,7 @@ core::Result<std::vector<Entry>> SortedEntries(const RobotPages& pages, bool pos
                    [](const Entry& a, const Entry& b) { return a.index < b.index; });
   for (std::size_t i = 1; i < out.size(); ++i) {
     if (out[i].index == out[i - 1].index) {
-      return core::InvalidArgument("robot " + robot + ": " + (poses ? "pose x" : "landmark l") +
+      return core::InvalidArgument(robot + ": " + (poses ? "pose x" : "landmark l") +
                                    std::to_string(out[i].index) + " appears twice");
     }
   }
@@ -142,7 +148,8 @@ bool MapPageCollector::AddPage(const slamd::map_t& page) {
   if (page.page_count < 1 || page.page_index < 0 || page.page_index >= page.page_count)
     return false;
   RobotSeen& robot =
-      seen_.try_emplace(page.robot, RobotSeen{.page_count = page.page_count}).first->second;
+      seen_.try_emplace({page.shard, page.robot}, RobotSeen{.page_count = page.page_count})
+          .first->second;
   if (page.page_count != robot.page_count || !robot.pages.insert(page.page_index).second) {
     return false;
   }
@@ -150,28 +157,20 @@ bool MapPageCollector::AddPage(const slamd::map_t& page) {
   return true;
 }
 
-bool MapPageCollector::AddReply(const slamd::query_reply_t& reply) {
-  if (has_reply_ || reply.request_id != request_id_) return false;
-  reply_ = reply;
-  has_reply_ = true;
-  return true;
-}
-
 std::string MapPageCollector::Missing() const {
   std::vector<std::string> parts;
-  if (!has_reply_) {
-    parts.push_back("the query_reply_t for request " + std::to_string(request_id_));
-  }
+  if (!replies_.complete()) parts.push_back("the " + replies_.Missing());
   std::int64_t known = 0;  // pages of the robots heard from
-  for (const auto& [robot, seen] : seen_) {
+  for (const auto& [who, seen] : seen_) {
     known += seen.page_count;
     const std::string missing = MissingPages(seen.pages, seen.page_count);
-    if (!missing.empty()) parts.push_back("robot " + robot + ": map_t " + missing);
+    if (!missing.empty()) parts.push_back(RobotName(who.first, who.second) + ": map_t " + missing);
   }
-  if (has_reply_ && reply_.map_pages > known) {
-    parts.push_back(Plural(reply_.map_pages - known, "map_t page") +
+  const slamd::query_reply_t& reply = replies_.merged();
+  if (replies_.complete() && reply.map_pages > known) {
+    parts.push_back(Plural(reply.map_pages - known, "map_t page") +
                     " of robots not heard from (the reply announced " +
-                    std::to_string(reply_.map_pages) + ", " + std::to_string(pages_.size()) +
+                    std::to_string(reply.map_pages) + ", " + std::to_string(pages_.size()) +
                     " arrived)");
   }
   std::string out;
@@ -184,34 +183,36 @@ core::Result<LiveScene> BuildLiveScene(const std::vector<slamd::map_t>& pages,
   if (options.ellipse_every < 0 || !(options.sigma > 0.0)) {
     return core::InvalidArgument("LiveSceneOptions: ellipse_every must be >= 0 and sigma > 0");
   }
-  // 1. Group by robot (name order) and check each robot's pages are one complete set.
-  std::map<std::string, RobotPages> robots;
+  // 1. Group by (shard, robot) (name order) and check each robot's pages are one complete set,
+  // from one solver update per shard.
+  std::map<std::pair<std::string, std::string>, RobotPages> robots;
   for (const slamd::map_t& page : pages) {
-    SLAMD_RETURN_IF_ERROR(CheckPage(page, &robots[page.robot]));
+    SLAMD_RETURN_IF_ERROR(CheckPage(page, &robots[{page.shard, page.robot}]));
   }
   LiveScene live;
   live.scene.sigma = options.sigma;
-  bool first = true;
-  for (const auto& [name, robot] : robots) {
+  std::map<std::string, std::int64_t> shard_sequence;
+  for (const auto& [who, robot] : robots) {
     std::set<std::int32_t> have;
     for (const auto& [index, page] : robot.pages) have.insert(index);
     const std::string missing = MissingPages(have, robot.page_count);
-    if (!missing.empty()) {
-      return core::InvalidArgument("robot " + name + ": map_t " + missing + " missing");
-    }
-    if (!first && robot.update_sequence != live.update_sequence) {
-      return core::InvalidArgument("robot " + name + ": update_sequence " +
+    const std::string name = RobotName(who.first, who.second);
+    if (!missing.empty()) return core::InvalidArgument(name + ": map_t " + missing + " missing");
+    const auto [it, first] = shard_sequence.try_emplace(who.first, robot.update_sequence);
+    if (!first && robot.update_sequence != it->second) {
+      return core::InvalidArgument(name + ": update_sequence " +
                                    std::to_string(robot.update_sequence) + " differs from " +
-                                   std::to_string(live.update_sequence));
+                                   std::to_string(it->second));
     }
-    live.update_sequence = robot.update_sequence;
-    first = false;
+    live.update_sequence = std::max(live.update_sequence, robot.update_sequence);
   }
 
   // 2. One PlotRobot per robot. (No structured binding: the lambda below captures the name,
   // which clang 14 does not allow for a binding.)
   for (const auto& named : robots) {
-    const std::string& name = named.first;
+    const std::string& shard = named.first.first;
+    const std::string& robot_name = named.first.second;
+    const std::string name = RobotName(shard, robot_name);
     const auto& robot = named.second;
     const bool is3d = robot.dimension == slamd::map_t::DIMENSION_3D;
     core::Result<std::vector<Entry>> poses = SortedEntries(robot, true, name);
@@ -223,13 +224,13 @@ core::Result<LiveScene> BuildLiveScene(const std::vector<slamd::map_t>& pages,
                                                 : std::max<int>(1, static_cast<int>((n + 49) / 50));
 
     PlotRobot out;
-    out.name = name.empty() ? "shared map" : name;
+    out.name = robot_name.empty() ? "shared map" : robot_name;
+    if (robot_name.empty() && !shard.empty()) out.name += " (shard " + shard + ")";
     out.trajectory.reserve(n);
     out.landmarks.reserve(landmarks->size());
     // Adds the entry's position (and its ellipse when wanted and its covariance is present).
     const auto add = [&](const Entry& e, bool pose, bool want_ellipse) -> core::Status {
-      const std::string what =
-          "robot " + name + (pose ? " pose x" : " landmark l") + std::to_string(e.index);
+      const std::string what = name + (pose ? " pose x" : " landmark l") + std::to_string(e.index);
       core::Result<core::Variable> value = EntryValue(*e.entry, is3d, pose, what);
       if (!value.ok()) return value.status();
       const Eigen::Vector2d position = *core::PlanarPosition(*value);  // a pose or a point

@@ -5,10 +5,11 @@
 //      covariances) and the answer: the query_reply_t (whose map_pages is the number of map_t
 //      pages published for the request, all robots together) and the map_t pages with that
 //      request_id (periodic maps, request_id 0, and other clients' answers are ignored).
-//      MapPageCollector decides when the answer is complete: the reply has arrived, every robot
-//      seen has all its pages 0 .. page_count-1, and the number of distinct pages equals
-//      reply.map_pages (which catches a robot none of whose pages arrived).
-//   2. BuildLiveScene: complete pages -> one PlotRobot per robot.
+//      MapPageCollector decides when the answer is complete: the reply has arrived (from every
+//      shard of a sharded slamd, each answering with its own robots: shard_replies.h), every
+//      robot seen has all its pages 0 .. page_count-1, and the number of distinct pages equals
+//      the replies' map_pages (which catches a robot none of whose pages arrived).
+//   2. BuildLiveScene: complete pages -> one PlotRobot per (shard, robot).
 //
 // Conventions of the conversion (msgs/lcm/map_t.lcm, map_entry_t.lcm):
 //   * Robots in name order (stable colours, independent of page arrival order); pose entries in
@@ -34,6 +35,7 @@
 
 #include "clients/slamctl/lcm_client.h"
 #include "clients/slamctl/plot_scene.h"
+#include "clients/slamctl/shard_replies.h"
 #include "core/base/status.h"
 #include "server/transport/channels.h"
 #include "slamd/map_t.hpp"
@@ -46,14 +48,14 @@ class MapPageCollector {
  public:
   explicit MapPageCollector(std::int64_t request_id) : request_id_(request_id) {}
 
-  // Keeps `page` when its request_id is ours, (robot, page_index) is new, and page_index and
-  // page_count are valid and agree with the robot's first kept page. True when kept.
+  // Keeps `page` when its request_id is ours, (shard, robot, page_index) is new, and page_index
+  // and page_count are valid and agree with the robot's first kept page. True when kept.
   bool AddPage(const slamd::map_t& page);
-  // Keeps the first reply with our request_id. True when kept.
-  bool AddReply(const slamd::query_reply_t& reply);
+  // Merges the first reply of each shard with our request_id (ShardReplies). True when kept.
+  bool AddReply(const slamd::query_reply_t& reply) { return replies_.Add(reply); }
 
-  bool has_reply() const { return has_reply_; }
-  const slamd::query_reply_t& reply() const { return reply_; }
+  bool has_reply() const { return replies_.any(); }
+  const slamd::query_reply_t& reply() const { return replies_.merged(); }
   // Kept pages in arrival order.
   const std::vector<slamd::map_t>& pages() const { return pages_; }
   std::int64_t request_id() const { return request_id_; }
@@ -66,14 +68,13 @@ class MapPageCollector {
 
  private:
   std::int64_t request_id_;
-  bool has_reply_ = false;
-  slamd::query_reply_t reply_;
+  ShardReplies replies_{request_id_, ""};
   std::vector<slamd::map_t> pages_;
   struct RobotSeen {
     std::int32_t page_count = 0;        // as the robot's first kept page says
     std::set<std::int32_t> pages = {};  // page indices kept
   };
-  std::map<std::string, RobotSeen> seen_;
+  std::map<std::pair<std::string, std::string>, RobotSeen> seen_;  // by (shard, robot)
 };
 
 struct LiveSceneOptions {
@@ -87,7 +88,7 @@ struct LiveSceneOptions {
 
 struct LiveScene {
   PlotScene scene;                       // robots only; title and subtitle are the caller's
-  std::int64_t update_sequence = 0;      // the solver update the map comes from
+  std::int64_t update_sequence = 0;  // the solver update the map comes from (the newest shard's)
   std::vector<int> ellipse_every;        // the K used per robot (same order as scene.robots)
   std::int64_t missing_covariances = 0;  // entries that should have had an ellipse and had none
 };

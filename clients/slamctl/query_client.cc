@@ -9,6 +9,7 @@
 
 #include "clients/slamctl/dataset_messages.h"
 #include "clients/slamctl/json_writer.h"
+#include "clients/slamctl/shard_replies.h"
 
 namespace slamd::clients {
 namespace {
@@ -112,25 +113,22 @@ std::int64_t RandomRequestId() {
 core::Result<QueryAnswer> RunQuery(LcmClient& client, const server::ChannelNames& channels,
                                    const slamd::query_t& query, double timeout_s) {
   QueryAnswer answer;
-  bool replied = false;
-  SLAMD_RETURN_IF_ERROR(client.Subscribe<slamd::query_reply_t>(
-      channels.QueryReply(), [&](const slamd::query_reply_t& r) {
-        if (!replied && r.request_id == query.request_id && r.client == query.client) {
-          answer.reply = r;
-          replied = true;
-        }
-      }));
+  ShardReplies replies(query.request_id, query.client);
+  SLAMD_RETURN_IF_ERROR(client.Subscribe<slamd::query_reply_t>(channels.QueryReply(),
+                                                               [&](const slamd::query_reply_t& r) {
+                                                                 if (replies.Add(r))
+                                                                   answer.reply = replies.merged();
+                                                               }));
   SLAMD_RETURN_IF_ERROR(client.Subscribe<slamd::map_t>(channels.Map(), [&](const slamd::map_t& m) {
     if (m.request_id == query.request_id) answer.map_pages.push_back(m);
   }));
   SLAMD_RETURN_IF_ERROR(client.Publish(channels.Inbound<server::QuerySpec>(), query));
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
-  core::Result<bool> got = client.HandleUntil([&] { return replied; }, timeout_s);
+  core::Result<bool> got = client.HandleUntil([&] { return replies.complete(); }, timeout_s);
   if (!got.ok()) return got.status();
   if (!*got) {
-    return core::OutOfRange("timed out: no query_reply_t for request " +
-                            std::to_string(query.request_id) + " on " + channels.QueryReply() +
+    return core::OutOfRange("timed out: no " + replies.Missing() + " on " + channels.QueryReply() +
                             " within " + std::to_string(timeout_s) + " s");
   }
   const double left = timeout_s - std::chrono::duration<double>(Clock::now() - start).count();
@@ -167,9 +165,10 @@ std::string FormatAnswer(const QueryAnswer& a) {
     AppendMatrix(r.joint_covariance, "  ", &out);
   }
   for (const slamd::map_t& m : a.map_pages) {
-    out += "map " + m.robot + " page " + std::to_string(m.page_index + 1) + "/" +
-           std::to_string(m.page_count) + ": " + std::to_string(m.num_poses) + " poses, " +
-           std::to_string(m.num_landmarks) + " landmarks\n";
+    out += "map " + m.robot + (m.shard.empty() ? "" : " (shard " + m.shard + ")") + " page " +
+           std::to_string(m.page_index + 1) + "/" + std::to_string(m.page_count) + ": " +
+           std::to_string(m.num_poses) + " poses, " + std::to_string(m.num_landmarks) +
+           " landmarks\n";
     for (const slamd::map_entry_t& e : m.poses) {
       out += "  x" + std::to_string(e.index) + "  " + Row(e.values, 0, e.values.size()) + "\n";
     }
@@ -200,7 +199,7 @@ std::string AnswerJson(const QueryAnswer& a) {
       landmarks += (k ? ", " : "") + EntryJson(m.landmarks[k]);
     }
     map += (i ? ", " : "") + std::string("{\"robot\": ") + JsonQuote(m.robot) +
-           ", \"page\": " + std::to_string(m.page_index) +
+           ", \"shard\": " + JsonQuote(m.shard) + ", \"page\": " + std::to_string(m.page_index) +
            ", \"page_count\": " + std::to_string(m.page_count) + ", \"poses\": " + poses +
            "], \"landmarks\": " + landmarks + "]}";
   }

@@ -34,9 +34,10 @@ struct QueryAnswer {
 };
 
 // Publishes `query` on the query channel and handles messages until the query_reply_t with the
-// same request_id and client arrives, then until its map_pages map_t pages arrived (all within
-// timeout_s). OutOfRange("timed out ...") when the reply (or a page) does not come in time.
-// Subscribes `client` to QUERY_REPLY and MAP for good (the client is meant for one query).
+// same request_id and client arrives (from every shard answering: shard_replies.h; `reply` is
+// the merged one), then until its map_pages map_t pages arrived (all within timeout_s).
+// OutOfRange("timed out ...") when the reply (or a page) does not come in time. Subscribes `client`
+// to QUERY_REPLY and MAP for good (the client is meant for one query).
 core::Result<QueryAnswer> RunQuery(LcmClient& client, const server::ChannelNames& channels,
                                    const slamd::query_t& query, double timeout_s);
 
@@ -48,7 +49,8 @@ std::int64_t RandomRequestId();
 std::string FormatAnswer(const QueryAnswer& answer);
 // The answer as one JSON object: request_id, update_sequence, status ("ok" | "partial" |
 // "rejected"), error, results [{key, found, values, covariance}], joint_covariance
-// {dimension, values}, map [{robot, page, poses [{index, values, covariance}], landmarks}].
+// {dimension, values}, map [{robot, shard, page, poses [{index, values, covariance}],
+// landmarks}].
 std::string AnswerJson(const QueryAnswer& answer);
 
 }  // namespace slamd::clients

@@ -67,6 +67,7 @@
 #include "server/replication/stream_snapshots.h"
 #include "server/transport/bus.h"
 #include "server/transport/channels.h"
+#include "slamd/query_reply_t.hpp"
 
 namespace spdlog {
 class logger;
@@ -175,10 +176,10 @@ class Daemon {
   core::Status StartShards();
   void MaybeSendSummaries();
   void SendSummaries(const ShardSummaryMessage& summary);  // to every other shard
-  // shards.forward_queries: sends a query for another shard's robot to its owner; takes a query
-  // forwarded to this shard into intake (its answer goes back through a relay); publishes on the
-  // bus what an owner sent back.
-  void ForwardQuery(std::string_view channel, const slamd::query_t& msg);
+  // shards.forward_queries: sends a query for another shard's robot to its owner (a fleet-wide
+  // map to every other shard); takes a query forwarded to this shard into intake (its answer
+  // goes back through a relay); publishes on the bus what an owner sent back.
+  void ForwardQuery(std::string_view channel, const slamd::query_t& msg, const std::string& to);
   void OnForwardedQuery(const std::string& subject, std::span<const std::uint8_t> payload);
   void OnRelayedReply(const std::string& subject, std::span<const std::uint8_t> payload);
   // Where the answer to a query goes: the bus, or the relay to the shard that forwarded it.
@@ -196,9 +197,13 @@ class Daemon {
   // On `out` (null: the bus).
   void PublishReject(const Verdict& verdict, std::string_view channel, std::string_view type,
                      std::string_view robot, std::int64_t utime, Bus* out = nullptr);
-  // A query that gets no answer: its reject_t and the query_reply_t its asker waits for.
+  // A query that gets no answer: its reject_t and the query_reply_t its asker waits for, as
+  // `shard`'s reply ("": this one's).
   void RejectQuery(const Verdict& verdict, std::string_view channel, const slamd::query_t& msg,
-                   Bus& out);
+                   Bus& out, const std::string& shard = "");
+  // A query_reply_t's shard fields: which shard answers, and how many do (every shard for a
+  // query all shards take, QuerySpec::AllShards).
+  void SignReply(bool all_shards, const std::string& shard, slamd::query_reply_t* reply) const;
   std::string InboundChannel(const Inbound& in) const;
   // now_steady: the publication time that latency_us counts to.
   void PublishEstimates(const EstimateSnapshot& snap, std::int64_t now_steady);

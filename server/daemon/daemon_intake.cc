@@ -34,16 +34,24 @@ template <typename Msg>
 void Daemon::OnInbound(std::string_view channel, const Msg& msg, const std::string& reply_shard) {
   using Spec = SpecOfLcm<Msg>;
   ++received_;
-  if (!ForThisShard<Spec>(params_.estimator.shards, msg)) {  // another shard's robot
+  const ShardMap& shards = params_.estimator.shards;
+  // Forwarded once, by the leader of a pair (a standby does not answer).
+  const bool forwards = params_.shards.forward_queries && reply_shard.empty() && !standby_;
+  if (!ForThisShard<Spec>(shards, msg)) {  // another shard's robot
     if constexpr (Spec::kRole == MessageRole::kQuery) {
-      // Forwarded once, by the leader of a pair (a standby does not answer).
-      if (params_.shards.forward_queries && reply_shard.empty() && !standby_) {
-        ForwardQuery(channel, msg);
+      if (forwards) {
+        ForwardQuery(channel, msg, shards.OwnerOf(QuerySpec::ShardRobot(msg)));
         return;
       }
     }
     ++shard_exchange_.not_owned;
     return;
+  }
+  if constexpr (Spec::kRole == MessageRole::kQuery) {
+    if (forwards && shards.sharded() && QuerySpec::AllShards(msg)) {  // a fleet-wide map
+      for (const std::string& neighbour : shards.Neighbours())
+        ForwardQuery(channel, msg, neighbour);
+    }
   }
   const char* type = Spec::kType;
   auto checked = Convert(msg, Limits{});
@@ -110,12 +118,14 @@ void Daemon::OnInbound(std::string_view channel, const Msg& msg, const std::stri
 }
 
 void Daemon::RejectQuery(const Verdict& verdict, std::string_view channel,
-                         const slamd::query_t& msg, Bus& out) {
+                         const slamd::query_t& msg, Bus& out, const std::string& shard) {
   PublishReject(verdict, channel, QuerySpec::kType, msg.client, msg.utime, &out);
   // The asker waits for a reply, not for a reject_t.
   slamd::query_reply_t reply;
   FillRejectedQueryReply(QueryRequest{.client = msg.client, .request_id = msg.request_id},
                          verdict.message, WallMicros(), &reply);
+  SignReply(QuerySpec::AllShards(msg), shard.empty() ? params_.estimator.shards.self : shard,
+            &reply);
   const core::Status s = server::Publish(out, channels_.QueryReply(), reply);
   if (!s.ok()) log_->warn("cannot publish query_reply_t: {}", s.ToString());
 }

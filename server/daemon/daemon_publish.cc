@@ -39,7 +39,18 @@ std::array<std::int64_t, N> Percentiles(std::vector<double> v, const std::array<
 }  // namespace
 
 void Daemon::AnswerAndPublish(const QueryRequest& query, std::int64_t update_sequence) {
-  const QueryAnswer answer = AnswerQuery(*estimator_, query, params_.publish.query_budget_s);
+  // A fleet-wide map is answered by every shard; the keys by their owner only.
+  const ShardMap& shards = params_.estimator.shards;
+  QueryRequest map_only;
+  const bool keys_elsewhere =
+      shards.sharded() && QuerySpec::AllShards(query) && !shards.Owns(QuerySpec::ShardRobot(query));
+  if (keys_elsewhere) {
+    map_only = query;
+    map_only.keys.clear();
+    map_only.want_joint_marginal = false;
+  }
+  const QueryRequest& asked = keys_elsewhere ? map_only : query;
+  const QueryAnswer answer = AnswerQuery(*estimator_, asked, params_.publish.query_budget_s);
   Bus& out = ReplyBus(query.reply_shard);
   int pages = 0;
   bool maps_partial = false;
@@ -48,13 +59,22 @@ void Daemon::AnswerAndPublish(const QueryRequest& query, std::int64_t update_seq
                         update_sequence, &maps_partial);
   }
   slamd::query_reply_t reply;
-  FillQueryReply(query, answer, update_sequence, pages, WallMicros(), &reply);
+  FillQueryReply(asked, answer, update_sequence, pages, WallMicros(), &reply);
+  SignReply(QuerySpec::AllShards(query), shards.self, &reply);
   if (maps_partial && reply.status == slamd::query_reply_t::STATUS_OK) {
     reply.status = slamd::query_reply_t::STATUS_PARTIAL;
     reply.error = "map marginals not ready within the query budget";
   }
   const core::Status s = server::Publish(out, channels_.QueryReply(), reply);
   if (!s.ok()) log_->warn("cannot publish query_reply_t: {}", s.ToString());
+}
+
+void Daemon::SignReply(bool all_shards, const std::string& shard,
+                       slamd::query_reply_t* reply) const {
+  const ShardMap& shards = params_.estimator.shards;
+  reply->shard = shard;
+  reply->shards_answering =
+      shards.sharded() && all_shards ? static_cast<std::int32_t>(shards.shards.size()) : 1;
 }
 
 int Daemon::PublishMaps(Bus& out, const std::string& robot, bool marginals, std::int64_t request_id,
@@ -64,7 +84,8 @@ int Daemon::PublishMaps(Bus& out, const std::string& robot, bool marginals, std:
   int pages = 0;
   const std::int64_t now = WallMicros();
   for (const RobotMap& map : maps) {
-    for (const slamd::map_t& page : MapPages(map, update_sequence, request_id, now)) {
+    for (slamd::map_t& page : MapPages(map, update_sequence, request_id, now)) {
+      page.shard = params_.estimator.shards.self;
       const core::Status s = server::Publish(out, channels_.Map(), page);
       if (!s.ok()) log_->warn("cannot publish map_t: {}", s.ToString());
       ++pages;

@@ -98,9 +98,9 @@ core::Status Daemon::StartShards() {
   return core::Status::Ok();
 }
 
-void Daemon::ForwardQuery(std::string_view channel, const slamd::query_t& msg) {
+void Daemon::ForwardQuery(std::string_view channel, const slamd::query_t& msg,
+                          const std::string& owner) {
   const ShardMap& shards = params_.estimator.shards;
-  const std::string& owner = shards.OwnerOf(QuerySpec::ShardRobot(msg));
   std::vector<std::uint8_t> bytes;
   core::Status s = Encode(msg, &bytes);
   if (s.ok()) {
@@ -113,7 +113,7 @@ void Daemon::ForwardQuery(std::string_view channel, const slamd::query_t& msg) {
   }
   RejectQuery({RejectReason::kShardUnavailable,
                "query_t: for shard '" + owner + "', which could not be reached: " + s.message()},
-              channel, msg, *bus_);
+              channel, msg, *bus_, owner);
 }
 
 void Daemon::OnForwardedQuery(const std::string& subject, std::span<const std::uint8_t> payload) {

@@ -102,6 +102,7 @@ class Estimator {
   static core::Result<std::unique_ptr<Estimator>> Restore(const EstimatorParams& params,
                                                           const core::Isam2Params& isam2,
                                                           const EstimatorState& state);
+  const EstimatorParams& params() const { return params_; }
   // Everything needed to Restore this estimator; O(variables + factors), no solver work.
   EstimatorState ExportState() const;
   // Applies `batch` (see the file comment) with one Isam2::Update; publishes a new snapshot.

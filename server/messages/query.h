@@ -50,6 +50,11 @@ struct QuerySpec {
   static const std::string& ShardRobot(const M& m) {
     return m.keys.empty() ? m.map_robot : m.keys.front().robot;
   }
+  // Every shard answers a fleet-wide map (map_robot "*") with its own robots' maps.
+  template <typename M>
+  static bool AllShards(const M& m) {
+    return m.map_robot == "*";
+  }
 };
 
 }  // namespace slamd::server

@@ -50,6 +50,7 @@ void FillQueryReply(const QueryRequest& query, const QueryAnswer& answer,
   out->joint_covariance = ToRowMajor(answer.joint);
   out->num_joint_covariance = static_cast<std::int32_t>(out->joint_covariance.size());
   out->map_pages = map_pages;
+  out->shards_answering = 1;  // a sharded daemon signs it (query_reply_t.shard)
 }
 
 void FillRejectedQueryReply(const QueryRequest& query, const std::string& error,
@@ -60,6 +61,7 @@ void FillRejectedQueryReply(const QueryRequest& query, const std::string& error,
   out->request_id = query.request_id;
   out->status = slamd::query_reply_t::STATUS_REJECTED;
   out->error = error;
+  out->shards_answering = 1;
 }
 
 std::vector<slamd::map_t> MapPages(const RobotMap& map, std::int64_t update_sequence,

@@ -1,7 +1,7 @@
 // query_reply_t and map_t from the query service's answers (server/query). map_t is paged so
 // each encoded message stays under a byte budget (UDP multicast fragments datagrams above the
 // MTU and LCM refuses messages above ~64 kB on udpm): a client holds a whole map when it has pages
-// 0 .. page_count-1 with the same (robot, update_sequence, request_id).
+// 0 .. page_count-1 with the same (shard, robot, update_sequence, request_id).
 #pragma once
 
 #include <cstdint>

@@ -76,6 +76,8 @@ std::vector<RobotMap> CollectMaps(Estimator& estimator, const std::string& robot
   std::vector<RobotMap> maps;
   for (std::uint8_t id : registry.ids()) {
     if (robot != "*" && registry.Name(id) != robot) continue;
+    // Another shard's robot (its poses shared here by closures): its owner publishes it.
+    if (!estimator.params().shards.Owns(registry.Name(id))) continue;
     slot[id] = maps.size();
     maps.push_back({.robot = registry.Name(id)});
   }

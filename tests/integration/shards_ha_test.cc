@@ -16,6 +16,7 @@
 #include <iterator>
 #include <map>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -136,10 +137,13 @@ std::string ShardConfig(int n, int self, const std::string& nats, bool forward_q
 
 // What the slamd(s) on one prefix answered to one query.
 struct Answer {
-  bool replied = false;
-  slamd::query_reply_t reply;
-  int map_pages = 0;  // map_t pages of the request
-  int rejects = 0;    // reject_t of the query's client
+  bool replied = false;              // by every shard answering (query_reply_t.shards_answering)
+  slamd::query_reply_t reply;        // the last reply
+  std::set<std::string> shards;      // the shards that replied
+  int announced_pages = 0;           // the replies' map_pages
+  int map_pages = 0;                 // map_t pages of the request
+  std::set<std::string> map_robots;  // their robots
+  int rejects = 0;                   // reject_t of the query's client
 };
 
 // Asks the slamd(s) on `prefix` (the robot's shard answers).
@@ -155,14 +159,19 @@ class Asker {
     auto replies = Subscribe<slamd::query_reply_t>(
         *bus_, prefix + "QUERY_REPLY",
         [&](std::string_view, const slamd::query_reply_t& r) {
-          if (r.request_id != id_) return;
+          if (r.request_id != id_ || !a.shards.insert(r.shard).second) return;
           a.reply = r;
-          a.replied = true;
+          a.announced_pages += r.map_pages;
+          a.replied = static_cast<int>(a.shards.size()) >= r.shards_answering;
         },
         nullptr);
     auto pages = Subscribe<slamd::map_t>(
         *bus_, prefix + "MAP",
-        [&](std::string_view, const slamd::map_t& m) { a.map_pages += m.request_id == id_; },
+        [&](std::string_view, const slamd::map_t& m) {
+          if (m.request_id != id_) return;
+          ++a.map_pages;
+          a.map_robots.insert(m.robot);
+        },
         nullptr);
     auto rejects = Subscribe<slamd::reject_t>(
         *bus_, prefix + "REJECT",
@@ -331,7 +340,7 @@ TEST(ShardsHaTest, AShardThatIsAReplicatedPairFailsOverAndEndsAtOneServersEstima
 
 // Two shards, each on its own bus (prefixes A_ and B_: neither hears the other's channels), both
 // sent the whole world (each takes its robots'). Asked on A_, S0 forwards robot2's and robot3's
-// queries to S1 and publishes S1's answers on A_.
+// queries, and a fleet-wide map, to S1 and publishes S1's answers on A_.
 TEST(ShardsHaTest, QueriesForAnotherShardsRobotAreForwardedBetweenBuses) {
   ASSERT_TRUE(testing::OnlyLoopback()) << testing::kNotInNetns;
   if (!testing::HaveNatsServer()) GTEST_SKIP() << "nats-server is not installed";
@@ -396,10 +405,18 @@ TEST(ShardsHaTest, QueriesForAnotherShardsRobotAreForwardedBetweenBuses) {
   EXPECT_EQ(rejected.reply.status, slamd::query_reply_t::STATUS_REJECTED);
   EXPECT_NE(rejected.reply.error.find("joint marginal"), std::string::npos) << rejected.reply.error;
   EXPECT_EQ(rejected.rejects, 1);
+  // A fleet-wide map asked on A_: every shard answers with its own robots, all on A_.
+  const Answer fleet = asker.Ask("A_", QueryRequest{.map_robot = "*"});
+  ASSERT_TRUE(fleet.replied);
+  EXPECT_EQ(fleet.shards, (std::set<std::string>{"S0", "S1"}));
+  EXPECT_EQ(fleet.map_pages, fleet.announced_pages);
+  for (int r = 0; r < kRobots; ++r) {
+    EXPECT_EQ(fleet.map_robots.count("robot" + std::to_string(r)), 1u) << r;
+  }
   // S0's own robot is answered by S0 (not forwarded).
   EXPECT_EQ(asker.Poses("A_", "robot0").size(), kPoses);
   client.Drain(300);
-  EXPECT_GE(shards[0].status.shard_queries_forwarded, 2 + 2);
+  EXPECT_GE(shards[0].status.shard_queries_forwarded, 2 + 2 + 1);
   EXPECT_GT(shards[0].status.shard_not_owned, 0);  // S1's robots' measurements
 }
 

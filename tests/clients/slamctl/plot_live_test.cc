@@ -235,6 +235,54 @@ TEST(PlotLiveTest, IncompleteOrMalformedPagesAreErrors) {
   EXPECT_FALSE(BuildLiveScene(pages, {.ellipse_every = -1}).ok());
 }
 
+// A sharded slamd's fleet-wide map: a reply and pages from each shard, each at its own update
+// and with the shared map's landmarks it holds. Complete once every shard replied with every
+// page it announced; one PlotRobot per (shard, robot).
+TEST(PlotLiveTest, CollectorAndSceneTakeEveryShardsAnswer) {
+  MapPageCollector collector(42);
+  std::vector<slamd::map_t> east = Pages(CircleMap("a", 5, 0));
+  std::vector<slamd::map_t> west = Pages(CircleMap("b", 4, 0));
+  for (const slamd::map_t& p : Pages(CircleMap("", 0, 3))) east.push_back(p);
+  for (const slamd::map_t& p : Pages(CircleMap("", 0, 2))) west.push_back(p);
+  for (slamd::map_t& p : east) p.shard = "east";
+  for (slamd::map_t& p : west) {
+    p.shard = "west";
+    p.update_sequence = 40;
+  }
+  const auto reply = [](const std::string& shard, std::size_t pages) {
+    slamd::query_reply_t r{};
+    r.request_id = 42;
+    r.shard = shard;
+    r.shards_answering = 2;
+    r.map_pages = static_cast<std::int32_t>(pages);
+    return r;
+  };
+  EXPECT_TRUE(collector.AddReply(reply("east", east.size())));
+  EXPECT_FALSE(collector.AddReply(reply("east", east.size())));  // that shard's again
+  for (const slamd::map_t& p : east) EXPECT_TRUE(collector.AddPage(p));
+  EXPECT_EQ(collector.Missing(), "the query_reply_t from 1 more of 2 shards (heard: east)");
+  for (const slamd::map_t& p : west) EXPECT_TRUE(collector.AddPage(p));  // "" of west is new
+  EXPECT_FALSE(collector.Complete());
+  EXPECT_TRUE(collector.AddReply(reply("west", west.size())));
+  EXPECT_TRUE(collector.Complete()) << collector.Missing();
+  EXPECT_EQ(collector.reply().map_pages, static_cast<std::int32_t>(east.size() + west.size()));
+
+  core::Result<LiveScene> live = BuildLiveScene(collector.pages(), {});
+  ASSERT_TRUE(live.ok()) << live.status().message();
+  EXPECT_EQ(live->update_sequence, 40);  // the newest shard's
+  std::vector<std::string> names;
+  for (const PlotRobot& r : live->scene.robots) names.push_back(r.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"shared map (shard east)", "a",
+                                             "shared map (shard west)", "b"}));
+  // Within a shard, one update: a page of another is refused, naming the robot and shard.
+  std::vector<slamd::map_t> mixed = collector.pages();
+  mixed.back().update_sequence = 41;
+  EXPECT_NE(BuildLiveScene(mixed, {}).status().message().find(
+                "robot b of shard west: update_sequence 40 differs from 41"),
+            std::string::npos)
+      << BuildLiveScene(mixed, {}).status().message();
+}
+
 TEST(PlotLiveTest, CollectorKnowsWhenTheAnswerIsComplete) {
   MapPageCollector collector(42);
   EXPECT_EQ(collector.Missing(), "the query_reply_t for request 42");

@@ -105,7 +105,7 @@ inline void Put(Fields& f, const std::string& path, const slamd::loop_closure_t&
   PUT(robust_kernel), PUT(robust_parameter);
 }
 inline void Put(Fields& f, const std::string& path, const slamd::map_t& m) {
-  PUT(utime), PUT(robot), PUT(update_sequence), PUT(request_id), PUT(page_index);
+  PUT(utime), PUT(robot), PUT(shard), PUT(update_sequence), PUT(request_id), PUT(page_index);
   PUT(page_count), PUT(dimension), PUT(num_poses), PUT(poses), PUT(num_landmarks);
   PUT(landmarks);
 }
@@ -120,7 +120,7 @@ inline void Put(Fields& f, const std::string& path, const slamd::prior_t& m) {
 inline void Put(Fields& f, const std::string& path, const slamd::query_reply_t& m) {
   PUT(utime), PUT(client), PUT(request_id), PUT(update_sequence), PUT(status), PUT(error);
   PUT(num_results), PUT(results), PUT(joint_dimension), PUT(num_joint_covariance);
-  PUT(joint_covariance), PUT(map_pages);
+  PUT(joint_covariance), PUT(map_pages), PUT(shard), PUT(shards_answering);
 }
 inline void Put(Fields& f, const std::string& path, const slamd::query_t& m) {
   PUT(utime), PUT(client), PUT(request_id), PUT(num_keys), PUT(keys);

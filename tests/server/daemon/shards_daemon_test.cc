@@ -6,7 +6,9 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <map>
 #include <random>
+#include <set>
 
 #include "server/daemon/daemon.h"
 #include "server/transport/in_process_bus.h"
@@ -148,6 +150,80 @@ TEST(ShardsDaemon, TwoShardsOnOneBusEndAtTheCentralEstimate) {
   EXPECT_LT((PoseOf(*again, "r0", kPoses - 1).translation() - before.translation()).norm(), 1e-6);
   again->Stop();
   std::filesystem::remove_all(dir);
+}
+
+// A fleet-wide map (map_robot "*") is answered by every shard, each with its own robots' map_t
+// pages and a query_reply_t naming it and how many shards answer; the keys by their owner only.
+// Another query is answered by one shard.
+TEST(ShardsDaemon, EveryShardAnswersAFleetWideMap) {
+  InProcessBus bus;
+  auto s0 = Daemon::Create(ShardParams("S0"), &bus).value();
+  auto s1 = Daemon::Create(ShardParams("S1"), &bus).value();
+  std::vector<slamd::query_reply_t> replies;
+  std::vector<slamd::map_t> pages;
+  const ChannelNames channels;
+  Subscription on_reply =
+      Subscribe<slamd::query_reply_t>(
+          bus, channels.QueryReply(),
+          [&](std::string_view, const slamd::query_reply_t& m) { replies.push_back(m); }, nullptr)
+          .value();
+  Subscription on_map =
+      Subscribe<slamd::map_t>(
+          bus, channels.Map(), [&](std::string_view, const slamd::map_t& m) { pages.push_back(m); },
+          nullptr)
+          .value();
+  for (const auto& [channel, bytes] : World()) ASSERT_TRUE(bus.Publish(channel, bytes).ok());
+  const auto drive = [&] {
+    for (int k = 0; k < 5; ++k) {
+      ASSERT_TRUE(s0->PumpIntake(0).ok());  // delivers to both shards' subscriptions
+      ASSERT_TRUE(s1->PumpIntake(0).ok());
+      s0->StepEstimator(0.0);
+      s1->StepEstimator(0.0);
+    }
+  };
+  drive();
+  // S0 holds r1's poses its closures name (shared poses), not r1's map.
+  ASSERT_TRUE(s0->estimator_for_tests().PoseEstimate("r1", 4).ok());
+  const auto ask = [&](std::int64_t id, const std::string& map_robot) {
+    replies.clear();
+    pages.clear();
+    slamd::query_t q;
+    ToLcm(QueryRequest{.client = "c",
+                       .request_id = id,
+                       .keys = {{.robot = "r1", .kind = KeyKind::kPose, .index = 3}},
+                       .map_robot = map_robot},
+          &q);
+    ASSERT_TRUE(Publish(bus, channels.Inbound<QuerySpec>(), q).ok());
+    drive();
+  };
+
+  ask(7, "*");
+  ASSERT_EQ(replies.size(), 2u);
+  std::map<std::string, slamd::query_reply_t> by_shard;
+  int announced = 0;
+  for (const slamd::query_reply_t& r : replies) {
+    EXPECT_EQ(r.request_id, 7);
+    EXPECT_EQ(r.shards_answering, 2);
+    EXPECT_EQ(r.status, slamd::query_reply_t::STATUS_OK) << r.error;
+    announced += r.map_pages;
+    by_shard[r.shard] = r;
+  }
+  ASSERT_EQ(by_shard.count("S0") + by_shard.count("S1"), 2u);
+  EXPECT_EQ(by_shard["S0"].num_results, 0);  // r1's key: S1's to answer
+  ASSERT_EQ(by_shard["S1"].num_results, 1);
+  EXPECT_TRUE(by_shard["S1"].results[0].found);
+  EXPECT_EQ(static_cast<int>(pages.size()), announced);
+  std::set<std::pair<std::string, std::string>> maps;  // (shard, robot)
+  for (const slamd::map_t& m : pages) maps.insert({m.shard, m.robot});
+  // Each shard its own robot (S0's shared poses of r1 are S1's to publish).
+  EXPECT_EQ(maps, (std::set<std::pair<std::string, std::string>>{{"S0", "r0"}, {"S1", "r1"}}));
+
+  ask(8, "r1");
+  ASSERT_EQ(replies.size(), 1u);
+  EXPECT_EQ(replies[0].shard, "S1");
+  EXPECT_EQ(replies[0].shards_answering, 1);
+  ASSERT_FALSE(pages.empty());
+  for (const slamd::map_t& m : pages) EXPECT_EQ(m.shard, "S1");
 }
 
 }  // namespace slamd::server::shards_daemon_test
