@@ -17,13 +17,12 @@ bool ShardReplies::Add(const slamd::query_reply_t& reply) {
     }
     return true;
   }
-  if (merged_.num_results == 0 && reply.num_results > 0) {  // the reply that answered the keys
-    merged_.results = reply.results;
-    merged_.num_results = reply.num_results;
-    merged_.joint_dimension = reply.joint_dimension;
-    merged_.joint_covariance = reply.joint_covariance;
-    merged_.num_joint_covariance = reply.num_joint_covariance;
-    merged_.update_sequence = reply.update_sequence;
+  // Each key from the shard that found it (its owner; the others answer it not found).
+  if (reply.results.size() == merged_.results.size()) {
+    for (std::size_t i = 0; i < reply.results.size(); ++i) {
+      if (!merged_.results[i].found && reply.results[i].found)
+        merged_.results[i] = reply.results[i];
+    }
   }
   merged_.map_pages += reply.map_pages;
   merged_.status = std::max(merged_.status, reply.status);  // OK < PARTIAL < REJECTED

@@ -1,8 +1,9 @@
 // The query_reply_t messages that answer one query, merged into one. A sharded slamd answers a
 // fleet-wide map (map_robot "*") from every shard, each with its own reply and its own robots'
-// map_t pages (query_reply_t.shard, shards_answering); any other query, and an unsharded slamd,
-// with one reply. The merged reply has the results and joint covariance of the reply that
-// answered the keys, the sum of the map_pages, the worst status, and every shard's error.
+// map_t pages (query_reply_t.shard, shards_answering), and a query of keys of several shards'
+// robots from each of them (each key found by its owner only); an unsharded slamd with one
+// reply. The merged reply has each key's result from the reply that found it, the sum of the
+// map_pages, the worst status, and every shard's error.
 #pragma once
 
 #include <cstdint>

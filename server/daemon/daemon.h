@@ -201,9 +201,10 @@ class Daemon {
   // `shard`'s reply ("": this one's).
   void RejectQuery(const Verdict& verdict, std::string_view channel, const slamd::query_t& msg,
                    Bus& out, const std::string& shard = "");
-  // A query_reply_t's shard fields: which shard answers, and how many do (every shard for a
-  // query all shards take, QuerySpec::AllShards).
-  void SignReply(bool all_shards, const std::string& shard, slamd::query_reply_t* reply) const;
+  // A query_reply_t's shard fields: which shard answers, and how many do
+  // (QuerySpec::AnsweringShards).
+  void SignReply(const std::set<std::string>& answering, const std::string& shard,
+                 slamd::query_reply_t* reply) const;
   std::string InboundChannel(const Inbound& in) const;
   // now_steady: the publication time that latency_us counts to.
   void PublishEstimates(const EstimateSnapshot& snap, std::int64_t now_steady);

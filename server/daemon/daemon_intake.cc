@@ -37,21 +37,16 @@ void Daemon::OnInbound(std::string_view channel, const Msg& msg, const std::stri
   const ShardMap& shards = params_.estimator.shards;
   // Forwarded once, by the leader of a pair (a standby does not answer).
   const bool forwards = params_.shards.forward_queries && reply_shard.empty() && !standby_;
-  if (!ForThisShard<Spec>(shards, msg)) {  // another shard's robot
-    if constexpr (Spec::kRole == MessageRole::kQuery) {
-      if (forwards) {
-        ForwardQuery(channel, msg, shards.OwnerOf(QuerySpec::ShardRobot(msg)));
-        return;
+  if constexpr (Spec::kRole == MessageRole::kQuery) {
+    if (forwards) {  // to the other shards that answer it
+      for (const std::string& shard : QuerySpec::AnsweringShards(shards, msg)) {
+        if (shard != shards.self) ForwardQuery(channel, msg, shard);
       }
     }
-    ++shard_exchange_.not_owned;
-    return;
   }
-  if constexpr (Spec::kRole == MessageRole::kQuery) {
-    if (forwards && shards.sharded() && QuerySpec::AllShards(msg)) {  // a fleet-wide map
-      for (const std::string& neighbour : shards.Neighbours())
-        ForwardQuery(channel, msg, neighbour);
-    }
+  if (!ForThisShard<Spec>(shards, msg)) {  // another shard's robot
+    if (Spec::kRole != MessageRole::kQuery || !forwards) ++shard_exchange_.not_owned;
+    return;
   }
   const char* type = Spec::kType;
   auto checked = Convert(msg, Limits{});
@@ -124,8 +119,8 @@ void Daemon::RejectQuery(const Verdict& verdict, std::string_view channel,
   slamd::query_reply_t reply;
   FillRejectedQueryReply(QueryRequest{.client = msg.client, .request_id = msg.request_id},
                          verdict.message, WallMicros(), &reply);
-  SignReply(QuerySpec::AllShards(msg), shard.empty() ? params_.estimator.shards.self : shard,
-            &reply);
+  const ShardMap& shards = params_.estimator.shards;
+  SignReply(QuerySpec::AnsweringShards(shards, msg), shard.empty() ? shards.self : shard, &reply);
   const core::Status s = server::Publish(out, channels_.QueryReply(), reply);
   if (!s.ok()) log_->warn("cannot publish query_reply_t: {}", s.ToString());
 }

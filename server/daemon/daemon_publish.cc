@@ -39,28 +39,36 @@ std::array<std::int64_t, N> Percentiles(std::vector<double> v, const std::array<
 }  // namespace
 
 void Daemon::AnswerAndPublish(const QueryRequest& query, std::int64_t update_sequence) {
-  // A fleet-wide map is answered by every shard; the keys by their owner only.
-  const ShardMap& shards = params_.estimator.shards;
-  QueryRequest map_only;
-  const bool keys_elsewhere =
-      shards.sharded() && QuerySpec::AllShards(query) && !shards.Owns(QuerySpec::ShardRobot(query));
-  if (keys_elsewhere) {
-    map_only = query;
-    map_only.keys.clear();
-    map_only.want_joint_marginal = false;
-  }
-  const QueryRequest& asked = keys_elsewhere ? map_only : query;
-  const QueryAnswer answer = AnswerQuery(*estimator_, asked, params_.publish.query_budget_s);
+  const QueryAnswer answer = AnswerQuery(*estimator_, query, params_.publish.query_budget_s);
   Bus& out = ReplyBus(query.reply_shard);
+  // Several shards answer (QuerySpec::AnsweringShards): each its own robots' keys and maps.
+  const ShardMap& shards = params_.estimator.shards;
+  const std::set<std::string> answering = QuerySpec::AnsweringShards(shards, query);
   int pages = 0;
   bool maps_partial = false;
-  if (!query.map_robot.empty()) {
+  if (!query.map_robot.empty() && (query.map_robot == "*" || shards.Owns(query.map_robot))) {
     pages = PublishMaps(out, query.map_robot, query.want_marginals, query.request_id,
                         update_sequence, &maps_partial);
   }
   slamd::query_reply_t reply;
-  FillQueryReply(asked, answer, update_sequence, pages, WallMicros(), &reply);
-  SignReply(QuerySpec::AllShards(query), shards.self, &reply);
+  FillQueryReply(query, answer, update_sequence, pages, WallMicros(), &reply);
+  SignReply(answering, shards.self, &reply);
+  if (answering.size() > 1) {
+    // Another shard's key is its owner's to answer (here it may be a shared pose): not found.
+    for (slamd::variable_t& v : reply.results) {
+      if (shards.Owns(v.key.robot)) continue;
+      slamd::variable_t not_found{};
+      not_found.key = v.key;
+      v = not_found;
+    }
+    if (query.want_joint_marginal) {
+      reply.joint_dimension = 0;
+      reply.joint_covariance.clear();
+      reply.num_joint_covariance = 0;
+      reply.status = slamd::query_reply_t::STATUS_PARTIAL;
+      reply.error = "no joint marginal of keys of several shards";
+    }
+  }
   if (maps_partial && reply.status == slamd::query_reply_t::STATUS_OK) {
     reply.status = slamd::query_reply_t::STATUS_PARTIAL;
     reply.error = "map marginals not ready within the query budget";
@@ -69,12 +77,10 @@ void Daemon::AnswerAndPublish(const QueryRequest& query, std::int64_t update_seq
   if (!s.ok()) log_->warn("cannot publish query_reply_t: {}", s.ToString());
 }
 
-void Daemon::SignReply(bool all_shards, const std::string& shard,
+void Daemon::SignReply(const std::set<std::string>& answering, const std::string& shard,
                        slamd::query_reply_t* reply) const {
-  const ShardMap& shards = params_.estimator.shards;
   reply->shard = shard;
-  reply->shards_answering =
-      shards.sharded() && all_shards ? static_cast<std::int32_t>(shards.shards.size()) : 1;
+  reply->shards_answering = std::max<std::int32_t>(1, static_cast<std::int32_t>(answering.size()));
 }
 
 int Daemon::PublishMaps(Bus& out, const std::string& robot, bool marginals, std::int64_t request_id,

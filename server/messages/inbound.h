@@ -86,18 +86,15 @@ decltype(auto) VisitSpec(const Inbound& in, F&& f) {
 }
 
 // Whether a sharded slamd takes a message (LCM class or value of spec S): a summary addressed
-// to its shard (S::Shard), one every shard takes (S::AllShards), or a message whose robot
-// (S::ShardRobot, else S::Robot: robot_a of a loop closure) it owns. Unsharded, every message.
+// to its shard (S::Shard), a query it is among the answering shards of (S::AnsweringShards), or
+// a message whose robot (S::Robot: robot_a of a loop closure) it owns. Unsharded, every message.
 template <typename S, typename M>
 bool ForThisShard(const ShardMap& shards, const M& m) {
   if (!shards.sharded()) return true;
-  if constexpr (requires { S::AllShards(m); }) {
-    if (S::AllShards(m)) return true;
-  }
   if constexpr (requires { S::Shard(m); }) {
     return S::Shard(m) == shards.self;
-  } else if constexpr (requires { S::ShardRobot(m); }) {
-    return shards.Owns(S::ShardRobot(m));
+  } else if constexpr (requires { S::AnsweringShards(shards, m); }) {
+    return S::AnsweringShards(shards, m).count(shards.self) != 0;
   } else {
     return shards.Owns(S::Robot(m));
   }

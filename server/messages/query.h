@@ -5,12 +5,14 @@
 
 #include <cstdint>
 #include <optional>
+#include <set>
 #include <string>
 #include <variant>
 #include <vector>
 
 #include "server/ingest/conversion.h"
 #include "server/ingest/measurements.h"
+#include "server/ingest/shard_map.h"
 #include "server/messages/message_spec.h"
 #include "slamd/query_t.hpp"
 
@@ -44,16 +46,20 @@ struct QuerySpec {
   static const std::string& Robot(const M& m) {
     return m.client;
   }
-  // Whose shard answers (ShardMap): the robot of its first key, else map_robot ("" and "*"
-  // belong to no robot: the first shard answers).
+  // The shards that answer it ({} when not sharded), each for its own robots: every shard for
+  // a fleet-wide map (map_robot "*"); else the owners of its keys' robots and of map_robot (a
+  // key of the shared map, robot "", and a query naming no robot go to the first shard).
   template <typename M>
-  static const std::string& ShardRobot(const M& m) {
-    return m.keys.empty() ? m.map_robot : m.keys.front().robot;
-  }
-  // Every shard answers a fleet-wide map (map_robot "*") with its own robots' maps.
-  template <typename M>
-  static bool AllShards(const M& m) {
-    return m.map_robot == "*";
+  static std::set<std::string> AnsweringShards(const ShardMap& shards, const M& m) {
+    std::set<std::string> out;
+    if (!shards.sharded()) return out;
+    if (m.map_robot == "*") {
+      for (const ShardMap::Shard& s : shards.shards) out.insert(s.name);
+      return out;
+    }
+    for (const auto& key : m.keys) out.insert(shards.OwnerOf(key.robot));
+    if (!m.map_robot.empty() || out.empty()) out.insert(shards.OwnerOf(m.map_robot));
+    return out;
   }
 };
 

@@ -340,7 +340,8 @@ TEST(ShardsHaTest, AShardThatIsAReplicatedPairFailsOverAndEndsAtOneServersEstima
 
 // Two shards, each on its own bus (prefixes A_ and B_: neither hears the other's channels), both
 // sent the whole world (each takes its robots'). Asked on A_, S0 forwards robot2's and robot3's
-// queries, and a fleet-wide map, to S1 and publishes S1's answers on A_.
+// queries, a fleet-wide map and a query of keys of both shards to S1 and publishes S1's answers
+// on A_.
 TEST(ShardsHaTest, QueriesForAnotherShardsRobotAreForwardedBetweenBuses) {
   ASSERT_TRUE(testing::OnlyLoopback()) << testing::kNotInNetns;
   if (!testing::HaveNatsServer()) GTEST_SKIP() << "nats-server is not installed";
@@ -413,10 +414,15 @@ TEST(ShardsHaTest, QueriesForAnotherShardsRobotAreForwardedBetweenBuses) {
   for (int r = 0; r < kRobots; ++r) {
     EXPECT_EQ(fleet.map_robots.count("robot" + std::to_string(r)), 1u) << r;
   }
+  // Keys of both shards' robots asked on A_: each owner answers (S1's reply forwarded).
+  const Answer both = asker.Ask(
+      "A_", QueryRequest{.keys = {{"robot0", KeyKind::kPose, 1}, {"robot2", KeyKind::kPose, 1}}});
+  ASSERT_TRUE(both.replied);
+  EXPECT_EQ(both.shards, (std::set<std::string>{"S0", "S1"}));
   // S0's own robot is answered by S0 (not forwarded).
   EXPECT_EQ(asker.Poses("A_", "robot0").size(), kPoses);
   client.Drain(300);
-  EXPECT_GE(shards[0].status.shard_queries_forwarded, 2 + 2 + 1);
+  EXPECT_GE(shards[0].status.shard_queries_forwarded, 2 + 2 + 1 + 1);
   EXPECT_GT(shards[0].status.shard_not_owned, 0);  // S1's robots' measurements
 }
 

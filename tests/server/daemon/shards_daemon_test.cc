@@ -153,9 +153,10 @@ TEST(ShardsDaemon, TwoShardsOnOneBusEndAtTheCentralEstimate) {
 }
 
 // A fleet-wide map (map_robot "*") is answered by every shard, each with its own robots' map_t
-// pages and a query_reply_t naming it and how many shards answer; the keys by their owner only.
-// Another query is answered by one shard.
-TEST(ShardsDaemon, EveryShardAnswersAFleetWideMap) {
+// pages and a query_reply_t naming it and how many shards answer; keys of several shards' robots
+// by each owner (another shard's key not found there, even a pose it shares); a query of one
+// shard's robot by that shard alone.
+TEST(ShardsDaemon, EveryShardAnswersForItsOwnRobots) {
   InProcessBus bus;
   auto s0 = Daemon::Create(ShardParams("S0"), &bus).value();
   auto s1 = Daemon::Create(ShardParams("S1"), &bus).value();
@@ -184,13 +185,17 @@ TEST(ShardsDaemon, EveryShardAnswersAFleetWideMap) {
   drive();
   // S0 holds r1's poses its closures name (shared poses), not r1's map.
   ASSERT_TRUE(s0->estimator_for_tests().PoseEstimate("r1", 4).ok());
-  const auto ask = [&](std::int64_t id, const std::string& map_robot) {
+  const auto ask = [&](std::int64_t id, const std::string& map_robot,
+                       std::vector<WireKey> keys = {{"r1", KeyKind::kPose, 3}},
+                       bool joint = false) {
     replies.clear();
     pages.clear();
     slamd::query_t q;
     ToLcm(QueryRequest{.client = "c",
                        .request_id = id,
-                       .keys = {{.robot = "r1", .kind = KeyKind::kPose, .index = 3}},
+                       .keys = std::move(keys),
+                       .want_marginals = joint,
+                       .want_joint_marginal = joint,
                        .map_robot = map_robot},
           &q);
     ASSERT_TRUE(Publish(bus, channels.Inbound<QuerySpec>(), q).ok());
@@ -209,7 +214,8 @@ TEST(ShardsDaemon, EveryShardAnswersAFleetWideMap) {
     by_shard[r.shard] = r;
   }
   ASSERT_EQ(by_shard.count("S0") + by_shard.count("S1"), 2u);
-  EXPECT_EQ(by_shard["S0"].num_results, 0);  // r1's key: S1's to answer
+  ASSERT_EQ(by_shard["S0"].num_results, 1);
+  EXPECT_FALSE(by_shard["S0"].results[0].found);  // r1's key: S1's to answer
   ASSERT_EQ(by_shard["S1"].num_results, 1);
   EXPECT_TRUE(by_shard["S1"].results[0].found);
   EXPECT_EQ(static_cast<int>(pages.size()), announced);
@@ -224,6 +230,31 @@ TEST(ShardsDaemon, EveryShardAnswersAFleetWideMap) {
   EXPECT_EQ(replies[0].shards_answering, 1);
   ASSERT_FALSE(pages.empty());
   for (const slamd::map_t& m : pages) EXPECT_EQ(m.shard, "S1");
+
+  // r0:x2 and r1:x4 (a pose S0 shares): each found by its owner only.
+  ask(9, "", {{"r0", KeyKind::kPose, 2}, {"r1", KeyKind::kPose, 4}});
+  ASSERT_EQ(replies.size(), 2u);
+  EXPECT_TRUE(pages.empty());
+  for (const slamd::query_reply_t& r : replies) {
+    EXPECT_EQ(r.shards_answering, 2);
+    EXPECT_EQ(r.status, slamd::query_reply_t::STATUS_OK) << r.error;
+    ASSERT_EQ(r.num_results, 2);
+    EXPECT_EQ(r.results[0].found, r.shard == "S0") << r.shard;
+    EXPECT_EQ(r.results[1].found, r.shard == "S1") << r.shard;
+  }
+  // No shard holds the joint marginal of both.
+  ask(10, "", {{"r0", KeyKind::kPose, 2}, {"r1", KeyKind::kPose, 4}}, /*joint=*/true);
+  ASSERT_EQ(replies.size(), 2u);
+  for (const slamd::query_reply_t& r : replies) {
+    EXPECT_EQ(r.status, slamd::query_reply_t::STATUS_PARTIAL);
+    EXPECT_EQ(r.error, "no joint marginal of keys of several shards");
+    EXPECT_EQ(r.joint_dimension, 0);
+  }
+  // One shard's robot: that shard alone.
+  ask(11, "", {{"r0", KeyKind::kPose, 2}});
+  ASSERT_EQ(replies.size(), 1u);
+  EXPECT_EQ(replies[0].shard, "S0");
+  EXPECT_TRUE(replies[0].results[0].found);
 }
 
 }  // namespace slamd::server::shards_daemon_test
