@@ -176,10 +176,10 @@ class Daemon {
   core::Status StartShards();
   void MaybeSendSummaries();
   void SendSummaries(const ShardSummaryMessage& summary);  // to every other shard
-  // shards.forward_queries: sends a query for another shard's robot to its owner (a fleet-wide
-  // map to every other shard); takes a query forwarded to this shard into intake (its answer
-  // goes back through a relay); publishes on the bus what an owner sent back.
-  void ForwardQuery(std::string_view channel, const slamd::query_t& msg, const std::string& to);
+  // shards.forward_queries: sends a query to another shard that answers it (the owner of one of
+  // its robots; QuerySpec::AnsweringShards); takes a query forwarded to this shard into intake
+  // (its answer goes back through a relay); publishes on the bus what an owner sent back.
+  void ForwardQuery(std::string_view channel, const slamd::query_t& msg, const std::string& owner);
   void OnForwardedQuery(const std::string& subject, std::span<const std::uint8_t> payload);
   void OnRelayedReply(const std::string& subject, std::span<const std::uint8_t> payload);
   // Where the answer to a query goes: the bus, or the relay to the shard that forwarded it.
