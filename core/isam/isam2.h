@@ -10,12 +10,11 @@
 // Update() adds factors and variables, relinearises variables whose δ has grown past a threshold
 // or one of whose factors is no longer well approximated by its linearisation at θ ⊕ δ (fluid
 // relinearisation, every `skip` updates; see Relinearization::error_threshold), removes from
-// the tree the cliques those touch together with their ancestors (the "top"), re-eliminates
-// the top with its original
-// factors plus the cached factors of the orphaned subtrees, in a constrained COLAMD order that
-// puts the newest variables last, re-attaches the orphans and back-substitutes from the top down
-// until the change falls under the wildfire threshold. An odometry-only step so touches only the
-// cliques near the newest pose: its cost does not grow with the graph.
+// the tree the cliques those touch together with their ancestors (the "top"), re-eliminates the
+// top with its original factors plus the cached factors of the orphaned subtrees, in a
+// constrained COLAMD order that puts the newest variables last, re-attaches the orphans and
+// back-substitutes from the top down until the change falls under the wildfire threshold. An
+// odometry-only step so touches only the cliques near the newest pose: its cost does not grow.
 //
 // Errors: invalid input (unknown or duplicate keys, wrong types, non-finite values, bad factor
 // indices) returns a status and changes nothing; a numerical failure (an indeterminate system,
@@ -85,15 +84,12 @@ class Isam2 {
   // At most `max_rounds` rounds (a journal replay repeats a refinement by its round count).
   RefineResult Refine(double budget_s, int max_rounds = std::numeric_limits<int>::max());
 
-  // Node removal (core/inference/node_removal.h): `keys` are marginalised out at θ into a
-  // summary on their Markov blanket (dense, or its Chow-Liu tree), which replaces their factors.
-  // Only the cliques of those factors and their ancestors are re-eliminated; the other variables
-  // are renumbered (O(variables + factors), no arithmetic). Dense: the remaining marginals and
-  // linear system at θ are exactly the full graph's: the estimate does not move. Factor indices
-  // stay. `at` (optional) holds the values to marginalise at in place of θ, for `keys` and their
-  // blanket: a journal replay repeats a removal made where the live θ was (which variables an
-  // update relinearised depends on δ, which a restored solver re-solved; the summary must not).
-  // (Its other values are ignored.) InvalidArgument when a value is missing or of another type.
+  // Node removal (core/inference/node_removal.h): `keys` are marginalised out at θ (or at `at`,
+  // values of them and their blanket: a journal replay of a live removal) into a summary on their
+  // Markov blanket (dense, or its Chow-Liu tree), which replaces their factors. Only the cliques
+  // of those factors and their ancestors are re-eliminated; the other variables are renumbered
+  // (O(variables + factors), no arithmetic). Dense: the remaining marginals and linear system at
+  // θ are exactly the full graph's: the estimate does not move. Factor indices stay.
   Isam2RemovalResult RemoveVariables(std::span<const Key> keys,
                                      const NodeRemovalParams& params = {},
                                      const Values* at = nullptr);

@@ -7,10 +7,9 @@
 //                     a reject_t at once; nothing is dropped silently)
 //   estimator thread: queue.PopAll -> Estimator::Process (ONE Isam2 update for everything
 //                     queued) -> reject_t for stateful rejections, estimate_t for each robot whose
-//                     newest pose moved, status_t at publish.status_rate_hz; while
-//                     refine.enabled, Isam2::Refine(refine.budget_s) until settled, when the
-//                     RefineSchedule sees room: in the gaps of a steady stream, else after
-//                     refine.idle_s without a message.
+//                     newest pose moved, status_t at publish.status_rate_hz; while refine.enabled,
+//                     Isam2::Refine(refine.budget_s) until settled, when the RefineSchedule sees
+//                     room: in a steady stream's gaps, else after refine.idle_s without a message.
 //
 // Inbound channels: one per message spec (server/messages/inbound.h), all through the queue;
 // measurements and retractions into Estimator::Process, queries (so a query sees everything
@@ -149,15 +148,13 @@ class Daemon {
   void ReleaseLease();      // joins slamd-lease; a held lease is released (clean hand-over)
   // Swaps in the estimator's rebuilt solver (ready), journals the swap, publishes.
   void SwapRebuild();
-  // The estimator's lifelong window (EstimatorParams::window), journaled when it removed any.
   // Whether `popped` holds a message of a robot that sends camera frames (noting the robots of
   // its frame_observations_t): their bursts are popped whole (queue.coalesce_s).
   bool FromCameraRobot(const std::vector<Inbound>& popped);
-  void ApplyPoseWindow();
+  void ApplyPoseWindow();  // the lifelong window (EstimatorParams::window), journaled
   // The estimator's latest snapshot, made the one queries and snapshot() see.
   std::shared_ptr<const EstimateSnapshot> ShareSnapshot();
-  // The estimates, and the ingest-to-publish latencies of unpublished_received_us_ (then
-  // cleared).
+  // The estimates, and the ingest-to-publish latencies of unpublished_received_us_ (cleared).
   void PublishUnpublished();
   // Journals what the estimator did (no-op without a journal); false while the replicated
   // journal does not have it (its estimates must wait).
@@ -201,8 +198,7 @@ class Daemon {
   // `shard`'s reply ("": this one's).
   void RejectQuery(const Verdict& verdict, std::string_view channel, const slamd::query_t& msg,
                    Bus& out, const std::string& shard = "");
-  // A query_reply_t's shard fields: which shard answers, and how many do
-  // (QuerySpec::AnsweringShards).
+  // query_reply_t.shard and shards_answering (QuerySpec::AnsweringShards).
   void SignReply(const std::set<std::string>& answering, const std::string& shard,
                  slamd::query_reply_t* reply) const;
   std::string InboundChannel(const Inbound& in) const;
@@ -244,8 +240,7 @@ class Daemon {
   // Receipt times of applied messages whose estimates have not gone out (they wait for the
   // replicated journal) [µs, steady clock].
   std::vector<std::int64_t> unpublished_received_us_;
-  // A replicated pair: the lease (null without one), and while standby_, what it follows and
-  // hears.
+  // A replicated pair: the lease (null without one), and while standby_, what it follows/hears.
   std::unique_ptr<LeaderLease> lease_;
   std::atomic<bool> standby_{false};
   std::atomic<bool> deposed_{false};  // the lease was lost while leading: this slamd must stop
@@ -273,8 +268,7 @@ class Daemon {
   std::int64_t published_sequence_ = 0;
   std::int64_t last_status_us_ = 0;
   bool last_status_settled_ = true;
-  // Recent update and ingest-to-publish latencies for status_t (rings of
-  // publish.latency_window).
+  // Recent update and ingest-to-publish latencies for status_t (publish.latency_window rings).
   std::vector<double> update_us_;
   size_t update_us_next_ = 0;
   std::vector<double> publish_us_;
