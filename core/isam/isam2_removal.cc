@@ -12,7 +12,13 @@ Isam2RemovalResult Isam2::RemoveVariables(std::span<const Key> keys,
   CheckNoPendingSolve("RemoveVariables");
   Stopwatch timer;
   Isam2RemovalResult out;
-  if (at) {
+  if (at) {  // MarginalizeOut reads `at`: the keys must be variables here too, of its types
+    for (Key key : keys) {
+      if (!theta_.Contains(key)) {
+        out.status = InvalidArgument("RemoveVariables: unknown variable " + KeyToString(key));
+        return out;
+      }
+    }
     for (Key key : at->keys()) {
       const int slot = theta_.SlotOf(key);
       if (slot >= 0 && theta_.TypeAt(slot) != TypeOf(at->Get(key))) {
@@ -22,13 +28,8 @@ Isam2RemovalResult Isam2::RemoveVariables(std::span<const Key> keys,
       }
     }
   }
-  for (Key key : keys) {  // removed variables are dropped from θ by slot below
-    if (!theta_.Contains(key)) {
-      out.status = InvalidArgument("RemoveVariables: unknown variable " + KeyToString(key));
-      return out;
-    }
-  }
-  // MarginalizeOut validates the keys (repeated), the values and that the marginal exists.
+  // MarginalizeOut validates the keys (unknown, repeated), the values and that the marginal
+  // exists.
   const Values& point = at ? *at : theta_;
   Result<NodeRemoval> removal = MarginalizeOut(factors_, point, keys, params);
   if (!removal.ok()) {

@@ -168,17 +168,17 @@ int Daemon::StepEstimator(double timeout_s) {
     // update: otherwise the observations wait for the odometry's update.
     n += queue_.PopRestOfBurst(&popped, params_.queue.coalesce_s, 4 * params_.queue.coalesce_s);
   }
+  if (n > 0) {
+    const std::int64_t now = SteadyMicros();
+    for (const Inbound& in : popped) {
+      refine_schedule_.OnInput(in.received_us > 0 ? in.received_us : now, now);
+    }
+  }
   for (Inbound& in : popped) {
     if (QueryRequest* q = std::get_if<QueryRequest>(&in.measurement)) {
       queries.push_back(std::move(*q));
     } else {
       batch.push_back(std::move(in));
-    }
-  }
-  if (n > 0) {
-    const std::int64_t now = SteadyMicros();
-    for (const Inbound& in : popped) {
-      refine_schedule_.OnInput(in.received_us > 0 ? in.received_us : now, now);
     }
   }
   std::shared_ptr<const EstimateSnapshot> snap;
@@ -263,10 +263,7 @@ void Daemon::ApplyPoseWindow() {
   journal::Removal record;
   record.set_update_sequence(estimator_->snapshot()->update_sequence);
   record.mutable_keys()->Add(removed.keys.begin(), removed.keys.end());
-  for (size_t i = 0; i < removed.at.size(); ++i) {
-    const int slot = static_cast<int>(i);
-    EncodeValue(removed.at.KeyAt(slot), removed.at.VariableAt(slot), record.add_at());
-  }
+  EncodeValues(removed.at, record.mutable_at());
   const core::Status s = journal_->AppendRemoval(record);
   if (!s.ok()) NoteJournalError(s);
 }

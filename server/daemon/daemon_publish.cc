@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <optional>
 
 #include "core/base/memory_usage.h"
 #include "server/daemon/daemon.h"
@@ -39,11 +40,18 @@ std::array<std::int64_t, N> Percentiles(std::vector<double> v, const std::array<
 }  // namespace
 
 void Daemon::AnswerAndPublish(const QueryRequest& query, std::int64_t update_sequence) {
-  const QueryAnswer answer = AnswerQuery(*estimator_, query, params_.publish.query_budget_s);
-  Bus& out = ReplyBus(query.reply_shard);
-  // Several shards answer (QuerySpec::AnsweringShards): each its own robots' keys and maps.
+  // Several shards answer (QuerySpec::AnsweringShards): each its own robots' keys and maps, and
+  // none the joint marginal (not computed).
   const ShardMap& shards = params_.estimator.shards;
   const std::set<std::string> answering = QuerySpec::AnsweringShards(shards, query);
+  std::optional<QueryRequest> without_joint;
+  if (answering.size() > 1 && query.want_joint_marginal) {
+    without_joint = query;
+    without_joint->want_joint_marginal = false;
+  }
+  const QueryAnswer answer = AnswerQuery(*estimator_, without_joint ? *without_joint : query,
+                                         params_.publish.query_budget_s);
+  Bus& out = ReplyBus(query.reply_shard);
   int pages = 0;
   bool maps_partial = false;
   if (!query.map_robot.empty() && (query.map_robot == "*" || shards.Owns(query.map_robot))) {
@@ -61,10 +69,7 @@ void Daemon::AnswerAndPublish(const QueryRequest& query, std::int64_t update_seq
       not_found.key = v.key;
       v = not_found;
     }
-    if (query.want_joint_marginal) {
-      reply.joint_dimension = 0;
-      reply.joint_covariance.clear();
-      reply.num_joint_covariance = 0;
+    if (without_joint) {
       reply.status = slamd::query_reply_t::STATUS_PARTIAL;
       reply.error = "no joint marginal of keys of several shards";
     }

@@ -40,15 +40,18 @@ bool IngestQueue::WaitForRoom(double timeout_s, int count) {
   return room && !closed_;
 }
 
-int IngestQueue::PopAll(std::vector<Inbound>* out, double timeout_s) {
-  std::unique_lock lock(mutex_);
-  not_empty_.wait_for(lock, ToDuration(timeout_s), [&] { return closed_ || !queue_.empty(); });
+int IngestQueue::TakeAllLocked(std::vector<Inbound>* out) {
   const int n = static_cast<int>(queue_.size());
   for (Inbound& in : queue_) out->push_back(std::move(in));
   queue_.clear();
-  lock.unlock();
   if (n > 0) not_full_.notify_all();
   return n;
+}
+
+int IngestQueue::PopAll(std::vector<Inbound>* out, double timeout_s) {
+  std::unique_lock lock(mutex_);
+  not_empty_.wait_for(lock, ToDuration(timeout_s), [&] { return closed_ || !queue_.empty(); });
+  return TakeAllLocked(out);
 }
 
 int IngestQueue::PopRestOfBurst(std::vector<Inbound>* out, double quiet_s, double max_wait_s) {
@@ -64,13 +67,8 @@ int IngestQueue::PopRestOfBurst(std::vector<Inbound>* out, double quiet_s, doubl
     const bool more =
         not_empty_.wait_until(lock, quiet_end, [&] { return closed_ || !queue_.empty(); });
     if (!more || queue_.empty()) break;  // quiet (or closed)
-    for (Inbound& in : queue_) {
-      newest_us = std::max(newest_us, in.received_us);
-      out->push_back(std::move(in));
-      ++added;
-    }
-    queue_.clear();
-    not_full_.notify_all();
+    for (const Inbound& in : queue_) newest_us = std::max(newest_us, in.received_us);
+    added += TakeAllLocked(out);
   }
   return added;
 }

@@ -46,6 +46,9 @@ class IngestQueue {
   bool closed() const;
 
  private:
+  // Moves everything queued to the end of *out and wakes blocked pushers; mutex_ held.
+  int TakeAllLocked(std::vector<Inbound>* out);
+
   const int capacity_;
   mutable std::mutex mutex_;
   std::condition_variable not_empty_, not_full_;

@@ -178,11 +178,19 @@ class ChunkedWriter {
   int pending_ = 0;
 };
 
-}  // namespace
-
-void EncodeValue(core::Key key, const core::Variable& value, snapshot::KeyedVariable* out) {
+void EncodeValue(core::Key key, const core::Variable& value, pb::KeyedVariable* out) {
   out->set_key(key);
   WriteVariable(value, out->mutable_value());
+}
+
+}  // namespace
+
+void EncodeValues(const core::Values& values,
+                  google::protobuf::RepeatedPtrField<snapshot::KeyedVariable>* out) {
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const int slot = static_cast<int>(i);
+    EncodeValue(values.KeyAt(slot), values.VariableAt(slot), out->Add());
+  }
 }
 
 core::Status DecodeValues(const google::protobuf::RepeatedPtrField<snapshot::KeyedVariable>& in,

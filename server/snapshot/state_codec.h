@@ -26,10 +26,11 @@ std::string EncodeState(const EstimatorState& state, const JournalPosition& posi
 // number of keys or values, a noise model that is not square-root information).
 core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition* position);
 
-// One value as a snapshot stores it (exactly), and a list of them back (DataLoss naming `what`
-// and the fault, as DecodeState's): also for records that carry values outside a snapshot (the
-// journal's node removals).
-void EncodeValue(core::Key key, const core::Variable& value, snapshot::KeyedVariable* out);
+// Values as a snapshot stores them (exactly), and back (DataLoss naming `what` and the fault,
+// as DecodeState's): also for records that carry values outside a snapshot (the journal's node
+// removals).
+void EncodeValues(const core::Values& values,
+                  google::protobuf::RepeatedPtrField<snapshot::KeyedVariable>* out);
 core::Status DecodeValues(const google::protobuf::RepeatedPtrField<snapshot::KeyedVariable>& in,
                           const char* what, core::Values* out);
 
