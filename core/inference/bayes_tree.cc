@@ -160,6 +160,38 @@ void BayesTree::RestoreRemoved() {
   removed_children_.clear();
 }
 
+void BayesTree::RemovedEliminationOrder(std::vector<int>* order) const {
+  order->clear();
+  // Top-down from the detached roots through the detached children (orphans are live), then
+  // reversed: every clique after its descendants.
+  // (slot, index in removed_), sorted by slot: O(removed) memory, not O(slots), per update.
+  std::vector<std::pair<int, int>> position;
+  for (int i = 0; i < static_cast<int>(removed_.size()); ++i)
+    position.emplace_back(removed_[i].id, i);
+  std::sort(position.begin(), position.end());
+  std::vector<int> top_down;
+  for (int i = 0; i < static_cast<int>(removed_.size()); ++i) {
+    if (removed_[i].parent == kNone) top_down.push_back(i);
+  }
+  for (std::size_t k = 0; k < top_down.size(); ++k) {
+    const Removed& r = removed_[top_down[k]];
+    for (int j = r.children_begin; j < r.children_end; ++j) {
+      const auto child =
+          std::lower_bound(position.begin(), position.end(), std::pair{removed_children_[j], 0});
+      if (child != position.end() && child->first == removed_children_[j]) {
+        top_down.push_back(child->second);
+      }
+    }
+  }
+  SLAMD_CHECK(top_down.size() == removed_.size())
+      << "RemovedEliminationOrder: detached cliques " << removed_.size() << ", reached "
+      << top_down.size();
+  for (auto it = top_down.rbegin(); it != top_down.rend(); ++it) {
+    const std::span<const int> frontals = cliques_[removed_[*it].id]->frontals();
+    order->insert(order->end(), frontals.begin(), frontals.end());
+  }
+}
+
 void BayesTree::ReleaseRemoved() {
   if (removed_.empty()) return;
   double top = 0.0;

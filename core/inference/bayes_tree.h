@@ -90,6 +90,10 @@ class BayesTree {
   // every clique created since has been freed (Eliminator::Eliminate frees its own on failure).
   // Exact, so it cannot fail where a re-elimination in a new order could (ill-conditioning).
   void RestoreRemoved();
+  // The frontals of the cliques the last RemoveTop detached, each clique's after those of its
+  // detached descendants and in its own order: an order that eliminates them into the cliques
+  // they were, with the same pivots. Read before ReleaseRemoved, to rebuild the top later.
+  void RemovedEliminationOrder(std::vector<int>* order) const;
   // Frees the cliques kept by the last RemoveTop (the update succeeded). RemoveTop and Clear
   // call it first. The storage the free list keeps for reuse is then bounded by twice the
   // largest top removed lately (a maximum decaying by kFreeDecay per top) and kMinFreeDoubles:

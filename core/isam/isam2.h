@@ -44,6 +44,7 @@
 #include "core/inference/variable_index.h"
 #include "core/isam/isam2_params.h"
 #include "core/isam/isam2_result.h"
+#include "core/linear/ordering.h"
 
 namespace slamd::core {
 
@@ -156,15 +157,7 @@ class Isam2 {
   // budget (over_budget_); this evaluates, at θ ⊕ δ, those of their factors that are predicted
   // above kStaleScreen x threshold or were never evaluated, raises ratio_ of the variables of
   // each factor with d_f > threshold to d_f / threshold, and renews the budgets. Leaves θ as it
-  // was. Cost: O(factors of the variables over budget); a variable within its budget costs
-  // nothing beyond the δ scan SelectRelinearization does anyway, and neither does one whose
-  // factors all passed at exactly its present δ (screened_norm2_). The budget is a sufficient
-  // condition, far tighter than the screen once loop closures have moved the map: without that
-  // second exemption a third of a 56k-pose map was walked at every check, and at ~127k
-  // variables in the soak each check took 15-25 ms.
-  // The prediction is a screen, not a bound: κ_f depends on the direction of δ_f (a rigid
-  // motion of a between factor's two poses costs no error at all), so a factor measured along
-  // one direction may be stale along another before it is evaluated again.
+  // was. Cost: O(factors of the variables over budget) (see the definition for why).
   void FindStaleLinearizations(double threshold);
   // |δ_nl|·|δ_f| for factor f: the scale of its linearisation error. δ_nl: the rotation
   // entries of a factor on poses only (a pose's translation enters such residuals linearly but
@@ -185,10 +178,15 @@ class Isam2 {
   void LinearizeChunks();
   Status ReEliminate(const std::vector<int>& affected, const std::vector<int>& last,
                      std::vector<int>* new_cliques, Isam2Result* result);
-  // Eliminates `vars` (ids) with every factor inside them and the cached factors of `orphans_`,
-  // then re-attaches the orphans. `last` (ids) are constrained to the end of the ordering.
-  Status EliminateTop(const std::vector<int>& vars, const std::vector<int>& last,
-                      std::vector<int>* new_cliques, Isam2Result* result);
+  // Eliminates elim_vars_ with every factor inside them and orphans_' cached factors, then
+  // re-attaches the orphans. `last` (ids) are constrained to the end of the ordering.
+  Status EliminateTop(const std::vector<int>& last, std::vector<int>* new_cliques,
+                      Isam2Result* result);
+  // Collects those factors (elim_jacobians_, elim_hessians_), with `incidence` their structure
+  // in the local numbering (mark_); then eliminates order_ from them into the tree.
+  void CollectTop(FactorIncidence* incidence);
+  Status EliminateOrdered(std::vector<int>* new_cliques);
+  void RebuildReleasedTop();  // Rollback of a released top: released_order_ eliminated again
   // Solves the tree from the new cliques down (all of it when `full`); with `first` (keys) only
   // the paths to them, leaving the rest for FinishBackSubstitution.
   int BackSubstitute(const std::vector<int>& new_cliques, bool full, double wildfire_threshold,
@@ -224,6 +222,7 @@ class Isam2 {
     std::vector<double> delta;  // ... and their old δ, concatenated in the order of `theta`
     std::vector<int> relinearized_factors;  // re-linearised at the restored θ on rollback
     bool top_removed = false;  // the tree's top was detached (removed_frontals_, orphans_)
+    bool top_released = false;          // ... and released before eliminating (released_order_)
     void Clear(int vars, int factors);  // keeps the lists' storage (isam2_steps.cc)
   };
 
@@ -275,6 +274,7 @@ class Isam2 {
   std::vector<int> mark_;  // per var id: 0, or 1 + position in the current elimination set
   std::vector<int> removed_frontals_, orphans_, elim_vars_, elim_factors_, order_;
   std::vector<int> removing_;  // RemoveVariables: ids ReEliminate leaves out
+  std::vector<int> released_order_;  // the released top's elimination order (Undo::top_released)
   std::vector<const JacobianFactor*> elim_jacobians_;
   std::vector<const HessianFactor*> elim_hessians_;
   std::vector<double> ratio_;           // per var id: how far over the relinearisation thresholds

@@ -190,27 +190,37 @@ Status Isam2::ReEliminate(const std::vector<int>& affected, const std::vector<in
   for (int v : elim_vars_) mark_[v] = 0;  // mark_ is all zero between uses
   for (int v : removing_) mark_[v] = 0;
   result->seconds.remove_top = phase.Lap();
-  const Status s = EliminateTop(elim_vars_, last, new_cliques, result);
+  const Status s = EliminateTop(last, new_cliques, result);
   result->reeliminated_variables = static_cast<int>(elim_vars_.size());
   return s;
 }
 
-Status Isam2::EliminateTop(const std::vector<int>& vars, const std::vector<int>& last,
-                           std::vector<int>* new_cliques, Isam2Result* result) {
-  Stopwatch phase;
-  // Local numbering of the variables to eliminate (mark_ = 1 + local index), cleared on exit so
-  // that marking costs O(|vars|), not O(all variables).
-  for (int i = 0; i < static_cast<int>(vars.size()); ++i) mark_[vars[i]] = i + 1;
-  struct ClearMarks {
-    const std::vector<int>& vars;
-    std::vector<int>& mark;
-    ~ClearMarks() {
-      for (int v : vars) mark[v] = 0;
-    }
-  } clear_marks{vars, mark_};
+namespace {
+
+// Numbers `vars` locally in `mark` (1 + index) for the scope, so that marking costs O(|vars|),
+// not O(all variables); `mark` is all zero between uses.
+class LocalNumbering {
+ public:
+  LocalNumbering(const std::vector<int>& vars, std::vector<int>& mark) : vars_(vars), mark_(mark) {
+    for (int i = 0; i < static_cast<int>(vars.size()); ++i) mark_[vars[i]] = i + 1;
+  }
+  ~LocalNumbering() {
+    for (int v : vars_) mark_[v] = 0;
+  }
+  LocalNumbering(const LocalNumbering&) = delete;
+  LocalNumbering& operator=(const LocalNumbering&) = delete;
+
+ private:
+  const std::vector<int>& vars_;
+  std::vector<int>& mark_;
+};
+
+}  // namespace
+
+void Isam2::CollectTop(FactorIncidence* incidence) {
   // The factors entirely inside the eliminated set (the others are summarised by orphans).
   elim_factors_.clear();
-  variable_index_.CollectFactors(vars, &elim_factors_);
+  variable_index_.CollectFactors(elim_vars_, &elim_factors_);
   // The structure comes from FactorVars: relinearised factors may still be being written.
   elim_factors_.erase(std::remove_if(elim_factors_.begin(), elim_factors_.end(),
                                      [&](int f) {
@@ -221,24 +231,65 @@ Status Isam2::EliminateTop(const std::vector<int>& vars, const std::vector<int>&
                                      }),
                       elim_factors_.end());
   elim_jacobians_.clear();
-  FactorIncidence incidence;
   std::vector<int> local;
   for (int f : elim_factors_) {
     elim_jacobians_.push_back(&linearized_[f]);
+    if (!incidence) continue;
     local.clear();
-    for (int v : FactorVars(f)) {
-      local.push_back(mark_[v] - 1);
-    }
-    incidence.AddFactor(local);
+    for (int v : FactorVars(f)) local.push_back(mark_[v] - 1);
+    incidence->AddFactor(local);
   }
   elim_hessians_.clear();
   for (int orphan : orphans_) {
     const HessianFactor& cached = tree_.clique(orphan).cached_factor();
     elim_hessians_.push_back(&cached);
+    if (!incidence) continue;
     local.clear();
     for (int v : cached.vars()) local.push_back(mark_[v] - 1);
-    incidence.AddFactor(local);
+    incidence->AddFactor(local);
   }
+}
+
+Status Isam2::EliminateOrdered(std::vector<int>* new_cliques) {
+  const EliminationProblem problem{.var_dims = dims_,
+                                   .factors = elim_jacobians_,
+                                   .hessians = elim_hessians_,
+                                   .ordering = order_};
+  EliminationResult eliminated;
+  const Status s = eliminator_.Eliminate(problem, &tree_, &eliminated);
+  if (!s.ok()) {
+    if (eliminated.failed_variable >= 0) {
+      return NumericalFailure("the linear system is indeterminate at variable " +
+                              KeyToString(theta_.KeyAt(eliminated.failed_variable)) +
+                              " (is it anchored or observed enough?): " + s.message());
+    }
+    return s;
+  }
+  for (std::size_t i = 0; i < orphans_.size(); ++i) {
+    tree_.Attach(orphans_[i], eliminated.hessian_cliques[i]);
+  }
+  *new_cliques = std::move(eliminated.cliques);
+  return Status::Ok();
+}
+
+void Isam2::RebuildReleasedTop() {
+  elim_vars_ = released_order_;
+  const LocalNumbering numbering(elim_vars_, mark_);
+  CollectTop(nullptr);
+  order_ = released_order_;
+  std::vector<int> cliques;
+  const Status s = EliminateOrdered(&cliques);
+  // The same system in the order that eliminated it before: failing now is a broken invariant.
+  SLAMD_CHECK(s.ok()) << "re-eliminating the top after a failed update: " << s.ToString();
+}
+
+Status Isam2::EliminateTop(const std::vector<int>& last, std::vector<int>* new_cliques,
+                           Isam2Result* result) {
+  Stopwatch phase;
+  const std::vector<int>& vars = elim_vars_;
+  const LocalNumbering numbering(vars, mark_);
+  FactorIncidence incidence;
+  CollectTop(&incidence);
   // 6. Constrained COLAMD: the variables of the new factors last (iSAM2 §V-A), so the next
   // update, which most likely touches them again, finds them near the root; their landmarks too
   // while they are few (Isam2Params::max_landmarks_last). But where landmarks are most of the
@@ -282,24 +333,15 @@ Status Isam2::EliminateTop(const std::vector<int>& vars, const std::vector<int>&
   // once the relinearised factors are all linearised (step 3's threads).
   SLAMD_RETURN_IF_ERROR(FinishRelinearization());
   result->seconds.relinearize += phase.Lap();
-  const EliminationProblem problem{.var_dims = dims_,
-                                   .factors = elim_jacobians_,
-                                   .hessians = elim_hessians_,
-                                   .ordering = order_};
-  EliminationResult eliminated;
-  const Status s = eliminator_.Eliminate(problem, &tree_, &eliminated);
-  if (!s.ok()) {
-    if (eliminated.failed_variable >= 0) {
-      return NumericalFailure("the linear system is indeterminate at variable " +
-                              KeyToString(theta_.KeyAt(eliminated.failed_variable)) +
-                              " (is it anchored or observed enough?): " + s.message());
-    }
-    return s;
+  // The detached top's storage goes to the new cliques (a large re-elimination otherwise faults
+  // in fresh pages beside the old top); a rollback from here eliminates it again in its order.
+  if (undo_.top_removed) {
+    tree_.RemovedEliminationOrder(&released_order_);
+    tree_.ReleaseRemoved();
+    undo_.top_removed = false;
+    undo_.top_released = true;
   }
-  for (std::size_t i = 0; i < orphans_.size(); ++i) {
-    tree_.Attach(orphans_[i], eliminated.hessian_cliques[i]);
-  }
-  *new_cliques = std::move(eliminated.cliques);
+  SLAMD_RETURN_IF_ERROR(EliminateOrdered(new_cliques));
   result->reeliminated_cliques = static_cast<int>(new_cliques->size());
   result->seconds.eliminate = phase.Lap();
   return Status::Ok();
@@ -372,9 +414,11 @@ void Isam2::Rollback() {
   var_types_.resize(undo_.num_vars);
   offsets_.resize(undo_.num_vars + 1);
   // The tree: the detached top back as it was (the failed elimination freed what it made, and
-  // the orphans are detached roots). Not a re-elimination: in a new order, an ill-conditioned
-  // system that eliminated before could fail now.
+  // the orphans are detached roots), or, once released, eliminated again in the order that
+  // built it (not a new order: an ill-conditioned system that eliminated before could fail in
+  // another). The estimate is restored exactly either way (θ and δ).
   if (undo_.top_removed) tree_.RestoreRemoved();
+  if (undo_.top_released) RebuildReleasedTop();
 }
 
 void Isam2::Undo::Clear(int vars, int factors) {
@@ -386,6 +430,7 @@ void Isam2::Undo::Clear(int vars, int factors) {
   delta.clear();
   relinearized_factors.clear();
   top_removed = false;
+  top_released = false;
 }
 
 void Isam2::ReleaseRemoved() {
