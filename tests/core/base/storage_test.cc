@@ -1,5 +1,5 @@
-// Reusing vector storage (core/base/storage.h): kept while at most 4x the need or 2 KiB, given
-// back beyond that, whatever the size the vector once had.
+// Reusing vector storage (core/base/storage.h): kept while at most 2x the need or 512 bytes,
+// given back beyond that, whatever the size the vector once had.
 #include "core/base/storage.h"
 
 #include <gtest/gtest.h>
@@ -12,26 +12,27 @@ TEST(StorageTest, KeepsModestSlackAndGivesBackTheRest) {
   ResizeReusingStorage(&v, 4096);  // 32 KiB
   ASSERT_EQ(v.size(), 4096u);
   const double* first = v.data();
-  ResizeReusingStorage(&v, 1024);  // a quarter: kept
+  ResizeReusingStorage(&v, 2048);  // a half: kept
   EXPECT_EQ(v.data(), first);
   EXPECT_GE(v.capacity(), 4096u);
-  ResizeReusingStorage(&v, 1023);  // beyond 4x: given back
-  EXPECT_EQ(v.size(), 1023u);
+  ResizeReusingStorage(&v, 2047);  // beyond 2x: given back
+  EXPECT_EQ(v.size(), 2047u);
   EXPECT_LT(v.capacity(), 4096u);
-  // Small vectors: 2 KiB (256 doubles) are kept whatever the ratio.
+  // Small vectors: 512 bytes (64 doubles) are kept whatever the ratio.
   UninitVector<double> u;
-  ResizeReusingStorage(&u, 256);
+  ResizeReusingStorage(&u, 64);
   ResizeReusingStorage(&u, 1);
-  EXPECT_EQ(u.capacity(), 256u);
-  ResizeReusingStorage(&u, 257);  // growing
-  ResizeReusingStorage(&u, 1);    // 2 KiB + 8 bytes at 257x the need: given back
+  EXPECT_EQ(u.capacity(), 64u);
+  ResizeReusingStorage(&u, 65);  // growing
+  ResizeReusingStorage(&u, 1);   // 520 bytes at 65x the need: given back
   EXPECT_EQ(u.capacity(), 1u);
-  std::vector<double> w(300, 1.0);  // above 2 KiB and over 4x its need: given back
-  AssignReusingStorage(&w, 10, 2.0);
-  EXPECT_EQ(w, std::vector<double>(10, 2.0));
+  std::vector<double> w(300, 1.0);  // over 512 bytes and 2x its need: given back
+  AssignReusingStorage(&w, 100, 2.0);
+  EXPECT_EQ(w, std::vector<double>(100, 2.0));
   EXPECT_LT(w.capacity(), 300u);
-  AssignReusingStorage(&w, 40, 3.0);  // growing
-  EXPECT_EQ(w, std::vector<double>(40, 3.0));
+  AssignReusingStorage(&w, 60, 3.0);  // within 2x: kept
+  EXPECT_EQ(w, std::vector<double>(60, 3.0));
+  EXPECT_EQ(w.capacity(), 100u);
 }
 
 }  // namespace
