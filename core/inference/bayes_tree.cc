@@ -160,29 +160,26 @@ void BayesTree::RestoreRemoved() {
   removed_children_.clear();
 }
 
-void BayesTree::RemovedEliminationOrder(std::vector<int>* order) const {
+void BayesTree::RemovedEliminationOrder(std::vector<int>* order) {
   order->clear();
   // Top-down from the detached roots through the detached children (orphans are live), then
-  // reversed: every clique after its descendants.
-  // (slot, index in removed_), sorted by slot: O(removed) memory, not O(slots), per update.
-  std::vector<std::pair<int, int>> position;
-  for (int i = 0; i < static_cast<int>(removed_.size()); ++i)
-    position.emplace_back(removed_[i].id, i);
-  std::sort(position.begin(), position.end());
-  std::vector<int> top_down;
+  // reversed: every clique after its descendants. removed_index_: slot -> index in removed_,
+  // -1 between calls.
+  removed_index_.resize(NumSlots(), -1);
+  for (int i = 0; i < static_cast<int>(removed_.size()); ++i) removed_index_[removed_[i].id] = i;
+  std::vector<int>& top_down = removed_order_;
+  top_down.clear();
   for (int i = 0; i < static_cast<int>(removed_.size()); ++i) {
     if (removed_[i].parent == kNone) top_down.push_back(i);
   }
   for (std::size_t k = 0; k < top_down.size(); ++k) {
     const Removed& r = removed_[top_down[k]];
     for (int j = r.children_begin; j < r.children_end; ++j) {
-      const auto child =
-          std::lower_bound(position.begin(), position.end(), std::pair{removed_children_[j], 0});
-      if (child != position.end() && child->first == removed_children_[j]) {
-        top_down.push_back(child->second);
-      }
+      const int child = removed_index_[removed_children_[j]];
+      if (child >= 0) top_down.push_back(child);
     }
   }
+  for (const Removed& r : removed_) removed_index_[r.id] = -1;
   SLAMD_CHECK(top_down.size() == removed_.size())
       << "RemovedEliminationOrder: detached cliques " << removed_.size() << ", reached "
       << top_down.size();

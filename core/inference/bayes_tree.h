@@ -93,7 +93,7 @@ class BayesTree {
   // The frontals of the cliques the last RemoveTop detached, each clique's after those of its
   // detached descendants and in its own order: an order that eliminates them into the cliques
   // they were, with the same pivots. Read before ReleaseRemoved, to rebuild the top later.
-  void RemovedEliminationOrder(std::vector<int>* order) const;
+  void RemovedEliminationOrder(std::vector<int>* order);
   // Frees the cliques kept by the last RemoveTop (the update succeeded). RemoveTop and Clear
   // call it first. The storage the free list keeps for reuse is then bounded by twice the
   // largest top removed lately (a maximum decaying by kFreeDecay per top) and kMinFreeDoubles:
@@ -139,6 +139,8 @@ class BayesTree {
   };
   std::vector<Removed> removed_;
   std::vector<int> removed_children_;
+  // RemovedEliminationOrder's scratch (slot -> index in removed_, -1 between calls; the order).
+  std::vector<int> removed_index_, removed_order_;
 
   std::vector<std::unique_ptr<Clique>> cliques_;
   // Freed slots by (MatrixCapacity when freed, id): ordered, so the choice is deterministic.
