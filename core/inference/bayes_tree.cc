@@ -272,7 +272,8 @@ void BayesTree::RenumberVariables(std::span<const int> new_id, int num_vars) {
 
 void BayesTree::StorageBytes(std::size_t* live, std::size_t* free) const {
   *live = cliques_.capacity() * sizeof(cliques_[0]) + var_clique_.capacity() * sizeof(int) +
-          roots_.capacity() * sizeof(int);
+          roots_.capacity() * sizeof(int) +
+          (removed_index_.capacity() + removed_order_.capacity()) * sizeof(int);
   *live += free_.size() * kSetNodeBytes;
   *free = 0;
   for (const std::unique_ptr<Clique>& c : cliques_) {
@@ -289,6 +290,8 @@ void BayesTree::TrimStorage() {
       c->ReleaseStorage();
     }
   }
+  std::vector<int>().swap(removed_index_);
+  std::vector<int>().swap(removed_order_);
   // Rekeyed by what the released slots now hold (as the copy constructor does).
   free_doubles_ = 0;
   for (const auto& [unused, id] : std::exchange(free_, {})) AddFree(id);

@@ -30,16 +30,18 @@ Isam2Memory Isam2::MemoryUse() const {
   m.scratch = Capacity(mark_) + Capacity(ratio_) + Capacity(step_norms_) + Capacity(probe_mark_) +
               Capacity(over_budget_mark_) + Capacity(removed_frontals_) + Capacity(orphans_) +
               Capacity(elim_vars_) + Capacity(elim_factors_) + Capacity(order_) +
-              Capacity(relin_factors_) + Capacity(wildfire_.changed) + Capacity(wildfire_.scratch) +
-              Capacity(wildfire_.forced) + Capacity(wildfire_.visited);
+              Capacity(released_order_) + Capacity(relin_factors_) + Capacity(wildfire_.changed) +
+              Capacity(wildfire_.scratch) + Capacity(wildfire_.forced) +
+              Capacity(wildfire_.visited);
   return m;
 }
 
 void Isam2::TrimMemory() {
   CheckNoPendingSolve("TrimMemory");
   tree_.TrimStorage();
-  for (std::vector<int>* v : {&removed_frontals_, &orphans_, &elim_vars_, &elim_factors_, &order_,
-                              &relin_factors_, &over_budget_, &screened_, &probe_factors_}) {
+  for (std::vector<int>* v :
+       {&removed_frontals_, &orphans_, &elim_vars_, &elim_factors_, &order_, &released_order_,
+        &relin_factors_, &over_budget_, &screened_, &probe_factors_}) {
     std::vector<int>().swap(*v);
   }
 #ifdef __GLIBC__
