@@ -19,8 +19,9 @@
 // Errors: invalid input (unknown or duplicate keys, wrong types, non-finite values, bad factor
 // indices) returns a status and changes nothing; a numerical failure (an indeterminate system,
 // e.g. a new robot with no prior, a landmark with a single bearing) returns a status naming a
-// variable and restores the solver to its state before the call (but for the linearisation-
-// error screen's per-factor caches, which only steer what a later check evaluates).
+// variable and restores the solver to its state before the call: the estimate exactly, the tree
+// re-eliminated in its old order (the same factorisation to rounding), but for the linearisation-
+// error screen's per-factor caches, which only steer what a later check evaluates.
 //
 // Thread safety: not thread-safe; one thread drives a solver (the server's estimator thread).
 // Large steps use Isam2Params::threads internally; results do not depend on their number.
@@ -52,10 +53,9 @@ class Isam2 {
  public:
   // Refine's wildfire threshold relative to refine_threshold (see Refine).
   static constexpr double kRefineWildfire = 0.1;
-  // Linearisation-error screen (see FindStaleLinearizations): a factor whose error is predicted
-  // below kStaleScreen x Relinearization::error_threshold is not evaluated (the prediction may
-  // be off by this factor before a stale linearisation goes unnoticed); an evaluated error below
-  // kErrorFloor x the threshold counts as that floor in the prediction.
+  // Linearisation-error screen (FindStaleLinearizations): a factor predicted below kStaleScreen x
+  // Relinearization::error_threshold is not evaluated (the prediction may be off by this factor
+  // before a stale linearisation goes unnoticed); an error below kErrorFloor x it counts as that.
   static constexpr double kStaleScreen = 0.25;
   static constexpr double kErrorFloor = 0.01;
   // Trust region: a model decrease below this x (1 + cost) is round-off (Gauss-Newton taken).
