@@ -40,7 +40,7 @@ namespace internal {
 // recycled through free lists (Bayes tree cliques) would otherwise keep the largest size they
 // ever had: after a run on a 3500-pose graph that was 100+ MB of capacity for 15 MB of live data.
 // With 4x and 8 KiB, most cliques of a 2D pose graph (a cached factor of a few KiB) never gave
-// any back: the tree in use held 2.3x what it needed (input_M3500 peak RSS 40.6 MB, now 33.8;
+// any back: the tree in use held 2.4x what it needed (input_M3500 peak RSS 40.6 MB, now 33.8;
 // the time the same: reallocating is rare next to the elimination's own work).
 template <typename T, typename A>
 bool TooLarge(const std::vector<T, A>& v, std::size_t n) {

@@ -335,12 +335,10 @@ Status Isam2::EliminateTop(const std::vector<int>& last, std::vector<int>* new_c
   result->seconds.relinearize += phase.Lap();
   // The detached top's storage goes to the new cliques (a large re-elimination otherwise faults
   // in fresh pages beside the old top); a rollback from here eliminates it again in its order.
-  if (undo_.top_removed) {
-    tree_.RemovedEliminationOrder(&released_order_);
-    tree_.ReleaseRemoved();
-    undo_.top_removed = false;
-    undo_.top_released = true;
-  }
+  tree_.RemovedEliminationOrder(&released_order_);
+  tree_.ReleaseRemoved();
+  undo_.top_removed = false;
+  undo_.top_released = true;
   SLAMD_RETURN_IF_ERROR(EliminateOrdered(new_cliques));
   result->reeliminated_cliques = static_cast<int>(new_cliques->size());
   result->seconds.eliminate = phase.Lap();
