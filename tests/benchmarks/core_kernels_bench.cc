@@ -5,8 +5,13 @@
 // (Isam2UpdateOptions::force_full, 1 thread), as the largest relinearisation steps do (on a
 // pose graph or, ReEliminateAllBal, a bundle adjustment's graph of cameras and points); the
 // counters are the medians of its phases (ms). PartialCholesky/n/k: the dense clique kernel's
-// rate (GFLOPs counter).
+// rate (GFLOPs counter); BlasDgemm/n: the BLAS's matrix product, the machine's practical peak.
 #include <benchmark/benchmark.h>
+
+// C linkage declared here, as in core/linear/partial_cholesky.cc (ATLAS's cblas.h has no guard).
+extern "C" {
+#include <cblas.h>
+}
 
 #include <algorithm>
 #include <memory>
@@ -78,12 +83,31 @@ void BM_PartialCholesky(benchmark::State& state) {
 // 3D graph (k = n).
 BENCHMARK(BM_PartialCholesky)
     ->Args({48, 24})
+    ->Args({96, 12})
     ->Args({128, 64})
     ->Args({256, 128})
     ->Args({512, 256})
     ->Args({512, 512})
     ->Args({1024, 1024})
     ->Unit(benchmark::kMicrosecond);
+
+// The machine's practical peak for the kernels above: the BLAS's matrix product C = A B (n x n,
+// 2 n³ flops; OpenBLAS picks AVX2/AVX-512 kernels at run time), which PartialCholesky's large
+// sizes reach through dsyrk.
+void BM_BlasDgemm(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const Eigen::MatrixXd a = Eigen::MatrixXd::Random(n, n);
+  const Eigen::MatrixXd b = Eigen::MatrixXd::Random(n, n);
+  Eigen::MatrixXd c(n, n);
+  for (auto _ : state) {
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, n, n, n, 1.0, a.data(), n, b.data(), n,
+                0.0, c.data(), n);
+    benchmark::DoNotOptimize(c.data());
+  }
+  state.counters["GFLOPs"] = benchmark::Counter(2e-9 * n * n * static_cast<double>(n),
+                                                benchmark::Counter::kIsIterationInvariantRate);
+}
+BENCHMARK(BM_BlasDgemm)->Arg(1024)->Arg(2048)->Unit(benchmark::kMicrosecond);
 
 double Median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
