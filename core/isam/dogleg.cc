@@ -22,18 +22,35 @@ void Gather(const Clique& c, std::span<const int> var_offsets, const Eigen::Vect
   }
 }
 
+// The clique's rows of d_p = d − R p (p = *at; d itself when at is null) into rhs[0, nf), with
+// x[0, FrontalDim() + SeparatorDim()) as Gather's scratch.
+void RightHandSide(const Clique& c, std::span<const int> var_offsets, const Eigen::VectorXd* at,
+                   double* x, double* rhs) {
+  const int nf = c.FrontalDim();
+  const int n = nf + c.SeparatorDim();
+  Eigen::Map<Eigen::VectorXd> out(rhs, nf);
+  out = c.d();
+  if (at == nullptr) return;
+  Gather(c, var_offsets, *at, x);
+  out.noalias() -= c.conditional().leftCols(n) * Eigen::Map<const Eigen::VectorXd>(x, n);
+}
+
 }  // namespace
 
 void TreeGradient(const TopDownCliques& cliques, std::span<const int> var_offsets,
-                  Eigen::VectorXd* g, std::vector<double>* scratch) {
+                  const Eigen::VectorXd* at, Eigen::VectorXd* g, std::vector<double>* scratch) {
   g->setZero(var_offsets.back());
   for (int id : cliques.order) {
     const Clique& c = cliques.tree.clique(id);
     const int nf = c.FrontalDim();
-    scratch->resize(nf + c.SeparatorDim());
-    Eigen::Map<Eigen::VectorXd> out(scratch->data(), nf + c.SeparatorDim());
-    // [R S]ᵀ d: the clique's rows of R δ = d add this to the gradient of its variables.
-    out.noalias() = c.conditional().leftCols(nf + c.SeparatorDim()).transpose() * c.d();
+    const int n = nf + c.SeparatorDim();
+    scratch->resize(2 * n + nf);
+    Eigen::Map<Eigen::VectorXd> out(scratch->data(), n);
+    double* rhs = scratch->data() + 2 * n;
+    RightHandSide(c, var_offsets, at, scratch->data() + n, rhs);
+    // [R S]ᵀ d_p: the clique's rows of R δ = d add this to the gradient of its variables.
+    out.noalias() =
+        c.conditional().leftCols(n).transpose() * Eigen::Map<const Eigen::VectorXd>(rhs, nf);
     for (int k = 0; k < c.num_frontals(); ++k) {
       double* dst = g->data() + var_offsets[c.frontal(k)];
       for (int j = 0, dim = c.frontal_dim(k); j < dim; ++j) dst[j] += out[c.frontal_offset(k) + j];
@@ -48,24 +65,26 @@ void TreeGradient(const TopDownCliques& cliques, std::span<const int> var_offset
 }
 
 TreeModelPair ModelTermsOfPair(const TopDownCliques& cliques, std::span<const int> var_offsets,
-                               const Eigen::VectorXd& a, const Eigen::VectorXd& b,
-                               std::vector<double>* scratch) {
+                               const Eigen::VectorXd* at, const Eigen::VectorXd& a,
+                               const Eigen::VectorXd& b, std::vector<double>* scratch) {
   TreeModelPair terms;
   for (int id : cliques.order) {
     const Clique& c = cliques.tree.clique(id);
     const int nf = c.FrontalDim();
     const int n = nf + c.SeparatorDim();
-    scratch->resize(2 * n + 2 * nf);
+    scratch->resize(2 * n + 3 * nf);
     Eigen::Map<Eigen::MatrixXd> x(scratch->data(), n, 2);  // [a b] at the clique's variables
+    Eigen::Map<Eigen::MatrixXd> r(scratch->data() + 2 * n, nf, 2);
+    Eigen::Map<Eigen::VectorXd> rhs(scratch->data() + 2 * n + 2 * nf, nf);
+    RightHandSide(c, var_offsets, at, x.col(0).data(), rhs.data());
     Gather(c, var_offsets, a, x.col(0).data());
     Gather(c, var_offsets, b, x.col(1).data());
-    Eigen::Map<Eigen::MatrixXd> r(scratch->data() + 2 * n, nf, 2);
     r.noalias() = c.conditional().leftCols(n) * x;
     terms.aa += r.col(0).squaredNorm();
     terms.ab += r.col(0).dot(r.col(1));
     terms.bb += r.col(1).squaredNorm();
-    terms.da += c.d().dot(r.col(0));
-    terms.db += c.d().dot(r.col(1));
+    terms.da += rhs.dot(r.col(0));
+    terms.db += rhs.dot(r.col(1));
   }
   return terms;
 }

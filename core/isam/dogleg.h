@@ -5,11 +5,14 @@
 // The tree's conditionals R_c δ_F + S_c δ_S = d_c stack into one upper-triangular system
 // R δ = d, and the linearised chi2 around the linearisation point is, up to a constant,
 //     m(δ) = |R δ − d|²                      (chi2 units: no ½),
-// minimised by the Gauss-Newton step R⁻¹d (back-substitution). Its steepest-descent direction at
-// δ = 0 is g = Rᵀd, and the model's minimum along it (the Cauchy point) is (|g|² / |R g|²) g.
-// The dog-leg step follows the path 0 → Cauchy point → Gauss-Newton step and stops at the
-// trust-region radius; a step is judged by the ratio of the actual decrease of the nonlinear
-// chi2 to the decrease m(0) − m(δ) = 2 dᵀRδ − |Rδ|² the model predicts.
+// minimised by the Gauss-Newton step R⁻¹d (back-substitution). The dog leg starts at a point p
+// (Isam2: 0, the linearisation point, or the estimate before the update): around it
+// m(p + h) = |R h − d_p|² + const with d_p = d − R p, the Gauss-Newton step is h = R⁻¹d − p,
+// the steepest-descent direction g = Rᵀd_p, and the model's minimum along it (the Cauchy point)
+// is (|g|² / |R g|²) g. The dog-leg step follows the path 0 → Cauchy point → Gauss-Newton step
+// and stops at the trust-region radius; a step is judged by the ratio of the actual decrease of
+// the nonlinear chi2 to the decrease m(p) − m(p + h) = 2 d_pᵀRh − |Rh|² the model predicts. The
+// functions below take p as `at` (null: p = 0).
 //
 // Each function visits every live clique once: O(size of the tree).
 #pragma once
@@ -31,11 +34,11 @@ struct TopDownCliques {
   const std::vector<int> order;
 };
 
-// g = Rᵀd over the stacked δ layout (var_offsets as in back_substitution.h).
+// g = Rᵀd_p over the stacked δ layout (var_offsets as in back_substitution.h).
 void TreeGradient(const TopDownCliques& cliques, std::span<const int> var_offsets,
-                  Eigen::VectorXd* g, std::vector<double>* scratch);
+                  const Eigen::VectorXd* at, Eigen::VectorXd* g, std::vector<double>* scratch);
 
-// For a vector v in the stacked layout: |R v|² and dᵀ R v.
+// For a vector v in the stacked layout: |R v|² and d_pᵀ R v.
 struct TreeModelTerms {
   double quadratic = 0.0;
   double linear = 0.0;
@@ -48,15 +51,15 @@ struct TreeModelTerms {
 // gradient) then need no further pass.
 struct TreeModelPair {
   double aa = 0.0, ab = 0.0, bb = 0.0;  // (Ra)ᵀRa, (Ra)ᵀRb, (Rb)ᵀRb
-  double da = 0.0, db = 0.0;            // dᵀRa, dᵀRb
+  double da = 0.0, db = 0.0;            // d_pᵀRa, d_pᵀRb
   TreeModelTerms Of(double alpha, double beta) const {
     return {.quadratic = alpha * alpha * aa + 2.0 * alpha * beta * ab + beta * beta * bb,
             .linear = alpha * da + beta * db};
   }
 };
 TreeModelPair ModelTermsOfPair(const TopDownCliques& cliques, std::span<const int> var_offsets,
-                               const Eigen::VectorXd& a, const Eigen::VectorXd& b,
-                               std::vector<double>* scratch);
+                               const Eigen::VectorXd* at, const Eigen::VectorXd& a,
+                               const Eigen::VectorXd& b, std::vector<double>* scratch);
 
 // The point of the dog-leg path 0 → cauchy → gauss_newton at distance `radius` from 0 (or
 // gauss_newton itself when it lies within the radius), and its weights: *step =

@@ -150,6 +150,13 @@ Isam2Result Isam2::UpdateWith(const FactorGraph& new_factors, const Values& new_
   // 8. Partial back-substitution (Alg. 7, "wildfire") from the new cliques down; all of it for
   // the trust region, whose step is measured on the whole of δ.
   const bool trust_region = params_.trust_region.enabled;
+  // The dog leg's start: the estimate before this update, where every δ is within its threshold
+  // (the check ran and left nothing due), so that the model linearised at θ holds there too.
+  if (trust_region && check && !relinearization_backlog_ && !result.relinearization_deferred) {
+    start_ = delta_.head(offsets_.back());
+  } else {
+    start_.resize(0);
+  }
   result.solved_cliques =
       BackSubstitute(new_cliques, options.force_full_solve || batch || trust_region,
                      wildfire_threshold, trust_region ? std::vector<Key>{} : options.solve_first);
@@ -229,50 +236,70 @@ double Isam2::SumAt(const Eigen::VectorXd* step, bool robust) const {
 Isam2Result::TrustRegion Isam2::TrustRegionStep() {
   Isam2Result::TrustRegion out;
   const int n = offsets_.back();
-  gauss_newton_ = delta_.head(n);
-  const Eigen::VectorXd& gauss_newton = gauss_newton_;
   const TopDownCliques cliques(tree_);  // for every sum over cliques below
-  TreeGradient(cliques, offsets_, &gradient_, &dogleg_scratch_);
-  const double g2 = gradient_.squaredNorm();
-  // Every step below is α δ_gn + β g: one pass gives the model's terms of all of them.
-  const TreeModelPair model =
-      ModelTermsOfPair(cliques, offsets_, gauss_newton, gradient_, &dogleg_scratch_);
-  const double rg2 = model.bb;
-  const double gain = model.Of(1.0, 0.0).Decrease();
-  const double cost_theta = SumAt(nullptr, true);
-  out.radius = radius_;
-  // θ at the model's minimum (g = 0), or nothing to gain beyond round-off: the Gauss-Newton step,
-  // unjudged, since round-off would decide the comparison and shrink the radius for nothing.
-  if (!(g2 > 0.0) || !(rg2 > 0.0) || !(gain > kNegligibleDecrease * (1.0 + cost_theta))) {
-    out.gauss_newton = true;
-    return out;
-  }
-  const double to_cauchy = g2 / rg2;
-  cauchy_ = to_cauchy * gradient_;
   const Isam2Params::TrustRegion& p = params_.trust_region;
-  while (true) {
-    const DoglegWeights w = DoglegPoint(gauss_newton, cauchy_, radius_, &step_);
-    ++out.attempts;
-    const double predicted = model.Of(w.on_gauss_newton, w.on_cauchy * to_cauchy).Decrease();
-    const double actual = cost_theta - SumAt(&step_, true);
-    const double rho = predicted > 0.0 ? actual / predicted : -1.0;
-    const double step_norm = step_.norm();
-    // Powell's rule (Nocedal & Wright, Alg. 4.1): grow on a good prediction at the boundary,
-    // shrink on a poor one (a NaN ratio too, so that the loop ends).
-    if (rho > 0.75 && step_norm >= 0.99 * radius_) {
-      radius_ *= 2.0;
-    } else if (!(rho >= 0.25)) {
-      radius_ = 0.25 * std::min(radius_, step_norm);
+  // The dog leg from θ ⊕ start (start in δ's layout, or null for θ itself), judged against the
+  // cost there; false when it found no step down. δ holds the Gauss-Newton step until a step is
+  // taken.
+  const auto search = [&](const Eigen::VectorXd* start) {
+    gauss_newton_ = delta_.head(n);
+    if (start != nullptr) gauss_newton_ -= *start;
+    const Eigen::VectorXd& gauss_newton = gauss_newton_;
+    TreeGradient(cliques, offsets_, start, &gradient_, &dogleg_scratch_);
+    const double g2 = gradient_.squaredNorm();
+    // Every step below is α δ_gn + β g: one pass gives the model's terms of all of them.
+    const TreeModelPair model =
+        ModelTermsOfPair(cliques, offsets_, start, gauss_newton, gradient_, &dogleg_scratch_);
+    const double rg2 = model.bb;
+    const double gain = model.Of(1.0, 0.0).Decrease();
+    const double cost_start = SumAt(start, true);
+    // The start at the model's minimum (g = 0), or nothing to gain beyond round-off: the
+    // Gauss-Newton step, unjudged, since round-off would decide the comparison and shrink the
+    // radius for nothing.
+    if (!(g2 > 0.0) || !(rg2 > 0.0) || !(gain > kNegligibleDecrease * (1.0 + cost_start))) {
+      out.gauss_newton = true;
+      return true;
     }
-    if (std::isfinite(actual) && actual > 0.0 && rho > 0.0) {
-      out.gauss_newton = step_norm == gauss_newton.norm();
-      delta_.head(n) = step_;
-      break;
+    const double to_cauchy = g2 / rg2;
+    cauchy_ = to_cauchy * gradient_;
+    while (true) {
+      const DoglegWeights w = DoglegPoint(gauss_newton, cauchy_, radius_, &step_);
+      ++out.attempts;
+      const double predicted = model.Of(w.on_gauss_newton, w.on_cauchy * to_cauchy).Decrease();
+      const double step_norm = step_.norm();
+      if (start != nullptr) step_ += *start;
+      const double actual = cost_start - SumAt(&step_, true);
+      const double rho = predicted > 0.0 ? actual / predicted : -1.0;
+      // Powell's rule (Nocedal & Wright, Alg. 4.1): grow on a good prediction at the boundary,
+      // shrink on a poor one (a NaN ratio too, so that the loop ends).
+      if (rho > 0.75 && step_norm >= 0.99 * radius_) {
+        radius_ *= 2.0;
+      } else if (!(rho >= 0.25)) {
+        radius_ = 0.25 * std::min(radius_, step_norm);
+      }
+      if (std::isfinite(actual) && actual > 0.0 && rho > 0.0) {
+        out.gauss_newton = step_norm == gauss_newton.norm();
+        delta_.head(n) = step_;
+        return true;
+      }
+      if (radius_ < p.min_radius) {  // no decrease found: afresh next time
+        radius_ = p.initial_radius;
+        return false;
+      }
     }
-    if (radius_ < p.min_radius) {  // no decrease found: stay at θ, start afresh next time
+  };
+  // From the estimate before the update where UpdateWith gave one (start_), so that the update
+  // does not end above it: the variables within their relinearisation thresholds keep a δ that θ
+  // lacks, and θ's cost can be far above the estimate's (Ladybug replayed camera by camera,
+  // calibrations refined: 10-100x), so that a step judged against θ's cost can leave the estimate
+  // far above where it was. Where the model finds no step down there, from θ, where it is exact;
+  // failing that too, the start (or θ) stays.
+  const bool from_start = start_.size() == n && start_.squaredNorm() > 0.0;
+  if (!(from_start && search(&start_)) && !search(nullptr)) {
+    if (from_start) {
+      delta_.head(n) = start_;
+    } else {
       delta_.head(n).setZero();
-      radius_ = p.initial_radius;
-      break;
     }
   }
   out.radius = radius_;

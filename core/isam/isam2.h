@@ -196,8 +196,8 @@ class Isam2 {
   // Aborts while a back-substitution is pending: `what` needs all of δ or changes the solver.
   void CheckNoPendingSolve(const char* what) const;
   Status LinearizeFactor(int index);
-  // 9. Isam2Params::trust_region: replaces the Gauss-Newton δ by the dog-leg step (dogleg.h)
-  // that lowers the (robust) cost at θ ⊕ δ below the cost at θ, adapting radius_.
+  // 9. Isam2Params::trust_region: replaces the Gauss-Newton δ by the dog-leg step (dogleg.h) that
+  // lowers the (robust) cost below the cost at θ ⊕ start_ (else at θ), adapting radius_.
   Isam2Result::TrustRegion TrustRegionStep();
   // Σ chi2 (robust: Σ cost, Factor::Cost) of the current factors at θ ⊕ step (at θ when step is
   // null).
@@ -235,7 +235,7 @@ class Isam2 {
   std::vector<int> offsets_;                // δ offsets per var id (size n + 1)
   Eigen::VectorXd delta_;                   // solution of the linearised system (tail unused)
   double radius_;                           // trust-region radius (Isam2Params::trust_region)
-  Eigen::VectorXd gauss_newton_, gradient_, cauchy_, step_;  // TrustRegionStep's vectors
+  Eigen::VectorXd start_, gauss_newton_, gradient_, cauchy_, step_;  // TrustRegionStep's
   std::vector<double> dogleg_scratch_;
   std::vector<FactorPtr> factors_;          // by factor index; null once removed
   // Null slots free for a new factor, by its number of keys (the slot's share of

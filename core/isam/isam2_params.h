@@ -71,9 +71,11 @@ struct Isam2Params {
   int refine_max_variables = 2048;
 
   // Trust region: with `enabled`, every update ends with Powell's dog leg (core/isam/dogleg.h)
-  // instead of the plain Gauss-Newton step: δ is cut back to the trust-region radius along the
-  // dog-leg path until the cost (robust kernels applied) at θ ⊕ δ is below the cost at θ, and
-  // the radius adapts to how well the linear model predicted the decrease. Gauss-Newton
+  // instead of the plain Gauss-Newton step: the step is cut back to the trust-region radius
+  // along the dog-leg path until the cost (robust kernels applied) is below the cost where it
+  // started, and the radius adapts to how well the linear model predicted the decrease. It
+  // starts from the estimate before the update where the relinearisation check ran and left
+  // nothing due (every update with skip 1), else from θ. Gauss-Newton
   // diverges where new variables are weakly determined (a camera's own calibration, a landmark
   // seen at little parallax); the dog leg does not, at the price of a full back-substitution,
   // the gradient and one or more cost evaluations per update: O(variables + factors), where
@@ -82,7 +84,7 @@ struct Isam2Params {
   struct TrustRegion {
     bool enabled = false;
     double initial_radius = 1.0;  // > 0
-    // Below this radius the update keeps δ = 0 (the estimate is θ). > 0.
+    // Below this radius the update keeps the estimate it started from. > 0.
     double min_radius = 1e-9;
   };
   TrustRegion trust_region = {};

@@ -69,7 +69,7 @@ TEST(DoglegTest, GradientAndModelTermsAreThoseOfTheDenseSystem) {
   std::vector<double> scratch;
   Eigen::VectorXd g;
   const TopDownCliques cliques(isam->tree());
-  TreeGradient(cliques, offsets, &g, &scratch);
+  TreeGradient(cliques, offsets, nullptr, &g, &scratch);
   const Eigen::VectorXd expected_g = a.transpose() * (a * delta);
   EXPECT_LT((g - expected_g).norm(), 1e-8 * expected_g.norm());
 
@@ -79,7 +79,7 @@ TEST(DoglegTest, GradientAndModelTermsAreThoseOfTheDenseSystem) {
   for (int j = 0; j < n; ++j) v[j] = normal(rng);
   // The terms of one vector: those of the pair (v, v) at (1, 0).
   const auto terms_of = [&](const Eigen::VectorXd& x) {
-    return ModelTermsOfPair(cliques, offsets, x, x, &scratch).Of(1.0, 0.0);
+    return ModelTermsOfPair(cliques, offsets, nullptr, x, x, &scratch).Of(1.0, 0.0);
   };
   const TreeModelTerms terms = terms_of(v);
   EXPECT_NEAR(terms.quadratic, (a * v).squaredNorm(), 1e-8 * terms.quadratic);
@@ -90,13 +90,52 @@ TEST(DoglegTest, GradientAndModelTermsAreThoseOfTheDenseSystem) {
   EXPECT_NEAR(at_gn.Decrease(), (a * delta).squaredNorm(), 1e-8 * at_gn.quadratic);
   EXPECT_GT(at_gn.Decrease(), terms_of(0.5 * delta).Decrease());
   // The pair's terms give those of any combination as its own pass does.
-  const TreeModelPair pair = ModelTermsOfPair(cliques, offsets, delta, v, &scratch);
+  const TreeModelPair pair = ModelTermsOfPair(cliques, offsets, nullptr, delta, v, &scratch);
   for (const auto& [alpha, beta] : {std::pair{1.0, 0.0}, {0.0, 1.0}, {0.3, -2.0}, {1.5, 0.7}}) {
     const TreeModelTerms direct = terms_of(alpha * delta + beta * v);
     const TreeModelTerms combined = pair.Of(alpha, beta);
     EXPECT_NEAR(combined.quadratic, direct.quadratic, 1e-10 * direct.quadratic) << alpha;
     EXPECT_NEAR(combined.linear, direct.linear, 1e-10 * (std::abs(direct.linear) + 1.0)) << alpha;
   }
+}
+
+// Around a start p (the estimate before an update): the gradient Rᵀ(d − R p) and the terms
+// (d − R p)ᵀ R v against the dense system: Rᵀd = AᵀA δ for the Gauss-Newton step δ, so these are
+// AᵀA (δ − p) and (A (δ − p))ᵀ A v.
+TEST(DoglegTest, AroundAStartTheGradientAndTermsAreThoseOfTheDenseSystem) {
+  const testing::ExampleProblem p = testing::MakePlanarProblem(25, 5, 13);
+  std::unique_ptr<Isam2> isam = MakeTrustRegionIsam2(false);
+  for (const testing::ExampleStep& step : testing::StreamByPose(p)) {
+    ASSERT_TRUE(isam->Update(step.factors, step.values, {.force_full_solve = true}).status.ok());
+  }
+  std::vector<int> offsets;
+  const Eigen::MatrixXd a = DenseJacobian(*isam, &offsets);
+  const int n = offsets.back();
+  Eigen::VectorXd delta(n);
+  for (int v = 0; v + 1 < static_cast<int>(offsets.size()); ++v) {
+    for (int j = offsets[v]; j < offsets[v + 1]; ++j) delta[j] = isam->Delta(v)[j - offsets[v]];
+  }
+  std::mt19937 rng(5);
+  std::normal_distribution<double> normal;
+  Eigen::VectorXd start(n), v(n);
+  for (int j = 0; j < n; ++j) {
+    start[j] = 0.1 * normal(rng);
+    v[j] = normal(rng);
+  }
+  std::vector<double> scratch;
+  Eigen::VectorXd g;
+  const TopDownCliques cliques(isam->tree());
+  TreeGradient(cliques, offsets, &start, &g, &scratch);
+  const Eigen::VectorXd expected_g = a.transpose() * (a * (delta - start));
+  EXPECT_LT((g - expected_g).norm(), 1e-8 * expected_g.norm());
+  const TreeModelPair pair = ModelTermsOfPair(cliques, offsets, &start, delta - start, v, &scratch);
+  EXPECT_NEAR(pair.bb, (a * v).squaredNorm(), 1e-8 * pair.bb);
+  const double linear = (a * (delta - start)).dot(a * v);
+  EXPECT_NEAR(pair.db, linear, 1e-8 * std::abs(linear) + 1e-9);
+  // From the start, the Gauss-Newton step's decrease is the model's whole decrease to its
+  // minimum: |A (δ − p)|².
+  const double to_minimum = (a * (delta - start)).squaredNorm();
+  EXPECT_NEAR(pair.Of(1.0, 0.0).Decrease(), to_minimum, 1e-8 * to_minimum);
 }
 
 // Which slots the cliques take depends on the free list's history (trimmed at rest or not); the
@@ -118,13 +157,13 @@ TEST(DoglegTest, TheStepDoesNotDependOnWhichSlotsTheCliquesTook) {
     DenseJacobian(*plain, &offsets);  // for the offsets
     std::vector<double> scratch;
     Eigen::VectorXd g_plain, g_trimmed;
-    TreeGradient(TopDownCliques(plain->tree()), offsets, &g_plain, &scratch);
-    TreeGradient(TopDownCliques(trimmed->tree()), offsets, &g_trimmed, &scratch);
+    TreeGradient(TopDownCliques(plain->tree()), offsets, nullptr, &g_plain, &scratch);
+    TreeGradient(TopDownCliques(trimmed->tree()), offsets, nullptr, &g_trimmed, &scratch);
     ASSERT_EQ((g_plain - g_trimmed).cwiseAbs().maxCoeff(), 0.0) << plain->num_updates();
-    const TreeModelPair m_plain =
-        ModelTermsOfPair(TopDownCliques(plain->tree()), offsets, g_plain, g_trimmed, &scratch);
-    const TreeModelPair m_trimmed =
-        ModelTermsOfPair(TopDownCliques(trimmed->tree()), offsets, g_plain, g_trimmed, &scratch);
+    const TreeModelPair m_plain = ModelTermsOfPair(TopDownCliques(plain->tree()), offsets, nullptr,
+                                                   g_plain, g_trimmed, &scratch);
+    const TreeModelPair m_trimmed = ModelTermsOfPair(TopDownCliques(trimmed->tree()), offsets,
+                                                     nullptr, g_plain, g_trimmed, &scratch);
     ASSERT_EQ(m_plain.aa, m_trimmed.aa);
     ASSERT_EQ(m_plain.ab, m_trimmed.ab);
     ASSERT_EQ(m_plain.da, m_trimmed.da);
