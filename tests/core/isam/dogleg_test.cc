@@ -51,21 +51,42 @@ Eigen::MatrixXd DenseJacobian(const Isam2& isam, std::vector<int>* offsets) {
   return a;
 }
 
-TEST(DoglegTest, GradientAndModelTermsAreThoseOfTheDenseSystem) {
-  const testing::ExampleProblem p = testing::MakePlanarProblem(25, 5, 11);
-  std::unique_ptr<Isam2> isam = MakeTrustRegionIsam2(false);
-  for (const testing::ExampleStep& step : testing::StreamByPose(p)) {
-    ASSERT_TRUE(isam->Update(step.factors, step.values, {.force_full_solve = true}).status.ok());
-  }
+// A planar problem streamed pose by pose with full solves: the solver's tree, the dense Jacobian
+// A at its linearisation point and its Gauss-Newton step δ, in the solver's δ layout.
+struct SolvedProblem {
+  std::unique_ptr<Isam2> isam;
   std::vector<int> offsets;
-  const Eigen::MatrixXd a = DenseJacobian(*isam, &offsets);
+  Eigen::MatrixXd a;
+  Eigen::VectorXd delta;
+};
+
+SolvedProblem SolvePlanarProblem(unsigned seed) {
+  SolvedProblem out;
+  const testing::ExampleProblem p = testing::MakePlanarProblem(25, 5, seed);
+  out.isam = MakeTrustRegionIsam2(false);
+  for (const testing::ExampleStep& step : testing::StreamByPose(p)) {
+    EXPECT_TRUE(
+        out.isam->Update(step.factors, step.values, {.force_full_solve = true}).status.ok());
+  }
+  out.a = DenseJacobian(*out.isam, &out.offsets);
+  out.delta.resize(out.offsets.back());
+  for (int v = 0; v + 1 < static_cast<int>(out.offsets.size()); ++v) {
+    for (int j = out.offsets[v]; j < out.offsets[v + 1]; ++j) {
+      out.delta[j] = out.isam->Delta(v)[j - out.offsets[v]];
+    }
+  }
+  return out;
+}
+
+TEST(DoglegTest, GradientAndModelTermsAreThoseOfTheDenseSystem) {
+  const SolvedProblem s = SolvePlanarProblem(11);
+  const Isam2* isam = s.isam.get();
+  const std::vector<int>& offsets = s.offsets;
+  const Eigen::MatrixXd& a = s.a;
+  const Eigen::VectorXd& delta = s.delta;
   const int n = offsets.back();
   // The Gauss-Newton step δ solves RᵀR δ = Rᵀd with RᵀR = AᵀA: so Rᵀd = AᵀA δ, and for any v
   // dᵀRv = δᵀAᵀA v, |Rv|² = |Av|², whatever the sign convention of b.
-  Eigen::VectorXd delta(n);
-  for (int v = 0; v + 1 < static_cast<int>(offsets.size()); ++v) {
-    for (int j = offsets[v]; j < offsets[v + 1]; ++j) delta[j] = isam->Delta(v)[j - offsets[v]];
-  }
   std::vector<double> scratch;
   Eigen::VectorXd g;
   const TopDownCliques cliques(isam->tree());
@@ -103,18 +124,11 @@ TEST(DoglegTest, GradientAndModelTermsAreThoseOfTheDenseSystem) {
 // (d − R p)ᵀ R v against the dense system: Rᵀd = AᵀA δ for the Gauss-Newton step δ, so these are
 // AᵀA (δ − p) and (A (δ − p))ᵀ A v.
 TEST(DoglegTest, AroundAStartTheGradientAndTermsAreThoseOfTheDenseSystem) {
-  const testing::ExampleProblem p = testing::MakePlanarProblem(25, 5, 13);
-  std::unique_ptr<Isam2> isam = MakeTrustRegionIsam2(false);
-  for (const testing::ExampleStep& step : testing::StreamByPose(p)) {
-    ASSERT_TRUE(isam->Update(step.factors, step.values, {.force_full_solve = true}).status.ok());
-  }
-  std::vector<int> offsets;
-  const Eigen::MatrixXd a = DenseJacobian(*isam, &offsets);
+  const SolvedProblem s = SolvePlanarProblem(13);
+  const std::vector<int>& offsets = s.offsets;
+  const Eigen::MatrixXd& a = s.a;
+  const Eigen::VectorXd& delta = s.delta;
   const int n = offsets.back();
-  Eigen::VectorXd delta(n);
-  for (int v = 0; v + 1 < static_cast<int>(offsets.size()); ++v) {
-    for (int j = offsets[v]; j < offsets[v + 1]; ++j) delta[j] = isam->Delta(v)[j - offsets[v]];
-  }
   std::mt19937 rng(5);
   std::normal_distribution<double> normal;
   Eigen::VectorXd start(n), v(n);
@@ -124,7 +138,7 @@ TEST(DoglegTest, AroundAStartTheGradientAndTermsAreThoseOfTheDenseSystem) {
   }
   std::vector<double> scratch;
   Eigen::VectorXd g;
-  const TopDownCliques cliques(isam->tree());
+  const TopDownCliques cliques(s.isam->tree());
   TreeGradient(cliques, offsets, &start, &g, &scratch);
   const Eigen::VectorXd expected_g = a.transpose() * (a * (delta - start));
   EXPECT_LT((g - expected_g).norm(), 1e-8 * expected_g.norm());
