@@ -20,6 +20,7 @@
 #include "clients/slamctl/json_writer.h"
 #include "core/ba/reconstruction_stream.h"
 #include "core/base/memory_usage.h"
+#include "core/base/percentile.h"
 #include "core/base/timing.h"
 #include "core/batch/batch_solver.h"
 #include "core/factors/prior_factor.h"
@@ -31,12 +32,7 @@
 namespace slamd::clients::bench {
 namespace {
 
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  const std::size_t k = static_cast<std::size_t>(std::min<double>(v.size() - 1, q * (v.size() - 1) + 0.5));
-  std::nth_element(v.begin(), v.begin() + k, v.end());
-  return v[k];
-}
+using core::Percentile;
 
 // Each step's time [ms] once per factor it added (step_ms_per_factor above).
 std::vector<double> PerFactor(const std::vector<double>& step_ms,

@@ -152,7 +152,7 @@ Isam2Result Isam2::UpdateWith(const FactorGraph& new_factors, const Values& new_
   const bool trust_region = params_.trust_region.enabled;
   // The dog leg's start: the estimate before this update, where every δ is within its threshold
   // (the check ran and left nothing due), so that the model linearised at θ holds there too.
-  if (trust_region && check && !relinearization_backlog_ && !result.relinearization_deferred) {
+  if (trust_region && check && !relinearization_backlog_) {
     start_ = delta_.head(offsets_.back());
   } else {
     start_.resize(0);

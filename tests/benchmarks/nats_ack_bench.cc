@@ -15,11 +15,13 @@
 #include <thread>
 #include <vector>
 
+#include "core/base/percentile.h"
 #include "server/replication/nats_client.h"
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
+using slamd::core::Percentile;
 
 struct Options {
   std::string servers;
@@ -30,12 +32,6 @@ struct Options {
   int replicas = 3;
   int busy_threads = 0;
 };
-
-double Percentile(std::vector<double> v, double q) {
-  std::sort(v.begin(), v.end());
-  const auto at = static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5);
-  return v[at];
-}
 
 int Run(const Options& opt) {
   using slamd::server::NatsClient;
