@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <optional>
+#include <span>
 #include <unordered_map>
 
 #include "core/factors/factor.h"
@@ -19,42 +20,33 @@ Variable InitialLandmark(const Dataset& dataset, const Factor& factor, Key key) 
   return dataset.initial.Get(key);  // checked: aborts if the dataset has no value for it
 }
 
-// Chooses step.odometry among the BetweenFactors of the step (see the header).
-void ChooseOdometry(const std::unordered_map<Key, int>& step_of_pose, Key previous,
-                    DatasetStep* step) {
-  int best_step = -1;
-  for (const FactorPtr& factor : step->factors) {
-    if (!MeasuredRelativePose(*factor)) continue;
-    const KeyVector& keys = factor->keys();
-    const Key other = keys[0] == step->pose ? keys[1] : keys[0];
+// The odometry among the BetweenFactors `factors` (indices into graph) of the step of `pose`
+// (see the header): an index into graph, or -1.
+int ChooseOdometry(const FactorGraph& graph, std::span<const int> factors,
+                   const std::unordered_map<Key, int>& step_of_pose, Key pose, Key previous) {
+  int best = -1, best_step = -1;
+  for (const int i : factors) {
+    if (!MeasuredRelativePose(*graph[i])) continue;
+    const KeyVector& keys = graph[i]->keys();
+    const Key other = keys[0] == pose ? keys[1] : keys[0];
     const auto it = step_of_pose.find(other);
-    if (other == step->pose || it == step_of_pose.end()) continue;  // not between two poses
-    const int other_step = it->second;
-    if (other == previous) {
-      step->odometry_from = other;
-      step->odometry = factor;
-      return;
-    }
-    if (other_step > best_step) {
-      best_step = other_step;
-      step->odometry_from = other;
-      step->odometry = factor;
+    if (other == pose || it == step_of_pose.end()) continue;  // not between two poses
+    if (other == previous) return i;
+    if (it->second > best_step) {
+      best_step = it->second;
+      best = i;
     }
   }
+  return best;
 }
 
 }  // namespace
 
-std::vector<DatasetStep> MakeIncrementalSteps(const Dataset& dataset) {
+IncrementalSteps::IncrementalSteps(const Dataset& dataset) : dataset_(&dataset) {
   const int n = static_cast<int>(dataset.poses.size());
-  if (n == 0) return {};
-  std::vector<DatasetStep> steps(n);
+  if (n == 0) return;
   std::unordered_map<Key, int> step_of_pose;
-  for (int k = 0; k < n; ++k) {
-    steps[k].pose = dataset.poses[k];
-    steps[k].initial = dataset.initial.Get(dataset.poses[k]);
-    step_of_pose[dataset.poses[k]] = k;
-  }
+  for (int k = 0; k < n; ++k) step_of_pose[dataset.poses[k]] = k;
 
   // 1. Factors with a pose go to the step of their latest pose; the others wait for step 3.
   const FactorGraph& graph = dataset.graph;
@@ -74,11 +66,10 @@ std::vector<DatasetStep> MakeIncrementalSteps(const Dataset& dataset) {
   }
 
   // 2. Landmarks enter with the first factor (in stream order) that touches them.
+  std::vector<std::vector<std::pair<Key, Variable>>> new_landmarks(n);
   std::unordered_map<Key, int> step_of_landmark;
   const auto introduce = [&](Key key, int step, const Variable& value) {
-    if (step_of_landmark.emplace(key, step).second) {
-      steps[step].new_landmarks.emplace_back(key, value);
-    }
+    if (step_of_landmark.emplace(key, step).second) new_landmarks[step].emplace_back(key, value);
   };
   for (int k = 0; k < n; ++k) {
     for (const int i : bucket[k]) {
@@ -105,12 +96,49 @@ std::vector<DatasetStep> MakeIncrementalSteps(const Dataset& dataset) {
   }
 
   // 4. Factors in graph order, then the odometry of each step.
+  factor_begin_.reserve(n + 1);
+  factors_.reserve(graph.size());
+  landmark_begin_.reserve(n + 1);
+  odometry_.reserve(n);
   for (int k = 0; k < n; ++k) {
     std::sort(bucket[k].begin(), bucket[k].end());
-    for (const int i : bucket[k]) steps[k].factors.push_back(graph[i]);
-    ChooseOdometry(step_of_pose, k > 0 ? dataset.poses[k - 1] : 0, &steps[k]);
+    factor_begin_.push_back(static_cast<int>(factors_.size()));
+    factors_.insert(factors_.end(), bucket[k].begin(), bucket[k].end());
+    landmark_begin_.push_back(static_cast<int>(landmarks_.size()));
+    landmarks_.insert(landmarks_.end(), new_landmarks[k].begin(), new_landmarks[k].end());
+    odometry_.push_back(ChooseOdometry(graph, bucket[k], step_of_pose, dataset.poses[k],
+                                       k > 0 ? dataset.poses[k - 1] : 0));
   }
-  return steps;
+  factor_begin_.push_back(static_cast<int>(factors_.size()));
+  landmark_begin_.push_back(static_cast<int>(landmarks_.size()));
+}
+
+DatasetStep IncrementalSteps::Step(int k) const {
+  SLAMD_CHECK(k >= 0 && k < size()) << "IncrementalSteps: step " << k << " of " << size();
+  const FactorGraph& graph = dataset_->graph;
+  DatasetStep step;
+  step.pose = dataset_->poses[k];
+  step.initial = dataset_->initial.Get(step.pose);
+  step.new_landmarks.assign(landmarks_.begin() + landmark_begin_[k],
+                            landmarks_.begin() + landmark_begin_[k + 1]);
+  step.factors.reserve(factor_begin_[k + 1] - factor_begin_[k]);
+  for (int i = factor_begin_[k]; i < factor_begin_[k + 1]; ++i) {
+    step.factors.push_back(graph[factors_[i]]);
+  }
+  if (odometry_[k] >= 0) {
+    step.odometry = graph[odometry_[k]];
+    const KeyVector& keys = step.odometry->keys();
+    step.odometry_from = keys[0] == step.pose ? keys[1] : keys[0];
+  }
+  return step;
+}
+
+std::vector<DatasetStep> MakeIncrementalSteps(const Dataset& dataset) {
+  const IncrementalSteps steps(dataset);
+  std::vector<DatasetStep> out;
+  out.reserve(steps.size());
+  for (int k = 0; k < steps.size(); ++k) out.push_back(steps.Step(k));
+  return out;
 }
 
 Variable PredictPose(const DatasetStep& step, const Variable& from) {

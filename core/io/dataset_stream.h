@@ -46,6 +46,26 @@ struct DatasetStep {
   FactorPtr odometry;
 };
 
+// The steps of `dataset` held as indices into it (~12 bytes a pose; a DatasetStep holds its
+// factors and guesses, ~250) and made one at a time, for a consumer that walks a long stream
+// once (slamctl bench, whose memory per variable is compared with other solvers').
+class IncrementalSteps {
+ public:
+  // Keeps a pointer to `dataset`, which must outlive it.
+  explicit IncrementalSteps(const Dataset& dataset);
+  int size() const { return static_cast<int>(odometry_.size()); }
+  DatasetStep Step(int k) const;  // 0 <= k < size()
+
+ private:
+  const Dataset* dataset_;
+  // Step k's factors, by index into dataset.graph: factors_[factor_begin_[k] ..
+  // factor_begin_[k + 1]); its new landmarks likewise.
+  std::vector<int> factor_begin_, factors_;
+  std::vector<int> landmark_begin_;
+  std::vector<std::pair<Key, Variable>> landmarks_;
+  std::vector<int> odometry_;  // per step: index into dataset.graph, or -1
+};
+
 // The steps of `dataset`, one per pose, in the order of dataset.poses (ascending id).
 std::vector<DatasetStep> MakeIncrementalSteps(const Dataset& dataset);
 

@@ -211,6 +211,25 @@ TEST(DatasetStream, LandmarkOnlyFactorsAndUnobservedLandmarks) {
 
 TEST(DatasetStream, EmptyDatasetHasNoSteps) {
   EXPECT_TRUE(MakeIncrementalSteps(Dataset{}).empty());
+  Dataset landmarks_only;  // nothing to put its landmark in
+  ASSERT_TRUE(landmarks_only.initial.Insert(MakeKey('l', 0), Point2(1, 2)).ok());
+  landmarks_only.landmarks.push_back(MakeKey('l', 0));
+  EXPECT_EQ(IncrementalSteps(landmarks_only).size(), 0);
+  EXPECT_TRUE(MakeIncrementalSteps(landmarks_only).empty());
+}
+
+// Made one at a time and in any order (slamctl bench makes them as it goes), the steps keep the
+// contract, with the odometry and the landmarks of each.
+TEST(DatasetStream, StepsMadeOneAtATimeInAnyOrder) {
+  SLAMD_SKIP_IF_NO_SHARED_DATASET(SharedDatasetPath("victoriaPark.txt"));
+  const Dataset d = MustReadDataset(SharedDatasetPath("victoriaPark.txt"));
+  const IncrementalSteps lazy(d);
+  ASSERT_EQ(lazy.size(), static_cast<int>(d.poses.size()));
+  std::vector<DatasetStep> steps(lazy.size());
+  for (int k = lazy.size() - 1; k >= 0; --k) steps[k] = lazy.Step(k);
+  ExpectStreamInvariants(d, steps);
+  EXPECT_EQ(lazy.Step(1).odometry_from, steps[0].pose);
+  EXPECT_DEATH((void)lazy.Step(lazy.size()), "IncrementalSteps: step");
 }
 
 }  // namespace
