@@ -1,5 +1,7 @@
 #include "core/factors/values.h"
 
+#include "core/base/storage.h"
+
 namespace slamd::core {
 
 Status Values::Insert(Key key, const Variable& value) {
@@ -8,7 +10,9 @@ Status Values::Insert(Key key, const Variable& value) {
     return InvalidArgument("variable " + KeyToString(key) + " has a NaN or infinite entry");
   }
   slot_.Insert(key, static_cast<int>(keys_.size()));
+  ReserveOneMore(&keys_);
   keys_.push_back(key);
+  ReserveOneMore(&vars_);
   vars_.push_back(value);
   return Status::Ok();
 }

@@ -129,7 +129,6 @@ class Isam2 {
 
  private:
   explicit Isam2(const Isam2Params& params);
-
   // Update() with the relinearisation and wildfire thresholds given (Refine uses tiny ones).
   Isam2Result UpdateWith(const FactorGraph& new_factors, const Values& new_values,
                          const Isam2UpdateOptions& options,
@@ -223,7 +222,8 @@ class Isam2 {
     std::vector<int> relinearized_factors;  // re-linearised at the restored θ on rollback
     bool top_removed = false;  // the tree's top was detached (removed_frontals_, orphans_)
     bool top_released = false;          // ... and released before eliminating (released_order_)
-    void Clear(int vars, int factors);  // keeps the lists' storage (isam2_steps.cc)
+    void Clear(int vars, int factors);  // keeps the lists' storage; and once the update
+    void GiveBackLargeStorage();        // stands, gives back large ones (isam2_steps.cc)
   };
 
   Isam2Params params_;

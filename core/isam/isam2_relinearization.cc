@@ -245,6 +245,12 @@ void Isam2::ProbeLinearizations(double threshold) {
 
 void Isam2::Relinearize(const std::vector<int>& relin, std::vector<int>* affected,
                         int* num_factors) {
+  // Sized once: grown by doubling, the record of a whole-graph relinearisation left holes in the
+  // heap as large as itself.
+  undo_.theta.reserve(undo_.theta.size() + relin.size());
+  std::size_t delta_size = undo_.delta.size();
+  for (int v : relin) delta_size += dims_[v];
+  undo_.delta.reserve(delta_size);
   for (int v : relin) {
     Eigen::Map<Eigen::VectorXd> d(delta_.data() + offsets_[v], dims_[v]);
     undo_.theta.emplace_back(v, theta_.VariableAt(v));
@@ -254,6 +260,7 @@ void Isam2::Relinearize(const std::vector<int>& relin, std::vector<int>* affecte
   }
   variable_index_.CollectFactors(relin, &relin_factors_);
   *num_factors = static_cast<int>(relin_factors_.size());
+  undo_.relinearized_factors.reserve(undo_.relinearized_factors.size() + relin_factors_.size());
   undo_.relinearized_factors.insert(undo_.relinearized_factors.end(), relin_factors_.begin(),
                                     relin_factors_.end());
   for (int f : relin_factors_) {
