@@ -362,30 +362,37 @@ Status Eliminator::Prepare(const EliminationProblem& problem, const BayesTree& t
   return Status::Ok();
 }
 
-Status Eliminator::EliminateClique(const EliminationProblem& problem, int sym, BayesTree* tree,
-                                   Workspace* ws, std::vector<int>* hessian_cliques) const {
-  const internal::SymbolicForest& forest = forest_;
+void Eliminator::ShapeClique(const EliminationProblem& problem, int sym, BayesTree* tree,
+                             Workspace* ws) const {
   // 3a. The clique's variables: frontals in elimination order, then the separator.
-  std::vector<int>& frontal_ids = ws->frontal_ids;
-  std::vector<int>& frontal_dims = ws->frontal_dims;
-  std::vector<int>& sep_ids = ws->sep_ids;
-  std::vector<int>& sep_dims = ws->sep_dims;
-  frontal_ids.clear();
-  frontal_dims.clear();
-  sep_ids.clear();
-  sep_dims.clear();
-  for (int p = forest.first_frontal[sym]; p != -1; p = forest.next_frontal[p]) {
+  ws->frontal_ids.clear();
+  ws->frontal_dims.clear();
+  ws->sep_ids.clear();
+  ws->sep_dims.clear();
+  for (int p = forest_.first_frontal[sym]; p != -1; p = forest_.next_frontal[p]) {
     const int v = problem.ordering[p];
-    frontal_ids.push_back(v);
-    frontal_dims.push_back(problem.var_dims[v]);
+    ws->frontal_ids.push_back(v);
+    ws->frontal_dims.push_back(problem.var_dims[v]);
   }
-  for (int i = forest.sep_begin[sym]; i < forest.sep_end[sym]; ++i) {
-    const int v = problem.ordering[forest.sep_data[i]];
-    sep_ids.push_back(v);
-    sep_dims.push_back(problem.var_dims[v]);
+  for (int i = forest_.sep_begin[sym]; i < forest_.sep_end[sym]; ++i) {
+    const int v = problem.ordering[forest_.sep_data[i]];
+    ws->sep_ids.push_back(v);
+    ws->sep_dims.push_back(problem.var_dims[v]);
   }
+  // 3e and 3f overwrite the whole conditional and cached factor, so they are not zeroed here.
+  tree->mutable_clique(tree_id_[sym])
+      .ResetForElimination(ws->frontal_ids, ws->frontal_dims, ws->sep_ids, ws->sep_dims);
+}
+
+Status Eliminator::EliminateClique(const EliminationProblem& problem, int sym, BayesTree* tree,
+                                   Workspace* ws, std::vector<int>* hessian_cliques,
+                                   bool shaped) const {
+  const internal::SymbolicForest& forest = forest_;
+  const int id = tree_id_[sym];
+  Clique& clique = tree->mutable_clique(id);
+  if (!shaped) ShapeClique(problem, sym, tree, ws);
   // The factors' entries are scattered over the heap, and a large re-elimination reads more of
-  // them than the caches hold: loading them now overlaps the misses with 3a-3b, which took 12%
+  // them than the caches hold: loading them now overlaps the misses with 3b, which took 12%
   // off re-eliminating all of parking-garage. (The orphans' cached factors made no difference
   // beyond the noise; the children's are loaded one ahead in 3c.)
   for (int p = forest.first_frontal[sym]; p != -1; p = forest.next_frontal[p]) {
@@ -394,10 +401,8 @@ Status Eliminator::EliminateClique(const EliminationProblem& problem, int sym, B
       Prefetch(f.data(), static_cast<size_t>(f.rows()) * (f.Dim() + 1));
     }
   }
-  const int id = tree_id_[sym];
-  Clique& clique = tree->mutable_clique(id);
-  // 3e and 3f overwrite the whole conditional and cached factor, so they are not zeroed here.
-  clique.ResetForElimination(frontal_ids, frontal_dims, sep_ids, sep_dims);
+  // The clique's variables (3a; from the clique when it was shaped beforehand).
+  const std::span<const int> frontal_ids = clique.frontals(), sep_ids = clique.separator();
 
   // 3b. Offsets of the clique's variables in the dense augmented matrix M (n + 1 square; the
   //     last row/column is the right-hand side).
@@ -405,12 +410,12 @@ Status Eliminator::EliminateClique(const EliminationProblem& problem, int sym, B
   int n = 0;
   for (size_t i = 0; i < frontal_ids.size(); ++i) {
     offset[frontal_ids[i]] = n;
-    n += frontal_dims[i];
+    n += clique.frontal_dim(static_cast<int>(i));
   }
   const int nf = n;
   for (size_t i = 0; i < sep_ids.size(); ++i) {
     offset[sep_ids[i]] = n;
-    n += sep_dims[i];
+    n += clique.separator_dim(static_cast<int>(i));
   }
   const int ld = n + 1;
   // Only the lower triangle is ever read or written (partial_cholesky.h), so only it is zeroed.

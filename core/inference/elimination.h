@@ -152,10 +152,15 @@ class Eliminator {
   };
 
   Status Prepare(const EliminationProblem& problem, const BayesTree& tree);
-  // Fills the pre-created clique tree_id_[sym] (no links: LinkCliques does them). Touches only
-  // that clique, *ws and hessian_cliques entries of its own Hessian factors.
-  Status EliminateClique(const EliminationProblem& problem, int sym, BayesTree* tree,
-                         Workspace* ws, std::vector<int>* hessian_cliques) const;
+  // Lists clique sym's frontals (elimination order) and separator, with their dims, in *ws and
+  // sets the pre-created clique tree_id_[sym] to that structure (its storage sized).
+  void ShapeClique(const EliminationProblem& problem, int sym, BayesTree* tree,
+                   Workspace* ws) const;
+  // Fills the pre-created clique tree_id_[sym] (no links: LinkCliques does them), shaping it
+  // first unless `shaped`. Touches only that clique, *ws and hessian_cliques entries of its own
+  // Hessian factors.
+  Status EliminateClique(const EliminationProblem& problem, int sym, BayesTree* tree, Workspace* ws,
+                         std::vector<int>* hessian_cliques, bool shaped = false) const;
   Status EliminateSerial(const EliminationProblem& problem, BayesTree* tree,
                          EliminationResult* result);
   // Returns false when some clique failed (nothing is reported: the caller re-runs serially,

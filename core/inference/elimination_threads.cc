@@ -83,11 +83,19 @@ bool Eliminator::EliminateParallel(const EliminationProblem& problem, BayesTree*
   AssignSubtrees();
   const int num = forest_.NumCliques();
   std::vector<char> failed(threads_, 0);
+  // The helpers' cliques are shaped here, so that their storage comes from this thread's heap:
+  // allocated by a helper, it came from that thread's own malloc arena, whose free blocks the
+  // rest of the solver cannot reuse (input_M3500: 0.4 MB more peak RSS, parking-garage 0.8).
+  for (int c = 0; c < num; ++c) {
+    if (owner_[c] > 0) ShapeClique(problem, c, tree, &workspaces_[0]);
+  }
   // Thread t eliminates the cliques owned by `owner` in creation order (children first).
   auto eliminate_own = [&](int owner, int t) {
     for (int c = 0; c < num; ++c) {
       if (owner_[c] != owner) continue;
-      if (!EliminateClique(problem, c, tree, &workspaces_[t], &result->hessian_cliques).ok()) {
+      if (!EliminateClique(problem, c, tree, &workspaces_[t], &result->hessian_cliques,
+                           /*shaped=*/owner > 0)
+               .ok()) {
         failed[t] = 1;
         return;
       }

@@ -2,7 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#ifdef __GLIBC__
+#include <malloc.h>
+#include <unistd.h>
+#endif
+
 #include <algorithm>
+#include <cstdio>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <random>
@@ -335,6 +342,56 @@ TEST(EliminationTest, ThreadsGiveTheSameTreeAndTheSameFailure) {
     }
   }
 }
+
+#ifdef __GLIBC__
+// Bytes in use in the malloc arenas other than the main one (glibc's malloc_stats, which prints
+// them per arena on standard error).
+std::size_t InUseOutsideTheMainArena() {
+  std::fflush(stderr);
+  std::FILE* capture = std::tmpfile();
+  const int saved = dup(fileno(stderr));
+  dup2(fileno(capture), fileno(stderr));
+  malloc_stats();
+  std::fflush(stderr);
+  dup2(saved, fileno(stderr));
+  close(saved);
+  std::rewind(capture);
+  std::size_t total = 0;
+  int arena = -1;
+  char line[256];
+  while (std::fgets(line, sizeof line, capture)) {
+    unsigned long value = 0;
+    if (std::sscanf(line, "Arena %d:", &arena) == 1) continue;
+    if (std::strncmp(line, "Total", 5) == 0) break;  // the sum over the arenas
+    if (arena > 0 && std::sscanf(line, "in use bytes = %lu", &value) == 1) total += value;
+  }
+  std::fclose(capture);
+  return total;
+}
+
+// The helpers' cliques are sized by the calling thread, so that the tree's storage comes from
+// the heap of the thread that owns the tree: sized by a helper, its share came from that
+// helper's own malloc arena, apart from the rest of the solver's free blocks. (The second
+// elimination, into a fresh tree: the helper's workspace is already grown.)
+TEST(EliminationTest, HelpersAllocateNoCliqueStorage) {
+  const RandomLinearSystem s = MakeLoopySystem(600, /*fail=*/false);
+  auto order = ColamdOrdering(s.NumVars(), s.Incidence());
+  ASSERT_TRUE(order.ok());
+  const std::vector<const JacobianFactor*> factors = s.Pointers();
+  const EliminationProblem problem{.var_dims = s.dims, .factors = factors, .ordering = *order};
+  Eliminator eliminator({}, 2);
+  BayesTree warm, tree;
+  EliminationResult result;
+  ASSERT_TRUE(eliminator.Eliminate(problem, &warm, &result).ok());
+  const std::size_t before = InUseOutsideTheMainArena();
+  ASSERT_TRUE(eliminator.Eliminate(problem, &tree, &result).ok());
+  ASSERT_EQ(result.threads_used, 2);
+  const std::size_t helpers = InUseOutsideTheMainArena() - before;
+  std::size_t matrices = 0;
+  for (int id : result.cliques) matrices += tree.clique(id).MatrixCapacity() * sizeof(double);
+  EXPECT_LT(helpers, matrices / 20) << "of " << matrices << " bytes of clique matrices";
+}
+#endif
 
 // Round-off accumulates along a chain; with weights varying by 1e5 a pivot test relative to a
 // variable's own factors only would miss the deficiency (pivots up to ~1e-11 of them). The
