@@ -61,12 +61,14 @@ std::vector<double> QueuedLatencies(const std::vector<double>& step_ms,
 struct MemoryFigures {
   core::Isam2Memory solver;
   double rss = 0.0, trimmed_solver = 0.0, trimmed_rss = 0.0;  // [bytes]
-  double n = 1.0;                                             // variables
+  double heap_peak = 0.0;  // the allocator's high-water mark (core::AllocatorBytes) [bytes]
+  double n = 1.0;          // variables
 
   static MemoryFigures Measure(core::Isam2* isam) {
     MemoryFigures m{
         .solver = isam->MemoryUse(),
         .rss = static_cast<double>(core::ResidentBytes()),
+        .heap_peak = static_cast<double>(core::AllocatorBytes()),
         .n = static_cast<double>(std::max<std::size_t>(1, isam->linearization_point().size()))};
     isam->TrimMemory();
     m.trimmed_solver = static_cast<double>(isam->MemoryUse().Total());
@@ -267,6 +269,7 @@ void RunIsam2(const BenchOptions& opt) {
         .Add("read_s", read_s)
         .Add("worst_step", worst_step)
         .Add("peak_rss_mb", PeakRssMb())
+        .Add("heap_peak_mb", memory.heap_peak / (1 << 20))
         .Add("memory_bytes_per_variable", memory.PerVariable());
     if (opt.compare_batch) out.Add("batch_chi2", batch_chi2);
     if (opt.rate_hz > 0) {
@@ -309,8 +312,8 @@ void RunIsam2(const BenchOptions& opt) {
     }
     PrintAccuracy(opt, accuracy);
     std::printf("slowest step %s\n", worst_step.c_str());
-    std::printf("relinearized %lld variables, re-eliminated %lld; peak RSS %.1f MB\n", relinearized,
-                reeliminated, PeakRssMb());
+    std::printf("relinearized %lld variables, re-eliminated %lld; peak RSS %.1f MB, heap %.1f MB\n",
+                relinearized, reeliminated, PeakRssMb(), memory.heap_peak / (1 << 20));
     memory.Print();
   }
 }
@@ -492,6 +495,7 @@ void RunIsam2Reconstruction(const BenchOptions& opt) {
         .Add("final_cost", cost)
         .Add("settled_cost", settled_cost)
         .Add("peak_rss_mb", PeakRssMb())
+        .Add("heap_peak_mb", memory.heap_peak / (1 << 20))
         .Add("memory_bytes_per_variable", memory.PerVariable());
     if (opt.compare_batch) out.Add("batch_cost", batch_cost);
     std::printf("%s\n", out.str().c_str());

@@ -17,6 +17,15 @@ std::int64_t ResidentBytes() {
   return static_cast<std::int64_t>(resident) * ::sysconf(_SC_PAGESIZE);
 }
 
+std::int64_t AllocatorBytes() {
+#ifdef __GLIBC__
+  const struct mallinfo2 info = ::mallinfo2();  // summed over the arenas
+  return static_cast<std::int64_t>(info.arena + info.hblkhd);
+#else
+  return 0;
+#endif
+}
+
 void KeepFreedMemoryForReuse() {
   ::mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's largest
   ::mallopt(M_TRIM_THRESHOLD, 1 << 30);

@@ -9,6 +9,13 @@ namespace slamd::core {
 // Resident set size now [bytes] (/proc/self/statm); 0 if it cannot be read.
 std::int64_t ResidentBytes();
 
+// What the allocator holds from the kernel [bytes]: glibc's arenas and the blocks it mapped one
+// by one (0 without glibc). After KeepFreedMemoryForReuse no arena shrinks until a malloc_trim
+// (Isam2::TrimMemory), so until then this is the heap's high-water mark: unlike the peak RSS,
+// it does not move with the pages of code a run happens to touch (the kernel maps 64 KB around
+// each page fault on a file, so a rebuild alone moves the peak RSS by a few hundred KB).
+std::int64_t AllocatorBytes();
+
 // Keeps freed memory in the process for reuse instead of giving it back to the kernel at once
 // (glibc: blocks up to 32 MiB from the heap, not mapped one by one; the heap's free top kept up
 // to 1 GiB). Re-eliminating the top of a Bayes tree with large cliques (cameras sharing long

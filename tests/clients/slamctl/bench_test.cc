@@ -56,7 +56,7 @@ TEST(BenchTest, Isam2JsonHasStepPercentilesAndSettles) {
   for (const char* field :
        {"\"solver\": \"isam2\"", "\"step_ms\": {\"p50\"", "\"p90\"", "\"p99\"", "\"max\"",
         "\"step_ms_per_factor\": {\"p50\"", "\"final_chi2\"", "\"chi2_before_settle\"",
-        "\"batch_chi2\"", "\"relinearized_total\"", "\"peak_rss_mb\""}) {
+        "\"batch_chi2\"", "\"relinearized_total\"", "\"peak_rss_mb\"", "\"heap_peak_mb\""}) {
     EXPECT_NE(r.out.find(field), std::string::npos) << field << " missing from " << r.out;
   }
   std::ifstream in(csv);
