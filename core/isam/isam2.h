@@ -217,8 +217,8 @@ class Isam2 {
     int num_factors = 0;
     std::vector<std::pair<int, FactorPtr>> removed_factors;
     std::vector<int> reused_slots;  // slots of free_slots_ the new factors took, in order
-    std::vector<std::pair<int, Variable>> theta;  // relinearised variables' old θ
-    std::vector<double> delta;  // ... and their old δ, concatenated in the order of `theta`
+    std::vector<int> relinearized;  // relinearised variables, in order, with their old θ
+    std::vector<double> theta, delta;       // exactly encoded (variable.h) and old δ, concatenated
     std::vector<int> relinearized_factors;  // re-linearised at the restored θ on rollback
     bool top_removed = false;  // the tree's top was detached (removed_frontals_, orphans_)
     bool top_released = false;          // ... and released before eliminating (released_order_)

@@ -33,8 +33,8 @@ Isam2Memory Isam2::MemoryUse() const {
               Capacity(released_order_) + Capacity(relin_factors_) + Capacity(wildfire_.changed) +
               Capacity(wildfire_.scratch) + Capacity(wildfire_.forced) +
               Capacity(wildfire_.visited) + Capacity(undo_.removed_factors) +
-              Capacity(undo_.reused_slots) + Capacity(undo_.theta) + Capacity(undo_.delta) +
-              Capacity(undo_.relinearized_factors);
+              Capacity(undo_.reused_slots) + Capacity(undo_.relinearized) + Capacity(undo_.theta) +
+              Capacity(undo_.delta) + Capacity(undo_.relinearized_factors);
   return m;
 }
 

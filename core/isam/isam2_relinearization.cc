@@ -245,15 +245,20 @@ void Isam2::ProbeLinearizations(double threshold) {
 
 void Isam2::Relinearize(const std::vector<int>& relin, std::vector<int>* affected,
                         int* num_factors) {
-  // Sized once: grown by doubling, the record of a whole-graph relinearisation left holes in the
-  // heap as large as itself.
-  undo_.theta.reserve(undo_.theta.size() + relin.size());
-  std::size_t delta_size = undo_.delta.size();
-  for (int v : relin) delta_size += dims_[v];
+  // Sized once (grown by doubling, the record of a whole-graph relinearisation left holes in the
+  // heap as large as itself), and θ in its exact encoding: 4 doubles a Pose2 where a Variable
+  // takes 14.
+  std::size_t theta_size = undo_.theta.size(), delta_size = undo_.delta.size();
+  for (int v : relin) {
+    theta_size += EncodedSize(var_types_[v]);
+    delta_size += dims_[v];
+  }
+  undo_.relinearized.insert(undo_.relinearized.end(), relin.begin(), relin.end());
+  undo_.theta.reserve(theta_size);
   undo_.delta.reserve(delta_size);
   for (int v : relin) {
     Eigen::Map<Eigen::VectorXd> d(delta_.data() + offsets_[v], dims_[v]);
-    undo_.theta.emplace_back(v, theta_.VariableAt(v));
+    EncodeVariable(theta_.VariableAt(v), &undo_.theta);
     undo_.delta.insert(undo_.delta.end(), d.data(), d.data() + d.size());
     RetractInPlace(&theta_.MutableVariableAt(v), d.data());
     d.setZero();

@@ -380,13 +380,21 @@ void Isam2::Rollback() {
   }
   // θ back as it was, then the relinearised factors linearised there again (deterministic, so
   // identical to what they were; cheaper than keeping copies on every update).
-  for (auto& [v, old] : undo_.theta) theta_.MutableVariableAt(v) = std::move(old);
+  std::size_t encoded = 0;
+  for (int v : undo_.relinearized) {
+    const int size = EncodedSize(var_types_[v]);
+    Result<Variable> old = DecodeVariable(
+        var_types_[v], {undo_.theta.data() + encoded, static_cast<std::size_t>(size)});
+    SLAMD_CHECK(old.ok()) << "restoring variable " << v << ": " << old.status().ToString();
+    theta_.MutableVariableAt(v) = *std::move(old);
+    encoded += size;
+  }
   for (int f : undo_.relinearized_factors) {
     if (f < undo_.num_factors && factors_[f])
       SLAMD_CHECK(LinearizeFactor(f).ok()) << "re-linearising factor " << f;
   }
   std::size_t at = 0;
-  for (const auto& [v, unused] : undo_.theta) {
+  for (int v : undo_.relinearized) {
     std::copy_n(undo_.delta.data() + at, dims_[v], delta_.data() + offsets_[v]);
     at += dims_[v];
   }
@@ -428,6 +436,7 @@ void Isam2::Undo::Clear(int vars, int factors) {
   num_factors = factors;
   removed_factors.clear();
   reused_slots.clear();
+  relinearized.clear();
   theta.clear();
   delta.clear();
   relinearized_factors.clear();
@@ -445,6 +454,7 @@ void Isam2::Undo::GiveBackLargeStorage() {
   };
   give_back(&removed_factors);
   give_back(&reused_slots);
+  give_back(&relinearized);
   give_back(&theta);
   give_back(&delta);
   give_back(&relinearized_factors);
