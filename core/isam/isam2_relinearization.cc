@@ -246,8 +246,8 @@ void Isam2::ProbeLinearizations(double threshold) {
 void Isam2::Relinearize(const std::vector<int>& relin, std::vector<int>* affected,
                         int* num_factors) {
   // Sized once (grown by doubling, the record of a whole-graph relinearisation left holes in the
-  // heap as large as itself), and θ in its exact encoding: 4 doubles a Pose2 where a Variable
-  // takes 14.
+  // heap as large as itself), and θ in its exact encoding: 32 bytes a Pose2 where a Variable
+  // takes 112.
   std::size_t theta_size = undo_.theta.size(), delta_size = undo_.delta.size();
   for (int v : relin) {
     theta_size += EncodedSize(var_types_[v]);
