@@ -51,18 +51,36 @@ LeaderLease::~LeaderLease() { kvStore_Destroy(kv_); }
 core::Result<bool> LeaderLease::TryAcquire() {
   if (held_) return true;
   std::uint64_t rev = 0;
-  const Clock::time_point t = Clock::now();
-  const natsStatus s =
-      kvStore_CreateString(&rev, kv_, options_.key.c_str(), options_.holder.c_str());
+  Clock::time_point t = Clock::now();
+  natsStatus s = kvStore_CreateString(&rev, kv_, options_.key.c_str(), options_.holder.c_str());
   if (s == NATS_OK) {
-    held_ = true;
-    revision_ = rev;
-    renewed_ = t;
+    Took(rev, t);
     return true;
   }
-  // Refused because the key exists (JetStream's wrong-last-sequence): someone holds it.
-  if (s == NATS_ERR) return false;
+  if (s != NATS_ERR) {
+    return NatsStatus(("cannot take the lease " + options_.bucket + "/" + options_.key).c_str(), s);
+  }
+  // Refused because the key exists (JetStream's wrong-last-sequence). The client then looks for
+  // a release marker with a direct get, which any replica answers: one that has not applied a
+  // release yet makes a free lease look held (a hand-over right after a release failed so).
+  // The stream leader decides: a released lease is taken by a write on its marker's revision.
+  std::string holder;
+  SLAMD_RETURN_IF_ERROR(ReadLast(&holder, &rev));
+  if (!holder.empty()) return false;
+  t = Clock::now();
+  s = kvStore_UpdateString(&rev, kv_, options_.key.c_str(), options_.holder.c_str(), rev);
+  if (s == NATS_OK) {
+    Took(rev, t);
+    return true;
+  }
+  if (s == NATS_ERR) return false;  // someone took it in between
   return NatsStatus(("cannot take the lease " + options_.bucket + "/" + options_.key).c_str(), s);
+}
+
+void LeaderLease::Took(std::uint64_t revision, Clock::time_point t) {
+  held_ = true;
+  revision_ = revision;
+  renewed_ = t;
 }
 
 core::Status LeaderLease::Renew() {
@@ -97,19 +115,28 @@ core::Status LeaderLease::Release() {
 // Read through the stream leader's get API, not kvStore_Get: the bucket allows direct gets,
 // which any replica answers, so a follower that has not applied the latest write yet would say
 // nobody holds a lease that was just taken.
-core::Result<std::string> LeaderLease::Holder() {
+core::Status LeaderLease::ReadLast(std::string* holder, std::uint64_t* revision) {
   natsMsg* msg = nullptr;
   const std::string stream = "KV_" + options_.bucket;
   const std::string subject = "$KV." + options_.bucket + "." + options_.key;
   const natsStatus s = js_GetLastMsg(&msg, client_->jetstream(), stream.c_str(), subject.c_str(),
                                      nullptr, nullptr);
-  if (s == NATS_NOT_FOUND) return std::string();
+  holder->clear();
+  *revision = 0;
+  if (s == NATS_NOT_FOUND) return core::Status::Ok();
   if (s != NATS_OK) return NatsStatus("cannot read the lease", s);
   const char* operation = nullptr;  // "DEL" or "PURGE" for a released lease
   const bool removed = natsMsgHeader_Get(msg, "KV-Operation", &operation) == NATS_OK;
-  std::string holder =
-      removed ? std::string() : std::string(natsMsg_GetData(msg), natsMsg_GetDataLength(msg));
+  if (!removed) holder->assign(natsMsg_GetData(msg), natsMsg_GetDataLength(msg));
+  *revision = natsMsg_GetSequence(msg);
   natsMsg_Destroy(msg);
+  return core::Status::Ok();
+}
+
+core::Result<std::string> LeaderLease::Holder() {
+  std::string holder;
+  std::uint64_t revision = 0;
+  SLAMD_RETURN_IF_ERROR(ReadLast(&holder, &revision));
   return holder;
 }
 

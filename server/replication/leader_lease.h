@@ -62,6 +62,12 @@ class LeaderLease {
   LeaderLease(const LeaderLeaseOptions& options, std::unique_ptr<NatsClient> client, kvStore* kv)
       : options_(options), client_(std::move(client)), kv_(kv) {}
 
+  // The key's last entry as the stream leader has it: its holder ("" when released or never
+  // written) and its revision (0 when never written).
+  core::Status ReadLast(std::string* holder, std::uint64_t* revision);
+  // Records a successful write of the lease at `revision`, started at time t.
+  void Took(std::uint64_t revision, Clock::time_point t);
+
   const LeaderLeaseOptions options_;
   std::unique_ptr<NatsClient> client_;
   kvStore* kv_ = nullptr;
