@@ -12,8 +12,8 @@ std::int64_t ResidentBytes();
 // What the allocator holds from the kernel [bytes]: glibc's arenas and the blocks it mapped one
 // by one (0 without glibc). After KeepFreedMemoryForReuse no arena shrinks until a malloc_trim
 // (Isam2::TrimMemory), so until then this is the heap's high-water mark: unlike the peak RSS,
-// it does not move with the pages of code a run happens to touch (the kernel maps 64 KB around
-// each page fault on a file, so a rebuild alone moves the peak RSS by a few hundred KB).
+// it does not move with the pages of code a run happens to touch (the kernel maps pages around
+// each fault on a file, so a rebuild alone moved slamctl's peak RSS by ~0.3 MB).
 std::int64_t AllocatorBytes();
 
 // Keeps freed memory in the process for reuse instead of giving it back to the kernel at once

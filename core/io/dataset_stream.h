@@ -47,7 +47,7 @@ struct DatasetStep {
 };
 
 // The steps of `dataset` held as indices into it (~12 bytes a pose; a DatasetStep holds its
-// factors and guesses, ~250) and made one at a time, for a consumer that walks a long stream
+// factors and guesses, ~230) and made one at a time, for a consumer that walks a long stream
 // once (slamctl bench, whose memory per variable is compared with other solvers').
 class IncrementalSteps {
  public:

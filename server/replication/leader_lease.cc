@@ -53,34 +53,26 @@ core::Result<bool> LeaderLease::TryAcquire() {
   std::uint64_t rev = 0;
   Clock::time_point t = Clock::now();
   natsStatus s = kvStore_CreateString(&rev, kv_, options_.key.c_str(), options_.holder.c_str());
+  if (s == NATS_ERR) {
+    // Refused because the key exists (JetStream's wrong-last-sequence). The client then looks
+    // for a release marker with a direct get, which any replica answers: one that has not
+    // applied a release yet makes a free lease look held (a hand-over right after a release
+    // failed so). The stream leader decides: a released lease is taken by a write on its
+    // marker's revision, refused in turn if someone took it in between.
+    std::string holder;
+    SLAMD_RETURN_IF_ERROR(ReadLast(&holder, &rev));
+    if (!holder.empty()) return false;
+    t = Clock::now();
+    s = kvStore_UpdateString(&rev, kv_, options_.key.c_str(), options_.holder.c_str(), rev);
+  }
   if (s == NATS_OK) {
-    Took(rev, t);
+    held_ = true;
+    revision_ = rev;
+    renewed_ = t;
     return true;
   }
-  if (s != NATS_ERR) {
-    return NatsStatus(("cannot take the lease " + options_.bucket + "/" + options_.key).c_str(), s);
-  }
-  // Refused because the key exists (JetStream's wrong-last-sequence). The client then looks for
-  // a release marker with a direct get, which any replica answers: one that has not applied a
-  // release yet makes a free lease look held (a hand-over right after a release failed so).
-  // The stream leader decides: a released lease is taken by a write on its marker's revision.
-  std::string holder;
-  SLAMD_RETURN_IF_ERROR(ReadLast(&holder, &rev));
-  if (!holder.empty()) return false;
-  t = Clock::now();
-  s = kvStore_UpdateString(&rev, kv_, options_.key.c_str(), options_.holder.c_str(), rev);
-  if (s == NATS_OK) {
-    Took(rev, t);
-    return true;
-  }
-  if (s == NATS_ERR) return false;  // someone took it in between
+  if (s == NATS_ERR) return false;
   return NatsStatus(("cannot take the lease " + options_.bucket + "/" + options_.key).c_str(), s);
-}
-
-void LeaderLease::Took(std::uint64_t revision, Clock::time_point t) {
-  held_ = true;
-  revision_ = revision;
-  renewed_ = t;
 }
 
 core::Status LeaderLease::Renew() {

@@ -65,8 +65,6 @@ class LeaderLease {
   // The key's last entry as the stream leader has it: its holder ("" when released or never
   // written) and its revision (0 when never written).
   core::Status ReadLast(std::string* holder, std::uint64_t* revision);
-  // Records a successful write of the lease at `revision`, started at time t.
-  void Took(std::uint64_t revision, Clock::time_point t);
 
   const LeaderLeaseOptions options_;
   std::unique_ptr<NatsClient> client_;
