@@ -6,10 +6,8 @@
 #pragma once
 
 #include <algorithm>
-#include <array>
 #include <cstddef>
 #include <cstdint>
-#include <memory>
 #include <span>
 #include <type_traits>
 #include <utility>
@@ -33,19 +31,27 @@ class InlinedVector {
   }
   InlinedVector(InlinedVector&& other) noexcept { *this = std::move(other); }
   InlinedVector& operator=(InlinedVector&& other) noexcept {
-    inline_ = other.inline_;
-    heap_ = std::move(other.heap_);
-    capacity_ = std::exchange(other.capacity_, 0u);
-    size_ = std::exchange(other.size_, 0u);
+    if (this != &other) {
+      Free();
+      if (other.capacity_ > 0) {
+        heap_ = other.heap_;
+      } else {
+        std::copy(other.inline_, other.inline_ + other.size_, inline_);
+      }
+      capacity_ = std::exchange(other.capacity_, 0u);
+      size_ = std::exchange(other.size_, 0u);
+    }
     return *this;
   }
+  ~InlinedVector() { Free(); }
 
   // Sets the size and leaves EVERY entry unset (unlike std::vector: callers overwrite them all).
   // Keeps the heap block when shrinking, so an object reused for a factor no larger than before
   // allocates nothing.
   void resize(std::size_t n) {
-    if (n > N && n > capacity_) {
-      heap_ = std::make_unique_for_overwrite<T[]>(n);
+    if (n > (capacity_ > 0 ? capacity_ : static_cast<std::size_t>(N))) {
+      Free();
+      heap_ = new T[n];
       capacity_ = static_cast<std::uint32_t>(n);
     }
     size_ = static_cast<std::uint32_t>(n);
@@ -59,8 +65,8 @@ class InlinedVector {
   bool empty() const { return size_ == 0; }
   // Bytes allocated outside the object (0 while the entries fit inline).
   std::size_t HeapBytes() const { return static_cast<std::size_t>(capacity_) * sizeof(T); }
-  T* data() { return size_ > N ? heap_.get() : inline_.data(); }
-  const T* data() const { return size_ > N ? heap_.get() : inline_.data(); }
+  T* data() { return capacity_ > 0 ? heap_ : inline_; }
+  const T* data() const { return capacity_ > 0 ? heap_ : inline_; }
   T& operator[](std::size_t i) { return data()[i]; }
   const T& operator[](std::size_t i) const { return data()[i]; }
   const T* begin() const { return data(); }
@@ -68,9 +74,18 @@ class InlinedVector {
   const T& back() const { return data()[size_ - 1]; }
 
  private:
-  std::array<T, N> inline_{};
-  std::unique_ptr<T[]> heap_;
-  std::uint32_t capacity_ = 0;  // of heap_
+  void Free() {
+    if (capacity_ > 0) delete[] heap_;
+    capacity_ = 0;
+  }
+
+  // The entries live in inline_ until a size beyond N moves them to heap_, which then stays (a
+  // union: the pointer takes no room of its own beside the inline entries).
+  union {
+    T inline_[N] = {};
+    T* heap_;
+  };
+  std::uint32_t capacity_ = 0;  // of heap_; 0 while the entries are inline
   std::uint32_t size_ = 0;
 };
 

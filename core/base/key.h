@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,9 @@ namespace slamd::core {
 
 using Key = std::uint64_t;
 using KeyVector = std::vector<Key>;
+
+// A copy of a list of keys (a factor's keys are a span): for records and comparisons.
+inline KeyVector ToKeyVector(std::span<const Key> keys) { return {keys.begin(), keys.end()}; }
 
 inline constexpr std::uint64_t kMaxKeyIndex = (std::uint64_t{1} << 48) - 1;
 

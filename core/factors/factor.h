@@ -26,6 +26,7 @@
 #include <tuple>
 #include <vector>
 
+#include "core/base/inlined_vector.h"
 #include "core/base/key.h"
 #include "core/factors/factor_record.h"
 #include "core/factors/linearized_factor.h"
@@ -43,13 +44,15 @@ struct FactorFormats {
 
 class Factor {
  public:
-  Factor(KeyVector keys, NoiseModel noise, RobustKernel robust)
-      : keys_(std::move(keys)), noise_(std::move(noise)), robust_(robust) {}
+  Factor(const KeyVector& keys, NoiseModel noise, RobustKernel robust)
+      : noise_(std::move(noise)), robust_(robust) {
+    keys_.assign(keys);
+  }
   virtual ~Factor() = default;
   Factor(const Factor&) = delete;
   Factor& operator=(const Factor&) = delete;
 
-  const KeyVector& keys() const { return keys_; }
+  std::span<const Key> keys() const { return {keys_.data(), keys_.size()}; }
   int dim() const { return noise_.dim(); }
   const NoiseModel& noise_model() const { return noise_; }
   const RobustKernel& robust_kernel() const { return robust_; }
@@ -100,7 +103,7 @@ class Factor {
   }
 
  private:
-  KeyVector keys_;
+  InlinedVector<Key, 2> keys_;  // most factors have one or two keys: no heap block for them
   NoiseModel noise_;
   RobustKernel robust_;
 };

@@ -67,7 +67,7 @@ const std::vector<FactorType>& Registry() {
 FactorRecord EncodeFactor(const Factor& factor) {
   FactorRecord r;
   r.type = factor.Name();
-  r.keys = factor.keys();
+  r.keys = ToKeyVector(factor.keys());
   factor.EncodeMeasured(&r.measured);
   r.sqrt_information = factor.noise_model().sqrt_information();
   r.robust = factor.robust_kernel();

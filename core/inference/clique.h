@@ -142,16 +142,15 @@ class Clique {
 
   std::uint64_t generation_ = NewGeneration();
   int num_frontals_ = 0;
-  std::vector<int> index_ = {0};     // [frontal ids (nf) | frontal offsets (nf + 1)]
-  UninitVector<double> conditional_;  // [R S d], column-major
-  HessianFactor cached_;             // on the separator
-
-  // Tree links, maintained by BayesTree.
+  // Tree links, maintained by BayesTree (the small fields side by side: no padding between).
   int parent_ = kNone;
-  std::vector<int> children_;
   int root_slot_ = kNone;  // position in BayesTree::roots_ while parent_ == kNone
   bool live_ = false;      // false while the slot is on the tree's free list
   bool marked_ = false;    // scratch flag for BayesTree::RemoveTop, false between calls
+  std::vector<int> index_ = {0};      // [frontal ids (nf) | frontal offsets (nf + 1)]
+  UninitVector<double> conditional_;  // [R S d], column-major
+  HessianFactor cached_;              // on the separator
+  std::vector<int> children_;         // tree link, maintained by BayesTree
 };
 
 }  // namespace slamd::core

@@ -65,7 +65,7 @@ Result<NodeRemoval> MarginalizeOut(std::span<const FactorPtr> factors, const Val
   }
   for (int i = 0; i < num_removed; ++i) {
     if (std::none_of(out.removed_factors.begin(), out.removed_factors.end(), [&](int f) {
-          const KeyVector& fk = factors[f]->keys();
+          const std::span<const Key> fk = factors[f]->keys();
           return std::find(fk.begin(), fk.end(), keys[i]) != fk.end();
         })) {
       return FailedPrecondition("MarginalizeOut: " + KeyToString(keys[i]) +

@@ -12,7 +12,7 @@ namespace {
 
 // The landmark `key`'s first guess from `factor`, its first observation (see the header).
 Variable InitialLandmark(const Dataset& dataset, const Factor& factor, Key key) {
-  const KeyVector& keys = factor.keys();
+  const std::span<const Key> keys = factor.keys();
   if (keys.size() == 2 && keys[1] == key) {
     const std::optional<Variable> v = factor.Predict(0, dataset.initial.Get(keys[0]));
     if (v) return *v;
@@ -27,7 +27,7 @@ int ChooseOdometry(const FactorGraph& graph, std::span<const int> factors,
   int best = -1, best_step = -1;
   for (const int i : factors) {
     if (!MeasuredRelativePose(*graph[i])) continue;
-    const KeyVector& keys = graph[i]->keys();
+    const std::span<const Key> keys = graph[i]->keys();
     const Key other = keys[0] == pose ? keys[1] : keys[0];
     const auto it = step_of_pose.find(other);
     if (other == pose || it == step_of_pose.end()) continue;  // not between two poses
@@ -127,7 +127,7 @@ DatasetStep IncrementalSteps::Step(int k) const {
   }
   if (odometry_[k] >= 0) {
     step.odometry = graph[odometry_[k]];
-    const KeyVector& keys = step.odometry->keys();
+    const std::span<const Key> keys = step.odometry->keys();
     step.odometry_from = keys[0] == step.pose ? keys[1] : keys[0];
   }
   return step;

@@ -125,7 +125,7 @@ Status CheckIsamKey(Key key, unsigned char symbol, std::size_t index) {
 
 // "<tag> i j <measurement> <upper triangle of R>".
 Status WriteIsamFactor(const Factor& factor, std::size_t index, std::string* out) {
-  const KeyVector& keys = factor.keys();
+  const std::span<const Key> keys = factor.keys();
   const char* tag = factor.Formats().isam;
   const std::optional<Variable> measured = factor.Measured();
   if (tag == nullptr || !measured) {

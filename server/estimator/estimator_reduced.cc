@@ -84,7 +84,7 @@ Variable Estimator::AliasEstimate(const PoseAlias& alias, const Staged* s) const
 
 Outcome Estimator::AddReduced(core::FactorPtr factor, Key first, const MeasurementId& id, Staged* s,
                               Verdict* v) {
-  const core::KeyVector& keys = factor->keys();
+  const std::span<const core::Key> keys = factor->keys();
   const std::optional<Variable> relative = core::MeasuredRelativePose(*factor);
   ComposedMeasurement z;
   if (relative) z = {*relative, factor->noise_model().Covariance()};

@@ -12,7 +12,7 @@ bool ShardBoundary::Foreign(core::Key k) const {
 }
 
 void ShardBoundary::Grow(const core::Factor& f, bool received_summary) {
-  const core::KeyVector& keys = f.keys();
+  const std::span<const core::Key> keys = f.keys();
   if (received_summary) {
     for (core::Key k : keys) {
       if (core::KeySymbol(k) == 'x' && !Foreign(k)) keys_.insert(k);

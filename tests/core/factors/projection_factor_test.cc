@@ -56,7 +56,7 @@ void ExpectRoundTrip(const Factor& f, const Values& v) {
   Result<FactorPtr> back = DecodeFactor(record);
   ASSERT_TRUE(back.ok()) << back.status().ToString();
   EXPECT_STREQ((*back)->Name(), f.Name());
-  EXPECT_EQ((*back)->keys(), f.keys());
+  EXPECT_EQ(ToKeyVector((*back)->keys()), ToKeyVector(f.keys()));
   EXPECT_EQ((*back)->robust_kernel().kind(), f.robust_kernel().kind());
   EXPECT_EQ(Eigen::VectorXd((*back)->Error(v)), Eigen::VectorXd(f.Error(v)));
   EXPECT_EQ(EncodeFactor(**back).measured, record.measured);

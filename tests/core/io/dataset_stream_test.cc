@@ -76,7 +76,7 @@ void ExpectStreamInvariants(const Dataset& d, const std::vector<DatasetStep>& st
       ASSERT_EQ(graph_index.count(step.odometry.get()), 1u);
       ASSERT_TRUE(std::find(step.factors.begin(), step.factors.end(), step.odometry) !=
                   step.factors.end());
-      const KeyVector& keys = step.odometry->keys();
+      const std::span<const Key> keys = step.odometry->keys();
       ASSERT_TRUE((keys[0] == step.pose && keys[1] == step.odometry_from) ||
                   (keys[1] == step.pose && keys[0] == step.odometry_from));
       ASSERT_LT(pose_step.at(step.odometry_from), k);

@@ -169,7 +169,7 @@ void Apply(const FactorPtr& summary, int from, Shard* shard) {
   if (t.received_index.contains(from)) options.remove_factors = {t.received_index[from]};
   const Isam2Result r = t.isam->Update(g, v, options);
   ASSERT_TRUE(r.status.ok()) << r.status.ToString();
-  AddShared(&t.shared[from], container.keys());
+  AddShared(&t.shared[from], ToKeyVector(container.keys()));
   t.received[from] = summary;
   t.received_index[from] = r.new_factor_indices[0];
   Settle(t.isam.get());
