@@ -22,16 +22,12 @@ std::optional<Variable> MeasuredRelativePose(const Factor& factor) {
 }
 
 double Factor::Chi2(const Values& values) const {
-  const auto R = noise_.sqrt_information().triangularView<Eigen::Upper>();
   if (dim() <= kMaxResidualDim) {  // the common case: no heap
     double e[kMaxResidualDim];
     EvaluateError(values, e);
-    const Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxResidualDim, 1> w =
-        R * Eigen::Map<const Eigen::VectorXd>(e, dim());
-    return w.squaredNorm();
+    return noise_.SquaredMahalanobis(Eigen::Map<const Eigen::VectorXd>(e, dim()));
   }
-  const Eigen::VectorXd w = R * Error(values);
-  return w.squaredNorm();
+  return noise_.SquaredMahalanobis(Error(values));
 }
 
 DynamicFactor::DynamicFactor(KeyVector keys, std::vector<VariableType> types, NoiseModel noise,
@@ -61,7 +57,8 @@ void DynamicFactor::Linearize(const Values& values, LinearizedFactor* out) const
   Eigen::VectorXd e = Evaluate(Gather(values), &H);
   const int m = dim();
   SLAMD_CHECK(e.size() == m) << Name() << ": error of " << e.size() << " entries";
-  const auto R = noise_model().sqrt_information().triangularView<Eigen::Upper>();
+  const Eigen::MatrixXd sqrt_information = noise_model().sqrt_information();
+  const auto R = sqrt_information.triangularView<Eigen::Upper>();
   e = R * e;
   const double scale = RobustScale(e.squaredNorm());
   std::vector<int> dims(keys().size());

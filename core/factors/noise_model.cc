@@ -2,8 +2,10 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <utility>
 
 namespace slamd::core {
 namespace {
@@ -52,8 +54,7 @@ Result<NoiseModel> NoiseModel::FromCheckedInformation(Kind kind, const Eigen::Ma
   if (llt.info() != Eigen::Success) {
     return InvalidArgument(std::string(what) + " is not positive definite (Cholesky failed)");
   }
-  const Matrix R = llt.matrixU();
-  return NoiseModel(kind, R);
+  return NoiseModel(kind, llt.matrixU());
 }
 
 Result<NoiseModel> NoiseModel::Isotropic(int dim, double sigma) {
@@ -63,7 +64,7 @@ Result<NoiseModel> NoiseModel::Isotropic(int dim, double sigma) {
   if (!(sigma > 0.0) || !std::isfinite(sigma)) {
     return InvalidArgument("isotropic sigma " + std::to_string(sigma) + " must be positive and finite");
   }
-  return NoiseModel(Kind::kIsotropic, Matrix::Identity(dim, dim) / sigma);
+  return NoiseModel(Kind::kIsotropic, Eigen::MatrixXd::Identity(dim, dim) / sigma);
 }
 
 Result<NoiseModel> NoiseModel::Diagonal(const Eigen::VectorXd& sigmas) {
@@ -80,9 +81,7 @@ Result<NoiseModel> NoiseModel::Diagonal(const Eigen::VectorXd& sigmas) {
     return InvalidArgument("diagonal noise sigmas span a ratio of " + std::to_string(ratio) +
                            ": the information matrix would be ill-conditioned");
   }
-  Matrix R = Matrix::Zero(sigmas.size(), sigmas.size());
-  R.diagonal() = sigmas.cwiseInverse();
-  return NoiseModel(Kind::kDiagonal, R);
+  return NoiseModel(Kind::kDiagonal, sigmas.cwiseInverse().asDiagonal().toDenseMatrix());
 }
 
 Result<NoiseModel> NoiseModel::FromCovariance(const Eigen::MatrixXd& covariance) {
@@ -112,27 +111,109 @@ Result<NoiseModel> NoiseModel::FromSqrtInformation(const Eigen::MatrixXd& sqrt_i
 
 NoiseModel NoiseModel::Unit(int dim) {
   SLAMD_CHECK(dim >= 1) << "unit noise dimension " << dim;
-  return NoiseModel(Kind::kIsotropic, Matrix::Identity(dim, dim));
+  return NoiseModel(Kind::kIsotropic, Eigen::MatrixXd::Identity(dim, dim));
 }
 
-Eigen::MatrixXd NoiseModel::Information() const { return R_.transpose() * R_; }
+NoiseModel::NoiseModel(Kind kind, const Eigen::MatrixXd& R) : kind_(kind) {
+  SLAMD_CHECK(R.rows() == R.cols() && R.rows() <= kMaxDim)
+      << "square-root information of " << R.rows() << "x" << R.cols();
+  Allocate(static_cast<int>(R.rows()));
+  double* p = packed();
+  for (int c = 0; c < dim_; ++c) {
+    for (int r = 0; r <= c; ++r) *p++ = R(r, c);
+  }
+}
+
+NoiseModel::NoiseModel(const NoiseModel& other) { *this = other; }
+
+NoiseModel& NoiseModel::operator=(const NoiseModel& other) {
+  if (this != &other) {
+    if (other.dim_ != dim_) {
+      Free();
+      Allocate(other.dim_);
+    }
+    std::copy_n(other.packed(), PackedSize(dim_), packed());
+    kind_ = other.kind_;
+  }
+  return *this;
+}
+
+NoiseModel::NoiseModel(NoiseModel&& other) noexcept { *this = std::move(other); }
+
+NoiseModel& NoiseModel::operator=(NoiseModel&& other) noexcept {
+  if (this != &other) {
+    Free();
+    if (other.dim_ > kInlineDim) {
+      heap_ = std::exchange(other.heap_, nullptr);
+    } else {
+      std::copy_n(other.inline_, PackedSize(other.dim_), inline_);
+    }
+    dim_ = std::exchange(other.dim_, std::uint16_t{0});
+    kind_ = other.kind_;
+  }
+  return *this;
+}
+
+void NoiseModel::Allocate(int dim) {
+  dim_ = static_cast<std::uint16_t>(dim);
+  if (dim_ > kInlineDim) heap_ = new double[PackedSize(dim_)];
+}
+
+void NoiseModel::Free() {
+  if (dim_ > kInlineDim) delete[] heap_;
+  dim_ = 0;
+}
+
+Eigen::MatrixXd NoiseModel::sqrt_information() const {
+  Eigen::MatrixXd R = Eigen::MatrixXd::Zero(dim_, dim_);
+  const double* p = packed();
+  for (int c = 0; c < dim_; ++c) {
+    for (int r = 0; r <= c; ++r) R(r, c) = *p++;
+  }
+  return R;
+}
+
+Eigen::MatrixXd NoiseModel::Information() const {
+  const Eigen::MatrixXd R = sqrt_information();
+  return R.transpose() * R;
+}
 
 Eigen::MatrixXd NoiseModel::Covariance() const {
-  const Eigen::MatrixXd Rinv =
-      R_.triangularView<Eigen::Upper>().solve(Eigen::MatrixXd::Identity(dim(), dim()));
+  const Eigen::MatrixXd Rinv = sqrt_information().triangularView<Eigen::Upper>().solve(
+      Eigen::MatrixXd::Identity(dim(), dim()));
   return Rinv * Rinv.transpose();
 }
 
 Eigen::VectorXd NoiseModel::Sigmas() const { return Covariance().diagonal().cwiseSqrt(); }
 
+void NoiseModel::Whiten(const double* e, double* w) const {
+  std::fill_n(w, dim_, 0.0);
+  const double* p = packed();
+  for (int c = 0; c < dim_; ++c) {
+    for (int r = 0; r <= c; ++r) w[r] += *p++ * e[c];
+  }
+}
+
 double NoiseModel::SquaredMahalanobis(const Eigen::Ref<const Eigen::VectorXd>& e) const {
   SLAMD_DCHECK(e.size() == dim());
-  const Eigen::VectorXd w = R_.triangularView<Eigen::Upper>() * e;
+  if (dim_ <= kMaxResidualDim) {  // the common case: no heap
+    double w[kMaxResidualDim];
+    Whiten(e.data(), w);
+    return Eigen::Map<const Eigen::VectorXd>(w, dim_).squaredNorm();
+  }
+  Eigen::VectorXd w(dim_);
+  Whiten(e.data(), w.data());
   return w.squaredNorm();
 }
 
 bool NoiseModel::Equals(const NoiseModel& other, double tol) const {
-  return dim() == other.dim() && (R_ - other.R_).cwiseAbs().maxCoeff() <= tol;
+  if (dim_ != other.dim_) return false;
+  const double* a = packed();
+  const double* b = other.packed();
+  for (std::size_t i = 0; i < PackedSize(dim_); ++i) {
+    if (!(std::abs(a[i] - b[i]) <= tol)) return false;
+  }
+  return true;
 }
 
 }  // namespace slamd::core

@@ -146,7 +146,7 @@ Status WriteIsamFactor(const Factor& factor, std::size_t index, std::string* out
     const Point2& q = std::get<Point2>(*measured);
     internal::AppendNumbers({q.x(), q.y()}, &line);
   }
-  const NoiseModel::Matrix& R = factor.noise_model().sqrt_information();
+  const Eigen::MatrixXd R = factor.noise_model().sqrt_information();
   for (int r = 0; r < R.rows(); ++r) {
     for (int c = r; c < R.cols(); ++c) internal::AppendNumbers({R(r, c)}, &line);
   }

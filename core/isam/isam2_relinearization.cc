@@ -209,13 +209,11 @@ void Isam2::ProbeLinearizations(double threshold) {
     factor.EvaluateError(theta_, e);
     // d = √w·R·e − (b + A·δ), in plain loops: the blocks are a few rows, where Eigen's
     // dynamic-size kernels cost more in set-up than in arithmetic.
-    const auto& R = factor.noise_model().sqrt_information();
+    factor.noise_model().Whiten(e, d);
     const double w = probe_weights_[i];
     const double* ab = linear.data();  // [A_0 ... A_{p-1} b], column-major, m rows
     for (int row = 0; row < m; ++row) {
-      double whitened = 0.0;
-      for (int col = row; col < m; ++col) whitened += R(row, col) * e[col];
-      d[row] = w * whitened - ab[static_cast<std::size_t>(linear.Dim()) * m + row];
+      d[row] = w * d[row] - ab[static_cast<std::size_t>(linear.Dim()) * m + row];
     }
     for (int k = 0; k < linear.num_vars(); ++k) {
       const double* x = delta_.data() + offsets_[linear.var(k)];

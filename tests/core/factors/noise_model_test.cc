@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Cholesky>
 #include <random>
 #include <vector>
 
@@ -62,6 +63,41 @@ TEST(NoiseModelTest, WhitenFixedSize) {
   const Eigen::Matrix<double, 3, 2> expected_J = Eigen::MatrixXd(m.sqrt_information()) * J;
   m.WhitenInPlace(&J);
   EXPECT_TRUE((J - expected_J).isZero(1e-12));
+}
+
+// R is kept packed, inside the model up to dimension 3 and on the heap beyond: whitening, the
+// Mahalanobis distance, copies and moves give the same R at every dimension, against the dense
+// Cholesky factor of the information.
+TEST(NoiseModelTest, PackedRAtEveryDimension) {
+  std::mt19937 rng(8);
+  for (int n = 1; n <= 12; ++n) {
+    SCOPED_TRACE(n);
+    const Eigen::MatrixXd cov = testing::RandomSpd(rng, n);
+    const Eigen::MatrixXd R = Eigen::LLT<Eigen::MatrixXd>(cov.inverse()).matrixU();
+    const NoiseModel m = *NoiseModel::FromCovariance(cov);
+    ASSERT_EQ(m.dim(), n);
+    EXPECT_TRUE((m.sqrt_information() - R).isZero(1e-9 * R.norm()));
+    const Eigen::VectorXd e = Eigen::VectorXd::LinSpaced(n, -1.0, 2.0);
+    Eigen::VectorXd w(n);
+    m.Whiten(e.data(), w.data());
+    EXPECT_TRUE((w - R * e).isZero(1e-9 * (R * e).norm()));
+    EXPECT_NEAR(m.SquaredMahalanobis(e), e.dot(cov.inverse() * e),
+                1e-9 * e.squaredNorm() * R.squaredNorm());
+    NoiseModel copy = m;
+    EXPECT_TRUE(copy.Equals(m, 0.0));
+    NoiseModel other = NoiseModel::Unit(n == 4 ? 2 : 4);  // another size, inline or not
+    other = copy;
+    EXPECT_TRUE(other.Equals(m, 0.0));
+    const NoiseModel moved = std::move(copy);
+    EXPECT_TRUE(moved.Equals(m, 0.0));
+    EXPECT_EQ(moved.kind(), NoiseModel::Kind::kGaussian);
+    other = NoiseModel::Unit(n);
+    EXPECT_FALSE(other.Equals(m));
+    EXPECT_TRUE(other.Equals(NoiseModel::Unit(n), 0.0));
+  }
+  EXPECT_FALSE(NoiseModel::Unit(2).Equals(NoiseModel::Unit(3)));
+  // A 2D pose or point measurement's model allocates nothing beside itself.
+  EXPECT_LE(sizeof(NoiseModel), 6 * sizeof(double) + sizeof(double));
 }
 
 // WhitenInPlace multiplies by R densely: every constructor must leave R's strictly lower part
