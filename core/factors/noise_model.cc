@@ -16,6 +16,11 @@ Status CheckSquareFinite(const Eigen::MatrixXd& m, const char* what) {
                            std::to_string(m.cols()) + ", not square");
   }
   if (m.rows() < 1) return InvalidArgument(std::string(what) + " is empty");
+  if (m.rows() > NoiseModel::kMaxDim) {
+    return InvalidArgument(std::string(what) + " is " + std::to_string(m.rows()) + "x" +
+                           std::to_string(m.cols()) + ", larger than a noise model's " +
+                           std::to_string(NoiseModel::kMaxDim) + " dimensions");
+  }
   if (!m.allFinite()) return InvalidArgument(std::string(what) + " has a NaN or infinite entry");
   return Status::Ok();
 }
@@ -58,8 +63,9 @@ Result<NoiseModel> NoiseModel::FromCheckedInformation(Kind kind, const Eigen::Ma
 }
 
 Result<NoiseModel> NoiseModel::Isotropic(int dim, double sigma) {
-  if (dim < 1) {
-    return InvalidArgument("isotropic noise dimension " + std::to_string(dim) + " is not >= 1");
+  if (dim < 1 || dim > kMaxDim) {
+    return InvalidArgument("isotropic noise dimension " + std::to_string(dim) + " is not in 1.." +
+                           std::to_string(kMaxDim));
   }
   if (!(sigma > 0.0) || !std::isfinite(sigma)) {
     return InvalidArgument("isotropic sigma " + std::to_string(sigma) + " must be positive and finite");
@@ -69,6 +75,10 @@ Result<NoiseModel> NoiseModel::Isotropic(int dim, double sigma) {
 
 Result<NoiseModel> NoiseModel::Diagonal(const Eigen::VectorXd& sigmas) {
   if (sigmas.size() < 1) return InvalidArgument("diagonal noise has no sigmas");
+  if (sigmas.size() > kMaxDim) {
+    return InvalidArgument("diagonal noise has " + std::to_string(sigmas.size()) +
+                           " sigmas, more than a noise model's " + std::to_string(kMaxDim));
+  }
   for (int i = 0; i < sigmas.size(); ++i) {
     if (!(sigmas[i] > 0.0) || !std::isfinite(sigmas[i])) {
       std::ostringstream msg;

@@ -146,10 +146,16 @@ TEST(NoiseModelTest, RejectsBadInputWithReasons) {
   r = NoiseModel::FromInformation(Eigen::MatrixXd(0, 0));
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.status().message().find("empty"), std::string::npos);
-  // Any size is fine (a dense container factor's residual may be large).
+  // Any size up to kMaxDim is fine (a dense container factor's residual may be large).
   r = NoiseModel::FromInformation(Eigen::MatrixXd::Identity(17, 17));
   ASSERT_TRUE(r.ok());
   EXPECT_EQ(r->dim(), 17);
+  r = NoiseModel::Isotropic(NoiseModel::kMaxDim + 1, 1.0);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("65535"), std::string::npos) << r.status().ToString();
+  r = NoiseModel::Diagonal(Eigen::VectorXd::Ones(NoiseModel::kMaxDim + 1));
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("more than a noise model's 65535"), std::string::npos);
 
   Eigen::Matrix2d ill = Eigen::Matrix2d::Identity();
   ill(1, 1) = 1e-16;
