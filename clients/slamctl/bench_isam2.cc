@@ -13,6 +13,7 @@
 // what queued into one update, as slamd does: a floor for a server that runs the solver like this,
 // not for slamd.
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <set>
 
@@ -461,6 +462,18 @@ void RunIsam2Reconstruction(const BenchOptions& opt) {
   const double total_s = total.Seconds() - untimed_s;
   if (csv && std::fclose(csv) != 0) Fail(kExitFailure, "cannot write " + opt.step_times);
   const double cost = 0.5 * graph.Cost(isam.CalculateEstimate());
+  // The same graph at the values its cameras and points entered with: an estimate above it has
+  // diverged (Gauss-Newton on calibrations a few images determine), which the summary says.
+  const double initial_cost = 0.5 * graph.Cost(initial);
+  const bool diverged = std::isnan(cost) || cost > initial_cost;
+  if (diverged) {
+    std::fprintf(stderr,
+                 "slamctl bench: warning: the estimate after the last step costs more than the "
+                 "values it was given (%.6g > %.6g): the incremental solve diverged; refining "
+                 "calibrations camera by camera needs --trust-region --relinearize-skip 1 "
+                 "--drop-parallax 0.05, or hold them with --fixed-intrinsics\n",
+                 cost, initial_cost);
+  }
   const MemoryFigures memory = MemoryFigures::Measure(&isam);
   double settled_cost = cost;
   if (opt.settle_s > 0.0 && failure.empty()) {
@@ -492,7 +505,9 @@ void RunIsam2Reconstruction(const BenchOptions& opt) {
         .Add("step_ms_p50", Percentile(step_ms, 0.5))
         .Add("step_ms_p99", Percentile(step_ms, 0.99))
         .Add("step_ms_max", Percentile(step_ms, 1.0))
+        .Add("initial_cost", initial_cost)
         .Add("final_cost", cost)
+        .Add("diverged", diverged)
         .Add("settled_cost", settled_cost)
         .Add("peak_rss_mb", PeakRssMb())
         .Add("heap_peak_mb", memory.heap_peak / (1 << 20))
@@ -513,7 +528,10 @@ void RunIsam2Reconstruction(const BenchOptions& opt) {
       std::printf("dropped: %d points whose rays became parallel, %d observations\n",
                   stream->dropped_points(), observations_removed + stream->dropped_observations());
     }
-    std::printf("cost (½Σρ, px²) after the last step %.10g, settled %.10g", cost, settled_cost);
+    std::printf(
+        "cost (½Σρ, px²) at the values as entered %.10g, after the last step %.10g, "
+        "settled %.10g",
+        initial_cost, cost, settled_cost);
     if (opt.compare_batch) std::printf(", batch optimum %.10g", batch_cost);
     std::printf("; peak RSS %.1f MB\n", PeakRssMb());
     memory.Print();

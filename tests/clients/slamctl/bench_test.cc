@@ -274,6 +274,27 @@ TEST(BenchTest, BundleAdjustmentJsonAndOutput) {
   EXPECT_NE(bad.exit_code, 0);
 }
 
+// Ladybug-49 camera by camera with its calibrations refined by Gauss-Newton at the default
+// relinearisation skip diverges (each new camera's own calibration, seen by a few points): the
+// run says so, on standard error and in the JSON line, and names the options that hold it.
+TEST(BenchTest, Isam2SaysWhenAReconstructionDiverged) {
+  const std::string bal = std::string(SLAMD_SHARED_DATASETS) + "/bal/problem-49-7776-pre.txt";
+  if (!std::filesystem::exists(bal)) GTEST_SKIP() << bal << " not found";
+  const SlamctlRun refined = RunSlamctl("bench " + bal + " --solver isam2 --json");
+  ASSERT_EQ(refined.exit_code, 0) << refined.out;
+  EXPECT_GT(JsonNumber(refined.out, "final_cost"), JsonNumber(refined.out, "initial_cost"));
+  EXPECT_NE(refined.out.find("\"diverged\": true"), std::string::npos) << refined.out;
+  EXPECT_NE(refined.out.find("warning: the estimate after the last step costs more"),
+            std::string::npos)
+      << refined.out;
+  EXPECT_NE(refined.out.find("--fixed-intrinsics"), std::string::npos) << refined.out;
+  const SlamctlRun held = RunSlamctl("bench " + bal + " --solver isam2 --json --fixed-intrinsics");
+  ASSERT_EQ(held.exit_code, 0) << held.out;
+  EXPECT_LT(JsonNumber(held.out, "final_cost"), JsonNumber(held.out, "initial_cost"));
+  EXPECT_NE(held.out.find("\"diverged\": false"), std::string::npos) << held.out;
+  EXPECT_EQ(held.out.find("warning"), std::string::npos) << held.out;
+}
+
 // A COLMAP model with one camera for every image: its calibration refined once (focal lengths;
 // no skew, the principal point held) and the model written back as COLMAP reads it.
 TEST(BenchTest, BundleAdjustmentOfAColmapModelWithASharedCamera) {
@@ -345,6 +366,10 @@ TEST(BenchTest, ReconstructionAsAGraphForBatchAndIsam2) {
   EXPECT_EQ(JsonNumber(isam2.out, "steps"), 12.0);
   EXPECT_EQ(JsonNumber(isam2.out, "observations_in_graph"), JsonNumber(isam2.out, "observations"));
   EXPECT_GT(JsonNumber(isam2.out, "step_ms_p99"), 0.0);
+  // Against the graph at the values its cameras and points entered with (the file's).
+  EXPECT_LT(JsonNumber(isam2.out, "final_cost"), JsonNumber(isam2.out, "initial_cost"));
+  EXPECT_NE(isam2.out.find("\"diverged\": false"), std::string::npos) << isam2.out;
+  EXPECT_EQ(isam2.out.find("warning"), std::string::npos) << isam2.out;
   const double batch = JsonNumber(isam2.out, "batch_cost");
   EXPECT_NEAR(JsonNumber(isam2.out, "settled_cost"), batch, 1e-6 * batch);
   EXPECT_GE(JsonNumber(isam2.out, "final_cost"), batch * (1 - 1e-9));
