@@ -6,10 +6,12 @@
 #include <cstring>
 #include <memory>
 
+#include "tests/testing/glibc_malloc.h"
+
 namespace slamd::core {
 namespace {
 
-#ifdef __GLIBC__
+#if SLAMD_GLIBC_MALLOC
 // Once freed memory is kept for reuse, what the allocator holds is a high-water mark: a block
 // freed again still counts, as it still would in the peak RSS.
 TEST(MemoryUsageTest, AllocatorBytesKeepTheHighWaterMark) {

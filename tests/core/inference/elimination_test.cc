@@ -17,6 +17,7 @@
 
 #include "core/inference/consistency_check.h"
 #include "tests/core/inference/random_linear_system.h"
+#include "tests/testing/glibc_malloc.h"
 
 namespace slamd::core {
 namespace {
@@ -343,7 +344,7 @@ TEST(EliminationTest, ThreadsGiveTheSameTreeAndTheSameFailure) {
   }
 }
 
-#ifdef __GLIBC__
+#if SLAMD_GLIBC_MALLOC
 // Bytes in use in the malloc arenas other than the main one (glibc's malloc_stats, which prints
 // them per arena on standard error).
 std::size_t InUseOutsideTheMainArena() {
