@@ -57,19 +57,19 @@ void DynamicFactor::Linearize(const Values& values, LinearizedFactor* out) const
   Eigen::VectorXd e = Evaluate(Gather(values), &H);
   const int m = dim();
   SLAMD_CHECK(e.size() == m) << Name() << ": error of " << e.size() << " entries";
-  const Eigen::MatrixXd sqrt_information = noise_model().sqrt_information();
-  const auto R = sqrt_information.triangularView<Eigen::Upper>();
-  e = R * e;
-  const double scale = RobustScale(e.squaredNorm());
+  Eigen::VectorXd w(m);
+  noise_model().Whiten(e.data(), w.data());
+  const double scale = RobustScale(w.squaredNorm());
   std::vector<int> dims(keys().size());
   for (std::size_t k = 0; k < dims.size(); ++k) dims[k] = TangentDim(types_[k]);
   out->Reset(m, dims);
-  out->MutableRhs() = scale * e;
+  out->MutableRhs() = scale * w;
   for (std::size_t k = 0; k < dims.size(); ++k) {
     SLAMD_CHECK(H[k].rows() == m && H[k].cols() == dims[k])
         << Name() << ": Jacobian " << k << " is " << H[k].rows() << "x" << H[k].cols();
-    Eigen::MatrixXd whitened = R * H[k];
-    out->MutableBlock(static_cast<int>(k)) = scale * whitened;
+    Eigen::Map<Eigen::MatrixXd> block = out->MutableBlock(static_cast<int>(k));
+    for (int j = 0; j < dims[k]; ++j) noise_model().Whiten(H[k].col(j).data(), block.col(j).data());
+    block *= scale;
   }
 }
 

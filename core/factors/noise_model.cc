@@ -176,10 +176,7 @@ void NoiseModel::Free() {
 
 Eigen::MatrixXd NoiseModel::sqrt_information() const {
   Eigen::MatrixXd R = Eigen::MatrixXd::Zero(dim_, dim_);
-  const double* p = packed();
-  for (int c = 0; c < dim_; ++c) {
-    for (int r = 0; r <= c; ++r) R(r, c) = *p++;
-  }
+  UnpackInto(&R);
   return R;
 }
 

@@ -98,14 +98,19 @@ class NoiseModel {
   const double* packed() const { return dim_ > kInlineDim ? heap_ : inline_; }
   double* packed() { return dim_ > kInlineDim ? heap_ : inline_; }
 
+  // R's upper triangle written into the dim() x dim() `R` (its strictly lower part untouched).
+  template <typename Matrix>
+  void UnpackInto(Matrix* R) const {
+    const double* p = packed();
+    for (int c = 0; c < dim_; ++c) {
+      for (int r = 0; r <= c; ++r) (*R)(r, c) = *p++;
+    }
+  }
   template <int M>
   Eigen::Matrix<double, M, M> FixedR() const {
     SLAMD_DCHECK(M == dim_) << "whitening a " << M << "-vector with a " << dim_ << "-dim model";
     Eigen::Matrix<double, M, M> R = Eigen::Matrix<double, M, M>::Zero();
-    const double* p = packed();
-    for (int c = 0; c < M; ++c) {
-      for (int r = 0; r <= c; ++r) R(r, c) = *p++;
-    }
+    UnpackInto(&R);
     return R;
   }
 

@@ -291,9 +291,9 @@ void RunFailover(Fault fault, int faults, const char* tag) {
       client.Poll();  // what the failed leader sent: estimates from now on are the new one's
       if (fault == Fault::kPartition) {
         // A partitioned leader still hears the clients and may still publish what NATS took
-        // before the cut: only once the standby holds the lease are estimates the new leader's
-        // (an estimate of the old one's, 28 ms after the cut, once ended the partition before
-        // the lease could lapse, and the old leader, never deposed, did not exit).
+        // before the cut: only once the standby holds the lease are estimates the new leader's.
+        // Ended on an estimate of the old leader's, the partition could end before the lease
+        // lapsed, and the old leader, never deposed, would not exit.
         ASSERT_TRUE(client.PumpUntil([&] { return leader_index() == 1 - l; }, 30.0))
             << "the standby did not take the lease after the partition at step " << k;
         client.Poll();
