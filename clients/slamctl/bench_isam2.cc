@@ -329,21 +329,26 @@ void RunIsam2(const BenchOptions& opt) {
 constexpr double kMinCosFromAxis = 0.17;
 
 // The largest angle [deg] between the rays from `images`' camera centres to `point` at the
-// estimate, or -1 when the point is behind one of them or more than 80° off its axis.
+// estimate, or -1 when the point is behind one of them or more than 80° off its axis. `cameras`
+// holds the images' estimates of this step, indexed by image (read once per step, not once per
+// observation); `rays` is scratch.
 double RayParallaxDeg(const core::Isam2& isam, const core::ReconstructionStream& stream, int point,
-                      const std::vector<int>& images) {
+                      const std::vector<int>& images, const std::vector<core::Pose3>& cameras,
+                      std::vector<core::Vector3>* rays) {
   const core::Point3 X =
       std::get<core::Point3>(isam.CalculateEstimate(stream.keys().points[point]));
-  std::vector<core::Vector3> rays;
+  rays->clear();
   for (int i : images) {
-    const core::Pose3 pose = std::get<core::Pose3>(isam.CalculateEstimate(stream.keys().images[i]));
+    const core::Pose3& pose = cameras[i];
     const core::Point3 in_camera = pose.TransformTo(X);
     if (in_camera.z() <= kMinCosFromAxis * in_camera.norm()) return -1.0;
-    rays.push_back((X - pose.translation()).normalized());
+    rays->push_back((X - pose.translation()).normalized());
   }
   double min_cos = 1.0;
-  for (size_t a = 0; a < rays.size(); ++a) {
-    for (size_t c = a + 1; c < rays.size(); ++c) min_cos = std::min(min_cos, rays[a].dot(rays[c]));
+  for (size_t a = 0; a < rays->size(); ++a) {
+    for (size_t c = a + 1; c < rays->size(); ++c) {
+      min_cos = std::min(min_cos, (*rays)[a].dot((*rays)[c]));
+    }
   }
   return std::acos(std::clamp(min_cos, -1.0, 1.0)) * 180.0 / M_PI;
 }
@@ -411,6 +416,8 @@ void RunIsam2Reconstruction(const BenchOptions& opt) {
     std::fprintf(csv,
                  "step,points_entered,observations_entered,ms,relinearized,reeliminated,cost\n");
   }
+  std::vector<core::Pose3> cameras;  // the images' estimates, for the parallax check
+  std::vector<core::Vector3> rays;
   double untimed_s = 0.0;  // the CSV's costs, not part of the steps
   core::Stopwatch total;
   for (int i = 0; i < stream->num_steps(); ++i) {
@@ -432,10 +439,17 @@ void RunIsam2Reconstruction(const BenchOptions& opt) {
     // went behind a camera: out before their depth becomes indeterminate.
     std::string drop_failure;
     if (opt.drop_parallax_deg > 0.0) {
+      cameras.resize(r->images.size());
+      for (int k = 0; k < static_cast<int>(r->images.size()); ++k) {
+        const core::Key key = stream->keys().images[k];
+        if (isam.linearization_point().Contains(key)) {
+          cameras[k] = std::get<core::Pose3>(isam.CalculateEstimate(key));
+        }
+      }
       std::vector<int> degenerate;
       for (int j = 0; j < static_cast<int>(r->points.size()); ++j) {
-        if (stream->Droppable(j) &&
-            RayParallaxDeg(isam, *stream, j, stream->ImagesSeeing(j)) < opt.drop_parallax_deg) {
+        if (stream->Droppable(j) && RayParallaxDeg(isam, *stream, j, stream->ImagesSeeing(j),
+                                                   cameras, &rays) < opt.drop_parallax_deg) {
           degenerate.push_back(j);
         }
       }
