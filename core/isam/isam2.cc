@@ -219,18 +219,20 @@ FactorGraph Isam2::Factors() const {
 
 double Isam2::Chi2() const {
   CheckNoPendingSolve("Chi2");
-  return SumAt(&delta_, false);
-}
-
-double Isam2::SumAt(const Eigen::VectorXd* step, bool robust) const {
   // No copy of the factor graph: one pass over the live factors.
-  Values retracted;
-  const Values& at = step != nullptr ? (retracted = RetractedBy(*step)) : theta_;
+  const Values at = RetractedBy(delta_);
   double chi2 = 0.0;
   for (const FactorPtr& f : factors_) {
-    if (f) chi2 += robust ? f->Cost(at) : f->Chi2(at);
+    if (f) chi2 += f->Chi2(at);
   }
   return chi2;
+}
+
+double Isam2::CostAt(const Eigen::VectorXd* step) {
+  Values retracted;
+  const Values& at = step != nullptr ? (retracted = RetractedBy(*step)) : theta_;
+  return costs_.Sum(
+      at, factors_, [this](int f) { return FactorVars(f); }, &relin_pool_);
 }
 
 Isam2Result::TrustRegion Isam2::TrustRegionStep() {
@@ -252,7 +254,7 @@ Isam2Result::TrustRegion Isam2::TrustRegionStep() {
         ModelTermsOfPair(cliques, offsets_, start, gauss_newton, gradient_, &dogleg_scratch_);
     const double rg2 = model.bb;
     const double gain = model.Of(1.0, 0.0).Decrease();
-    const double cost_start = SumAt(start, true);
+    const double cost_start = CostAt(start);
     // The start at the model's minimum (g = 0), or nothing to gain beyond round-off: the
     // Gauss-Newton step, unjudged, since round-off would decide the comparison and shrink the
     // radius for nothing.
@@ -268,7 +270,7 @@ Isam2Result::TrustRegion Isam2::TrustRegionStep() {
       const double predicted = model.Of(w.on_gauss_newton, w.on_cauchy * to_cauchy).Decrease();
       const double step_norm = step_.norm();
       if (start != nullptr) step_ += *start;
-      const double actual = cost_start - SumAt(&step_, true);
+      const double actual = cost_start - CostAt(&step_);
       const double rho = predicted > 0.0 ? actual / predicted : -1.0;
       // Powell's rule (Nocedal & Wright, Alg. 4.1): grow on a good prediction at the boundary,
       // shrink on a poor one (a NaN ratio too, so that the loop ends).

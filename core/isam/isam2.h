@@ -20,8 +20,7 @@
 // indices) returns a status and changes nothing; a numerical failure (an indeterminate system,
 // e.g. a new robot with no prior, a landmark with a single bearing) returns a status naming a
 // variable and restores the solver to its state before the call: the estimate exactly, the tree
-// re-eliminated in its old order (the same factorisation to rounding), but for the linearisation-
-// error screen's per-factor caches, which only steer what a later check evaluates.
+// re-eliminated in its old order (the same factorisation to rounding), but for caches of work.
 //
 // Thread safety: not thread-safe; one thread drives a solver (the server's estimator thread).
 // Large steps use Isam2Params::threads internally; results do not depend on their number.
@@ -43,6 +42,7 @@
 #include "core/inference/jacobian_factor.h"
 #include "core/inference/node_removal.h"
 #include "core/inference/variable_index.h"
+#include "core/isam/factor_costs.h"
 #include "core/isam/isam2_params.h"
 #include "core/isam/isam2_result.h"
 #include "core/linear/ordering.h"
@@ -198,9 +198,8 @@ class Isam2 {
   // 9. Isam2Params::trust_region: replaces the Gauss-Newton δ by the dog-leg step (dogleg.h) that
   // lowers the (robust) cost below the cost at θ ⊕ start_ (else at θ), adapting radius_.
   Isam2Result::TrustRegion TrustRegionStep();
-  // Σ chi2 (robust: Σ cost, Factor::Cost) of the current factors at θ ⊕ step (at θ when step is
-  // null).
-  double SumAt(const Eigen::VectorXd* step, bool robust) const;
+  // Σ Factor::Cost at θ ⊕ step (at θ when null): the trust region's cost (factor_costs.h).
+  double CostAt(const Eigen::VectorXd* step);
   // θ ⊕ step (step in δ's layout).
   Values RetractedBy(const Eigen::VectorXd& step) const;
   // Restores the state before the current update (after a numerical failure).
@@ -237,6 +236,7 @@ class Isam2 {
   double radius_;                           // trust-region radius (Isam2Params::trust_region)
   Eigen::VectorXd start_, gauss_newton_, gradient_, cauchy_, step_;  // TrustRegionStep's
   std::vector<double> dogleg_scratch_;
+  FactorCosts costs_;                       // CostAt's
   std::vector<FactorPtr> factors_;          // by factor index; null once removed
   // Null slots free for a new factor, by its number of keys (the slot's share of
   // factor_var_ids_ is that long); each list used as a stack.

@@ -34,7 +34,7 @@ Isam2Memory Isam2::MemoryUse() const {
               Capacity(wildfire_.scratch) + Capacity(wildfire_.forced) +
               Capacity(wildfire_.visited) + Capacity(undo_.removed_factors) +
               Capacity(undo_.reused_slots) + Capacity(undo_.relinearized) + Capacity(undo_.theta) +
-              Capacity(undo_.delta) + Capacity(undo_.relinearized_factors);
+              Capacity(undo_.delta) + Capacity(undo_.relinearized_factors) + costs_.MemoryUse();
   return m;
 }
 

@@ -129,6 +129,7 @@ void Isam2::DropVariables(const std::vector<int>& dead) {
   }
   variable_index_.RenumberVariables(new_id, kept);
   tree_.RenumberVariables(new_id, kept);
+  costs_.Clear();
 }
 
 }  // namespace slamd::core

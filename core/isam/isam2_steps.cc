@@ -124,6 +124,7 @@ Status Isam2::AddFactors(const FactorGraph& new_factors, std::vector<int>* indic
       index = free_slots_[arity].back();
       free_slots_[arity].pop_back();
       factors_[index] = f;
+      costs_.Forget(index);
       curvature_[index] = -1.0f;
       int* ids = factor_var_ids_.data() + factor_var_begin_[index];
       for (Key key : f->keys()) *ids++ = theta_.SlotOf(key);
@@ -169,6 +170,7 @@ void Isam2::RemoveFactors(const std::vector<int>& indices, std::vector<int>* aff
     SLAMD_CHECK(removed.ok()) << removed.ToString();
     undo_.removed_factors.emplace_back(f, std::move(factors_[f]));
     factors_[f] = nullptr;
+    costs_.Forget(f);
   }
 }
 
