@@ -1,8 +1,13 @@
 #include "core/inference/chow_liu.h"
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
 #include <cmath>
+#include <initializer_list>
 #include <limits>
+#include <string>
+#include <utility>
 
 #include "core/base/check.h"
 #include "core/factors/linear_container_factor.h"
@@ -10,6 +15,12 @@
 namespace slamd::core {
 namespace {
 
+// An eigenvalue of the summary's information below this times its largest is a null direction.
+constexpr double kNullTolerance = 1e-10;
+// A variable whose tangent the null space's basis covers with singular values below this (of
+// at most 1) cannot be the root.
+constexpr double kMinSpan = 1e-6;
+// The prior given to null directions the root does not take.
 constexpr double kRegularization = 1e-9;
 
 // log det of a symmetric positive-definite block; -inf when it is not.
@@ -34,96 +45,163 @@ Result<std::vector<FactorPtr>> ChowLiuTree(const KeyVector& keys, const std::vec
                                            const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
   const int k = static_cast<int>(keys.size());
   SLAMD_CHECK(k >= 3 && x0.size() == keys.size()) << "ChowLiuTree of " << k << " variables";
-  std::vector<int> at{0};  // first column of each variable
+  std::vector<int> at{0};  // first column of each variable in δ
   for (const Variable& v : x0) at.push_back(at.back() + TangentDim(TypeOf(v)));
   const int n = at.back();
-  // The Gaussian: information Λ = AᵀA, mean μ minimising |Aδ + b|² (regularised).
-  Eigen::MatrixXd info = A.transpose() * A;
-  const double reg = kRegularization * std::max(info.diagonal().mean(), 1e-300);
-  info.diagonal().array() += reg;
+  const auto dim = [&](int i) { return at[i + 1] - at[i]; };
+  if (!A.allFinite() || !b.allFinite()) {
+    return FailedPrecondition("ChowLiuTree: the summary has non-finite entries");
+  }
+
+  // The gauge: in the null space V of Λ = AᵀA. The root is shifted out along it: with
+  // N = V V_r⁺ (N_r = I when V_r has full row rank) and AN = 0, δ = N δ_r + y on the other
+  // variables' y_i = δ_i − N_i δ_r, and the summary is |A_y y + b|² (A_y: A without the root's
+  // columns). The root is a variable of the largest tangent V spans (a pose, not a landmark:
+  // it takes the whole gauge), the best spanned among those.
+  const Eigen::MatrixXd full_info = A.transpose() * A;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(full_info);
+  const Eigen::VectorXd& lambda = eigen.eigenvalues();  // ascending
+  int nullity = 0;
+  while (nullity < n && lambda(nullity) <= kNullTolerance * lambda(n - 1)) ++nullity;
+  int root = -1;  // the shifted variable, or -1
+  Eigen::MatrixXd N;
+  if (nullity > 0) {
+    const Eigen::MatrixXd V = eigen.eigenvectors().leftCols(nullity);
+    double best_sigma = 0.0;
+    for (int i = 0; i < k; ++i) {
+      if (dim(i) > nullity || (root >= 0 && dim(i) < dim(root))) continue;
+      const double sigma = Eigen::JacobiSVD<Eigen::MatrixXd>(V.middleRows(at[i], dim(i)))
+                               .singularValues()
+                               .minCoeff();
+      if (sigma < kMinSpan) continue;
+      if (root < 0 || dim(i) > dim(root) || sigma > best_sigma) best_sigma = sigma, root = i;
+    }
+    if (root >= 0) {
+      const Eigen::MatrixXd Vr = V.middleRows(at[root], dim(root));
+      N = V * Vr.transpose() * (Vr * Vr.transpose()).inverse();
+    }
+  }
+  // The variables of the tree (all but the root) and their columns in y.
+  std::vector<int> var, col{0};
+  for (int i = 0; i < k; ++i) {
+    if (i == root) continue;
+    var.push_back(i);
+    col.push_back(col.back() + dim(i));
+  }
+  const int m = static_cast<int>(var.size());
+  Eigen::MatrixXd Ay(A.rows(), col.back());
+  for (int t = 0; t < m; ++t) {
+    Ay.middleCols(col[t], dim(var[t])) = A.middleCols(at[var[t]], dim(var[t]));
+  }
+  // What is left singular is not the gauge: directions the removed factors did not inform (a
+  // pose seen only through one landmark's range and bearing), each local to a few variables.
+  // They get kRegularization x the mean diagonal, a negligible prior.
+  Eigen::MatrixXd info = Ay.transpose() * Ay;
+  if (nullity > (root >= 0 ? dim(root) : 0)) {
+    info.diagonal().array() += kRegularization * std::max(info.diagonal().mean(), 1e-300);
+  }
   const Eigen::LLT<Eigen::MatrixXd> llt(info);
-  if (llt.info() != Eigen::Success || !info.allFinite()) {
+  if (llt.info() != Eigen::Success) {
     return FailedPrecondition("ChowLiuTree: the summary's information is not positive definite");
   }
-  const Eigen::VectorXd mean = llt.solve(-(A.transpose() * b));
-  const Eigen::MatrixXd cov = llt.solve(Eigen::MatrixXd::Identity(n, n));
+  const Eigen::VectorXd mean = llt.solve(-(Ay.transpose() * b));
+  const Eigen::MatrixXd cov = llt.solve(Eigen::MatrixXd::Identity(col.back(), col.back()));
   // A conditional given one variable holds at most the information the variable has given all
   // the others (Σ_{i|p}⁻¹ ⪯ Λii; on p, KᵀΣ_{i|p}⁻¹K ⪯ Λpp): a tree factor holding more is
-  // round-off of the regularised covariance (near-singular directions): the tree is refused.
-  const auto plausible = [&](int i, const Eigen::MatrixXd& w) {
-    const int d = at[i + 1] - at[i];
-    return w.squaredNorm() <= 1.01 * info.block(at[i], at[i], d, d).trace() + 1e-300;
+  // round-off (near-singular directions): the tree is refused.
+  const auto plausible = [&](int t, const Eigen::MatrixXd& w) {
+    const int d = col[t + 1] - col[t];
+    return w.squaredNorm() <= 1.01 * info.block(col[t], col[t], d, d).trace() + 1e-300;
   };
-  const auto block = [&](int i, int j) {
-    return cov.block(at[i], at[j], at[i + 1] - at[i], at[j + 1] - at[j]);
+  const auto block = [&](int s, int t) {
+    return cov.block(col[s], col[t], col[s + 1] - col[s], col[t + 1] - col[t]);
   };
 
-  // Maximum spanning tree of the mutual information I(i; j) = ½ (log|Σii| + log|Σjj| − log|Σ|)
-  // (Prim, O(k²) pairs), rooted at variable 0.
-  std::vector<double> log_det(k);
-  for (int i = 0; i < k; ++i) log_det[i] = LogDet(block(i, i));
-  const auto mutual_information = [&](int i, int j) {
-    const int di = at[i + 1] - at[i], dj = at[j + 1] - at[j];
-    Eigen::MatrixXd joint(di + dj, di + dj);
-    joint << block(i, i), block(i, j), block(j, i), block(j, j);
-    return 0.5 * (log_det[i] + log_det[j] - LogDet(joint));
+  // Maximum spanning tree of the mutual information I(s; t) = ½ (log|Σss| + log|Σtt| − log|Σ|)
+  // (Prim, O(m²) pairs), rooted at the first tree variable.
+  std::vector<double> log_det(m);
+  for (int t = 0; t < m; ++t) log_det[t] = LogDet(block(t, t));
+  const auto mutual_information = [&](int s, int t) {
+    const int ds = col[s + 1] - col[s], dt = col[t + 1] - col[t];
+    Eigen::MatrixXd joint(ds + dt, ds + dt);
+    joint << block(s, s), block(s, t), block(t, s), block(t, t);
+    return 0.5 * (log_det[s] + log_det[t] - LogDet(joint));
   };
-  std::vector<int> parent(k, -1);
-  std::vector<double> best(k, -std::numeric_limits<double>::infinity());
-  std::vector<char> in_tree(k, 0);
+  std::vector<int> parent(m, -1);
+  std::vector<double> best(m, -std::numeric_limits<double>::infinity());
+  std::vector<char> in_tree(m, 0);
   std::vector<int> order;  // tree order: every variable after its parent
   int next = 0;
-  for (int step = 0; step < k; ++step) {
+  for (int step = 0; step < m; ++step) {
     in_tree[next] = 1;
     order.push_back(next);
     int pick = -1;
-    for (int j = 0; j < k; ++j) {
-      if (in_tree[j]) continue;
+    for (int t = 0; t < m; ++t) {
+      if (in_tree[t]) continue;
       // Round-off can make a pair's determinant meaningless (NaN): it counts as no information,
       // and every variable gets a parent in the tree.
-      const double mi = mutual_information(next, j);
+      const double mi = mutual_information(next, t);
       const double weight = std::isnan(mi) ? -std::numeric_limits<double>::infinity() : mi;
-      if (parent[j] < 0 || weight > best[j]) best[j] = weight, parent[j] = next;
-      if (pick < 0 || best[j] > best[pick]) pick = j;
+      if (parent[t] < 0 || weight > best[t]) best[t] = weight, parent[t] = next;
+      if (pick < 0 || best[t] > best[pick]) pick = t;
     }
     next = pick;
   }
 
+  // A factor |Σ C_t y_t + rhs|² on tree variables, written on δ: y_t = δ_t − N_t δ_root adds
+  // −Σ C_t N_t on the root's columns.
   std::vector<FactorPtr> out;
-  const auto make = [&](KeyVector factor_keys, std::vector<Variable> points, Eigen::MatrixXd a,
-                        Eigen::VectorXd rhs) -> Status {
-    Result<FactorPtr> f = LinearContainerFactor::Create(std::move(factor_keys), std::move(points),
-                                                        std::move(a), std::move(rhs));
+  const auto make = [&](std::initializer_list<std::pair<int, Eigen::MatrixXd>> terms,
+                        const Eigen::VectorXd& rhs) -> Status {
+    KeyVector factor_keys;
+    std::vector<Variable> points;
+    const int rows = static_cast<int>(rhs.size());
+    int width = root >= 0 ? dim(root) : 0;
+    for (const auto& term : terms) width += dim(var[term.first]);
+    Eigen::MatrixXd a = Eigen::MatrixXd::Zero(rows, width);
+    int c = 0;
+    for (const auto& [t, C] : terms) {
+      factor_keys.push_back(keys[var[t]]);
+      points.push_back(x0[var[t]]);
+      a.middleCols(c, C.cols()) = C;
+      if (root >= 0) a.rightCols(dim(root)) -= C * N.middleRows(at[var[t]], C.cols());
+      c += static_cast<int>(C.cols());
+    }
+    if (root >= 0) {
+      factor_keys.push_back(keys[root]);
+      points.push_back(x0[root]);
+    }
+    Result<FactorPtr> f =
+        LinearContainerFactor::Create(std::move(factor_keys), std::move(points), std::move(a), rhs);
     if (!f.ok()) return f.status();
     out.push_back(std::move(f).value());
     return Status::Ok();
   };
-  // The root: its marginal, |W (δ_r − μ_r)|² with WᵀW = Σrr⁻¹.
+  // The tree's root: its marginal, |W (y_r − μ_r)|² with WᵀW = Σrr⁻¹.
   const int r = order[0];
-  const int dr = at[r + 1] - at[r];
+  const int dr = col[r + 1] - col[r];
   Result<Eigen::MatrixXd> w =
       SqrtInformation(Eigen::MatrixXd(block(r, r)).llt().solve(Eigen::MatrixXd::Identity(dr, dr)));
   if (!w.ok()) return w.status();
   if (!plausible(r, *w)) return FailedPrecondition("ChowLiuTree: the root's marginal is round-off");
-  SLAMD_RETURN_IF_ERROR(make({keys[r]}, {x0[r]}, *w, -(*w) * mean.segment(at[r], dr)));
-  // Each edge: p(x_i | x_p) = N(μ_i + K (δ_p − μ_p), Σii − K Σpi), K = Σip Σpp⁻¹, as
-  // |W (δ_i − K δ_p − c)|² with c = μ_i − K μ_p and WᵀW the conditional's information.
-  for (std::size_t t = 1; t < order.size(); ++t) {
-    const int i = order[t], p = parent[i];
-    const int di = at[i + 1] - at[i], dp = at[p + 1] - at[p];
+  SLAMD_RETURN_IF_ERROR(make({{r, *w}}, -(*w) * mean.segment(col[r], dr)));
+  // Each edge: p(y_i | y_p) = N(μ_i + K (y_p − μ_p), Σii − K Σpi), K = Σip Σpp⁻¹, as
+  // |W (y_i − K y_p − c)|² with c = μ_i − K μ_p and WᵀW the conditional's information.
+  for (std::size_t s = 1; s < order.size(); ++s) {
+    const int i = order[s], p = parent[i];
+    const int di = col[i + 1] - col[i];
     const Eigen::MatrixXd pp = block(p, p);
     const Eigen::MatrixXd K = pp.llt().solve(Eigen::MatrixXd(block(p, i))).transpose();
     const Eigen::MatrixXd conditional = block(i, i) - K * block(p, i);
     w = SqrtInformation(conditional.llt().solve(Eigen::MatrixXd::Identity(di, di)));
     if (!w.ok()) return w.status();
     if (!plausible(i, *w) || !plausible(p, (*w) * K)) {
-      return FailedPrecondition("ChowLiuTree: the conditional of " + KeyToString(keys[i]) +
+      return FailedPrecondition("ChowLiuTree: the conditional of " + KeyToString(keys[var[i]]) +
                                 " is round-off");
     }
-    Eigen::MatrixXd edge(di, di + dp);
-    edge << *w, -(*w) * K;
-    const Eigen::VectorXd c = mean.segment(at[i], di) - K * mean.segment(at[p], dp);
-    SLAMD_RETURN_IF_ERROR(make({keys[i], keys[p]}, {x0[i], x0[p]}, edge, -(*w) * c));
+    const Eigen::VectorXd c =
+        mean.segment(col[i], di) - K * mean.segment(col[p], col[p + 1] - col[p]);
+    SLAMD_RETURN_IF_ERROR(make({{i, *w}, {p, -(*w) * K}}, -(*w) * c));
   }
   return out;
 }

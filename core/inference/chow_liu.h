@@ -7,10 +7,14 @@
 // one factor per edge, p(x_i | x_parent). Every variable's marginal (mean and covariance) and
 // every edge's joint marginal are those of the dense summary; the couplings off the tree are
 // dropped.
-// The summary of relative measurements has no information along the global frame (its
-// information matrix is singular): the covariance is taken of the information plus
-// kRegularization x its mean diagonal on the diagonal, which the root's unary factor carries
-// (information ~1e-9 of the summary's in those directions).
+// A summary of relative measurements only has no information along the global frame (its
+// information matrix is singular). The tree is then made in the frame of one blanket variable
+// (the "root shift" of generic linear constraints), a pose whose tangent spans the null space
+// V: with N = V V_r⁺ (N_r = I), the others become y_i = δ_i − N_i δ_r, whose information is
+// regular, the tree keeps every y_i's marginal, and each of its factors also touches the root,
+// so nothing is added along the gauge. Null directions the root does not take (a blanket pose
+// the removed factors saw only through a landmark's range and bearing; a scale) get a prior of
+// 1e-9 x the mean information.
 #pragma once
 
 #include <Eigen/Core>
@@ -22,10 +26,11 @@
 namespace slamd::core {
 
 // The tree of the dense summary |A·δ + b|² on `keys` at `x0` (as a LinearContainerFactor holds
-// it): LinearContainerFactors on one or two of the keys at the same linearisation point, root
-// first; at least 3 keys. FailedPrecondition when the regularised information is not positive
-// definite (non-finite entries), or a tree factor would hold more information than the summary
-// gives its variable (round-off where the summary is nearly singular): keep the dense one then.
+// it): LinearContainerFactors at the same linearisation point, the tree's root first, each on
+// one or two of the keys plus the shifted root if there is one (then k − 1 factors for k keys,
+// else k); at least 3 keys. FailedPrecondition when the information is not positive definite,
+// or a tree factor would hold more information than the summary gives its variable (round-off
+// where the summary is nearly singular): keep the dense one then.
 Result<std::vector<FactorPtr>> ChowLiuTree(const KeyVector& keys, const std::vector<Variable>& x0,
                                            const Eigen::MatrixXd& A, const Eigen::VectorXd& b);
 

@@ -1,12 +1,13 @@
 // The Chow-Liu tree of a node-removal summary (core/inference/chow_liu.h) against the dense
-// summary: one factor per blanket variable, on at most two of them, and every variable's
-// marginal covariance and mean the dense summary's (to the regularisation's 1e-9 scale).
+// summary: every variable's marginal covariance and mean the dense summary's, and far fewer
+// couplings.
 #include "core/inference/chow_liu.h"
 
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 
 #include "core/factors/linearized_factor.h"
 #include "core/inference/node_removal.h"
@@ -63,22 +64,102 @@ TEST(ChowLiuTest, TreeKeepsEveryMarginalOfTheDenseSummary) {
 }
 
 // Relative measurements only (no prior among the removed): the summary's information is
-// singular along the global frame; the tree is still finite and one factor per variable, and
-// with the dense summary's gauge fixed the same way both give the same blanket means.
-TEST(ChowLiuTest, SummaryOfRelativeMeasurementsOnly) {
+// singular along the global frame. The tree is made in one blanket variable's frame: each
+// factor also touches that root, the tree adds nothing along the dense summary's null space, and
+// with the root held (the gauge fixed the same way in both) every other variable's marginal
+// covariance and mean are the dense summary's.
+TEST(ChowLiuTest, SummaryOfRelativeMeasurementsIsShiftedToARoot) {
+  const ::slamd::testing::ExampleProblem p = ::slamd::testing::MakePlanarProblem(20, 4, 10);
+  const KeyVector removed = {MakeKey('x', 3), MakeKey('x', 4), MakeKey('x', 5), MakeKey('x', 6)};
+  const NodeRemoval r = MarginalizeOut(p.graph.factors(), p.initial, removed,
+                                       {.form = NodeRemovalParams::Form::kChowLiu})
+                            .value();
+  const int k = static_cast<int>(r.blanket.size());
+  ASSERT_GE(k, 5);
+  ASSERT_EQ(static_cast<int>(r.summary.size()), k - 1);
+  // The root: the one key every tree factor has.
+  int root = -1, common = 0;
+  for (int i = 0; i < k; ++i) {
+    if (std::all_of(r.summary.begin(), r.summary.end(), [&](const FactorPtr& f) {
+          return std::find(f->keys().begin(), f->keys().end(), r.blanket[i]) != f->keys().end();
+        })) {
+      root = i;
+      ++common;
+    }
+  }
+  ASSERT_EQ(common, 1);
+  for (const FactorPtr& f : r.summary) EXPECT_LE(f->keys().size(), 3u);
+  const testing::DenseSystem dense = testing::Dense({r.marginal}, p.initial, r.blanket);
+  const testing::DenseSystem tree = testing::Dense(r.summary, p.initial, r.blanket);
+  const std::vector<int>& at = dense.column;
+  const int n = at.back();
+  // The gauge: the dense summary's null space, 3-dimensional (a planar frame), which the tree
+  // leaves empty.
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(dense.H);
+  const double top = eigen.eigenvalues()(n - 1);
+  ASSERT_LT(eigen.eigenvalues()(2), 1e-10 * top);
+  ASSERT_GT(eigen.eigenvalues()(3), 1e-6 * top);
+  const Eigen::MatrixXd null = eigen.eigenvectors().leftCols(3);
+  EXPECT_LT((tree.H * null).cwiseAbs().maxCoeff(), 1e-8 * top);
+  EXPECT_LT((tree.g.transpose() * null).cwiseAbs().maxCoeff(), 1e-8 * dense.g.norm() + 1e-12);
+  // The root held: the rest of both systems.
+  std::vector<int> keep;
+  for (int i = 0; i < k; ++i) {
+    for (int c = at[i]; c < at[i + 1] && i != root; ++c) keep.push_back(c);
+  }
+  const auto reduced = [&](const testing::DenseSystem& s, Eigen::MatrixXd* cov,
+                           Eigen::VectorXd* mean) {
+    const int m = static_cast<int>(keep.size());
+    Eigen::MatrixXd h(m, m);
+    Eigen::VectorXd g(m);
+    for (int a = 0; a < m; ++a) {
+      g(a) = s.g(keep[a]);
+      for (int c = 0; c < m; ++c) h(a, c) = s.H(keep[a], keep[c]);
+    }
+    *cov = h.inverse();
+    *mean = h.ldlt().solve(-g);
+  };
+  Eigen::MatrixXd dense_cov, tree_cov;
+  Eigen::VectorXd dense_mean, tree_mean;
+  reduced(dense, &dense_cov, &dense_mean);
+  reduced(tree, &tree_cov, &tree_mean);
+  for (int i = 0, a = 0; i < k; ++i) {
+    if (i == root) continue;
+    const int d = at[i + 1] - at[i];
+    const Eigen::MatrixXd c = dense_cov.block(a, a, d, d);
+    EXPECT_LT((tree_cov.block(a, a, d, d) - c).cwiseAbs().maxCoeff(),
+              1e-6 * c.cwiseAbs().maxCoeff())
+        << KeyToString(r.blanket[i]);
+    EXPECT_LT((tree_mean.segment(a, d) - dense_mean.segment(a, d)).cwiseAbs().maxCoeff(), 1e-6)
+        << KeyToString(r.blanket[i]);
+    a += d;
+  }
+}
+
+// A landmark removed with the poses: a pose that saw it elsewhere gets a range and bearing from
+// the summary and nothing else, so the summary is singular beyond the gauge. The tree is still
+// finite and shifted to a root, and adds next to nothing along the summary's null space.
+TEST(ChowLiuTest, NullDirectionsBeyondTheGaugeGetANegligiblePrior) {
   const ::slamd::testing::ExampleProblem p = ::slamd::testing::MakePlanarProblem(20, 4, 14);
   const KeyVector removed = {MakeKey('x', 7), MakeKey('x', 8), MakeKey('l', 1)};
   const NodeRemoval r = MarginalizeOut(p.graph.factors(), p.initial, removed,
                                        {.form = NodeRemovalParams::Form::kChowLiu})
                             .value();
-  ASSERT_GE(r.blanket.size(), 3u);
-  ASSERT_EQ(r.summary.size(), r.blanket.size());
-  LinearizedFactor lf;
-  for (const FactorPtr& f : r.summary) {
-    f->Linearize(p.initial, &lf);
-    EXPECT_TRUE(lf.Rhs().allFinite());
-    for (int k = 0; k < lf.num_keys(); ++k) EXPECT_TRUE(lf.Block(k).allFinite());
-  }
+  const int k = static_cast<int>(r.blanket.size());
+  ASSERT_EQ(static_cast<int>(r.summary.size()), k - 1);
+  const testing::DenseSystem dense = testing::Dense({r.marginal}, p.initial, r.blanket);
+  const testing::DenseSystem tree = testing::Dense(r.summary, p.initial, r.blanket);
+  const int n = dense.column.back();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(dense.H);
+  const double top = eigen.eigenvalues()(n - 1);
+  int nullity = 0;
+  while (eigen.eigenvalues()(nullity) < 1e-10 * top) ++nullity;
+  ASSERT_GT(nullity, 3);
+  ASSERT_TRUE(tree.H.allFinite() && tree.g.allFinite());
+  const Eigen::MatrixXd null = eigen.eigenvectors().leftCols(nullity);
+  EXPECT_LT((null.transpose() * tree.H * null).norm(), 1e-7 * top);
+  // Elsewhere it is no weaker than the summary: about as much information in total.
+  EXPECT_GT(tree.H.trace(), 0.5 * dense.H.trace());
 }
 
 }  // namespace
