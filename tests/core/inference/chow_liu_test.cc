@@ -17,6 +17,25 @@
 namespace slamd::core {
 namespace {
 
+// The marginal covariance and mean of every variable (blocks at `column`, named by `keys`) under
+// the dense summary's system and the tree's agree.
+void ExpectSameMarginals(const Eigen::MatrixXd& dense_h, const Eigen::VectorXd& dense_g,
+                         const Eigen::MatrixXd& tree_h, const Eigen::VectorXd& tree_g,
+                         const std::vector<int>& column, const KeyVector& keys) {
+  const Eigen::MatrixXd dense_cov = dense_h.inverse(), tree_cov = tree_h.inverse();
+  const Eigen::VectorXd dense_mean = dense_h.ldlt().solve(-dense_g);
+  const Eigen::VectorXd tree_mean = tree_h.ldlt().solve(-tree_g);
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    const int a = column[i], d = column[i + 1] - column[i];
+    const Eigen::MatrixXd c = dense_cov.block(a, a, d, d);
+    EXPECT_LT((tree_cov.block(a, a, d, d) - c).cwiseAbs().maxCoeff(),
+              1e-6 * c.cwiseAbs().maxCoeff())
+        << KeyToString(keys[i]);
+    EXPECT_LT((tree_mean.segment(a, d) - dense_mean.segment(a, d)).cwiseAbs().maxCoeff(), 1e-6)
+        << KeyToString(keys[i]);
+  }
+}
+
 TEST(ChowLiuTest, TreeKeepsEveryMarginalOfTheDenseSummary) {
   const ::slamd::testing::ExampleProblem p = ::slamd::testing::MakePlanarProblem(20, 4, 13);
   // x0 carries the prior: the summary determines every blanket variable (checked below).
@@ -39,18 +58,7 @@ TEST(ChowLiuTest, TreeKeepsEveryMarginalOfTheDenseSummary) {
   const Eigen::VectorXd &dense_g = dense.g, &tree_g = tree.g;
   ASSERT_GT(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(dense_h).eigenvalues().minCoeff(),
             1e-6 * dense_h.diagonal().maxCoeff());
-  const Eigen::MatrixXd dense_cov = dense_h.inverse(), tree_cov = tree_h.inverse();
-  const Eigen::VectorXd dense_mean = dense_h.ldlt().solve(-dense_g);
-  const Eigen::VectorXd tree_mean = tree_h.ldlt().solve(-tree_g);
-  for (std::size_t i = 0; i < r.blanket.size(); ++i) {
-    const int a = at[i], d = at[i + 1] - at[i];
-    const Eigen::MatrixXd c = dense_cov.block(a, a, d, d);
-    EXPECT_LT((tree_cov.block(a, a, d, d) - c).cwiseAbs().maxCoeff(),
-              1e-6 * c.cwiseAbs().maxCoeff())
-        << KeyToString(r.blanket[i]);
-    EXPECT_LT((tree_mean.segment(a, d) - dense_mean.segment(a, d)).cwiseAbs().maxCoeff(), 1e-6)
-        << KeyToString(r.blanket[i]);
-  }
+  ExpectSameMarginals(dense_h, dense_g, tree_h, tree_g, at, r.blanket);
   // Sparser: the tree couples fewer pairs than the dense summary (all of them).
   int coupled = 0;
   for (std::size_t i = 0; i < r.blanket.size(); ++i) {
@@ -103,37 +111,25 @@ TEST(ChowLiuTest, SummaryOfRelativeMeasurementsIsShiftedToARoot) {
   EXPECT_LT((tree.H * null).cwiseAbs().maxCoeff(), 1e-8 * top);
   EXPECT_LT((tree.g.transpose() * null).cwiseAbs().maxCoeff(), 1e-8 * dense.g.norm() + 1e-12);
   // The root held: the rest of both systems.
-  std::vector<int> keep;
+  std::vector<int> keep, column{0};
+  KeyVector others;
   for (int i = 0; i < k; ++i) {
-    for (int c = at[i]; c < at[i + 1] && i != root; ++c) keep.push_back(c);
-  }
-  const auto reduced = [&](const testing::DenseSystem& s, Eigen::MatrixXd* cov,
-                           Eigen::VectorXd* mean) {
-    const int m = static_cast<int>(keep.size());
-    Eigen::MatrixXd h(m, m);
-    Eigen::VectorXd g(m);
-    for (int a = 0; a < m; ++a) {
-      g(a) = s.g(keep[a]);
-      for (int c = 0; c < m; ++c) h(a, c) = s.H(keep[a], keep[c]);
-    }
-    *cov = h.inverse();
-    *mean = h.ldlt().solve(-g);
-  };
-  Eigen::MatrixXd dense_cov, tree_cov;
-  Eigen::VectorXd dense_mean, tree_mean;
-  reduced(dense, &dense_cov, &dense_mean);
-  reduced(tree, &tree_cov, &tree_mean);
-  for (int i = 0, a = 0; i < k; ++i) {
     if (i == root) continue;
-    const int d = at[i + 1] - at[i];
-    const Eigen::MatrixXd c = dense_cov.block(a, a, d, d);
-    EXPECT_LT((tree_cov.block(a, a, d, d) - c).cwiseAbs().maxCoeff(),
-              1e-6 * c.cwiseAbs().maxCoeff())
-        << KeyToString(r.blanket[i]);
-    EXPECT_LT((tree_mean.segment(a, d) - dense_mean.segment(a, d)).cwiseAbs().maxCoeff(), 1e-6)
-        << KeyToString(r.blanket[i]);
-    a += d;
+    for (int c = at[i]; c < at[i + 1]; ++c) keep.push_back(c);
+    column.push_back(static_cast<int>(keep.size()));
+    others.push_back(r.blanket[i]);
   }
+  const auto rest = [&](const testing::DenseSystem& s) {
+    const int m = static_cast<int>(keep.size());
+    testing::DenseSystem out{.H = Eigen::MatrixXd(m, m), .g = Eigen::VectorXd(m)};
+    for (int a = 0; a < m; ++a) {
+      out.g(a) = s.g(keep[a]);
+      for (int c = 0; c < m; ++c) out.H(a, c) = s.H(keep[a], keep[c]);
+    }
+    return out;
+  };
+  const testing::DenseSystem dense_rest = rest(dense), tree_rest = rest(tree);
+  ExpectSameMarginals(dense_rest.H, dense_rest.g, tree_rest.H, tree_rest.g, column, others);
 }
 
 // A landmark removed with the poses: a pose that saw it elsewhere gets a range and bearing from
