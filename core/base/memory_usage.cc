@@ -3,6 +3,7 @@
 #include <malloc.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 
 namespace slamd::core {
@@ -29,6 +30,19 @@ std::int64_t AllocatorBytes() {
 void KeepFreedMemoryForReuse() {
   ::mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's largest
   ::mallopt(M_TRIM_THRESHOLD, 1 << 30);
+}
+
+bool TrimFreedMemoryBeyondUse(std::int64_t slack_bytes) {
+#ifdef __GLIBC__
+  const struct mallinfo2 info = ::mallinfo2();
+  const auto in_use = static_cast<std::int64_t>(info.uordblks + info.hblkhd);
+  if (ResidentBytes() - in_use <= std::max(in_use / 2, slack_bytes)) return false;
+  ::malloc_trim(0);
+  return true;
+#else
+  (void)slack_bytes;
+  return false;
+#endif
 }
 
 }  // namespace slamd::core

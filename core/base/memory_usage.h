@@ -24,4 +24,11 @@ std::int64_t AllocatorBytes();
 // itself at rest (Isam2::TrimMemory: malloc_trim). For executables, once at start-up.
 void KeepFreedMemoryForReuse();
 
+// For a process that never rests (a lifelong stream leaves Isam2::TrimMemory no idle time):
+// gives freed memory back to the kernel (malloc_trim) when the resident set exceeds what the
+// allocator has in use by more than half of that and `slack_bytes`, so that what
+// KeepFreedMemoryForReuse keeps stays in proportion to the live heap. Returns whether it
+// trimmed. Takes the allocator's locks: for a thread off the hot path.
+bool TrimFreedMemoryBeyondUse(std::int64_t slack_bytes = std::int64_t{64} << 20);
+
 }  // namespace slamd::core

@@ -4,6 +4,7 @@
 
 #include <utility>
 
+#include "core/base/memory_usage.h"
 #include "core/base/thread_name.h"
 #include "core/base/timing.h"
 #include "server/journal/snapshot_file.h"
@@ -42,6 +43,9 @@ void SnapshotWriter::Run() {
     lock.unlock();  // job_ is this thread's until reset: Write hands over the next after Join
     WriteNow(*job_);
     job_->state.reset();  // the state is let go here, outside the lock
+    // A stream that never lets the estimator rest never trims (Refine): what the allocator
+    // keeps beyond the live heap goes back here, every snapshot.
+    core::TrimFreedMemoryBeyondUse();
     lock.lock();
     job_.reset();
     busy_ = false;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <utility>
 
+#include "core/base/memory_usage.h"
 #include "core/base/thread_name.h"
 #include "core/factors/factor_registry.h"
 #include "server/messages/frame_observations.h"
@@ -133,13 +134,15 @@ core::Result<bool> Estimator::FinishRebuild(std::span<const int> replay_rounds) 
   last_swap_rounds_ = r.rounds;
   // The old solver and its marginals are freed on a helper thread: thousands of blocks, up to
   // 3.5 ms on victoriaPark, which the next message would wait for. (The marginals first: they
-  // point to the solver.)
+  // point to the solver.) A stream that never lets the estimator rest never trims its memory
+  // (Refine), so the helper gives back what the allocator keeps beyond the live heap.
   if (retire_thread_.joinable()) retire_thread_.join();
   retire_thread_ =
       std::thread([old = std::move(isam_), marginals = std::move(marginals_)]() mutable {
         core::NameThisThread("slamd-retire");
         marginals.reset();
         old.reset();
+        core::TrimFreedMemoryBeyondUse();
       });
   isam_ = std::move(r.solver);
   marginals_ = std::make_unique<core::Isam2Marginals>(

@@ -5,6 +5,7 @@
 
 #include <cstring>
 #include <memory>
+#include <vector>
 
 #include "tests/testing/glibc_malloc.h"
 
@@ -16,15 +17,37 @@ namespace {
 // freed again still counts, as it still would in the peak RSS.
 TEST(MemoryUsageTest, AllocatorBytesKeepTheHighWaterMark) {
   KeepFreedMemoryForReuse();
-  const std::int64_t before = AllocatorBytes();
   constexpr std::size_t kBlock = 24 << 20;  // below the 32 MiB served by mapping a block alone
+  std::int64_t held = 0;
   {
     std::unique_ptr<char[]> block(new char[kBlock]);
     std::memset(block.get(), 1, kBlock);
-    EXPECT_GE(AllocatorBytes(), before + static_cast<std::int64_t>(kBlock));
+    // (Earlier tests in the same process may have left the heap room for it: not "before +".)
+    held = AllocatorBytes();
+    EXPECT_GE(held, static_cast<std::int64_t>(kBlock));
   }
-  EXPECT_GE(AllocatorBytes(), before + static_cast<std::int64_t>(kBlock));
+  EXPECT_GE(AllocatorBytes(), held);
   EXPECT_GT(ResidentBytes(), static_cast<std::int64_t>(kBlock));
+}
+
+// What is kept for reuse goes back to the kernel once it outweighs what is in use, and only
+// then: 160 MiB of blocks in use are left alone, and once freed their pages leave the resident
+// set.
+TEST(MemoryUsageTest, FreedMemoryBeyondUseGoesBack) {
+  KeepFreedMemoryForReuse();
+  constexpr std::size_t kBlock = 1 << 20, kBlocks = 160;
+  constexpr std::int64_t kSlack = 16 << 20, kAll = kBlock * kBlocks;
+  std::vector<std::unique_ptr<char[]>> blocks;
+  for (std::size_t i = 0; i < kBlocks; ++i) {
+    blocks.emplace_back(new char[kBlock]);
+    std::memset(blocks.back().get(), 1, kBlock);
+  }
+  EXPECT_FALSE(TrimFreedMemoryBeyondUse(kSlack));
+  blocks.clear();
+  const std::int64_t held = ResidentBytes();
+  EXPECT_TRUE(TrimFreedMemoryBeyondUse(kSlack));
+  EXPECT_LT(ResidentBytes(), held - kAll / 2);
+  EXPECT_FALSE(TrimFreedMemoryBeyondUse(kSlack));  // nothing left to give back
 }
 #endif
 
