@@ -7,6 +7,7 @@
 #include <initializer_list>
 #include <limits>
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include "core/base/check.h"
@@ -22,6 +23,10 @@ constexpr double kNullTolerance = 1e-10;
 constexpr double kMinSpan = 1e-6;
 // The prior given to null directions the root does not take.
 constexpr double kRegularization = 1e-9;
+// |AN| below this x |A||N|: the summary does not see the root's rigid motion.
+constexpr double kRigidTolerance = 1e-8;
+// TreeEdgeFrame::kParent: an edge factor drops a term below this x the scale of its coupling.
+constexpr double kEdgeTolerance = 0.05;
 
 // log det of a symmetric positive-definite block; -inf when it is not.
 double LogDet(const Eigen::MatrixXd& m) {
@@ -39,10 +44,47 @@ Result<Eigen::MatrixXd> SqrtInformation(const Eigen::MatrixXd& info) {
   return Eigen::MatrixXd(llt.matrixU());
 }
 
+// N (n x TangentDim(root)) of the rigid motion of every variable with a pose root: δ = N δ_r
+// moves each by the root's right perturbation δ_r in its frame (N_r = I), read off the
+// root-relative form's Jacobian at x0 (its coordinates y_i have ∂y_i/∂δ_r = −N_i there). Empty
+// when the root is no pose or a variable cannot be taken relative to it.
+Eigen::MatrixXd RigidMotionOfRoot(const KeyVector& keys, const std::vector<Variable>& x0, int root,
+                                  const std::vector<int>& at) {
+  const int k = static_cast<int>(keys.size());
+  const int n = at.back(), dr = at[root + 1] - at[root];
+  KeyVector order;
+  std::vector<Variable> values;
+  for (int i = 0; i < k; ++i) {
+    if (i != root) order.push_back(keys[i]), values.push_back(x0[i]);
+  }
+  order.push_back(keys[root]);
+  values.push_back(x0[root]);
+  Result<FactorPtr> probe = LinearContainerFactor::CreateRootRelative(
+      order, values, Eigen::MatrixXd::Identity(n - dr, n - dr), Eigen::VectorXd::Zero(n - dr));
+  if (!probe.ok()) return {};
+  std::vector<const Variable*> x;
+  for (const Variable& v : values) x.push_back(&v);
+  std::vector<Eigen::MatrixXd> H(values.size());
+  static_cast<const LinearContainerFactor&>(**probe).Evaluate(x, &H);
+  Eigen::MatrixXd N(n, dr);
+  for (int i = 0, row = 0; i < k; ++i) {
+    if (i == root) {
+      N.middleRows(at[i], dr).setIdentity();
+      continue;
+    }
+    const int d = at[i + 1] - at[i];
+    N.middleRows(at[i], d) = -H.back().middleRows(row, d);
+    row += d;
+  }
+  return N;
+}
+
 }  // namespace
 
 Result<std::vector<FactorPtr>> ChowLiuTree(const KeyVector& keys, const std::vector<Variable>& x0,
-                                           const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
+                                           const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
+                                           std::span<const char> preferred,
+                                           TreeEdgeFrame edge_frame) {
   const int k = static_cast<int>(keys.size());
   SLAMD_CHECK(k >= 3 && x0.size() == keys.size()) << "ChowLiuTree of " << k << " variables";
   std::vector<int> at{0};  // first column of each variable in δ
@@ -65,20 +107,30 @@ Result<std::vector<FactorPtr>> ChowLiuTree(const KeyVector& keys, const std::vec
   while (nullity < n && lambda(nullity) <= kNullTolerance * lambda(n - 1)) ++nullity;
   int root = -1;  // the shifted variable, or -1
   Eigen::MatrixXd N;
+  bool relative = false;  // the tree's factors in the root-relative form
   if (nullity > 0) {
     const Eigen::MatrixXd V = eigen.eigenvectors().leftCols(nullity);
-    double best_sigma = 0.0;
+    std::tuple<int, bool, double> best{0, false, 0.0};
     for (int i = 0; i < k; ++i) {
-      if (dim(i) > nullity || (root >= 0 && dim(i) < dim(root))) continue;
+      if (dim(i) > nullity) continue;
       const double sigma = Eigen::JacobiSVD<Eigen::MatrixXd>(V.middleRows(at[i], dim(i)))
                                .singularValues()
                                .minCoeff();
       if (sigma < kMinSpan) continue;
-      if (root < 0 || dim(i) > dim(root) || sigma > best_sigma) best_sigma = sigma, root = i;
+      const std::tuple<int, bool, double> rank{dim(i), !preferred.empty() && preferred[i], sigma};
+      if (root < 0 || rank > best) best = rank, root = i;
     }
     if (root >= 0) {
-      const Eigen::MatrixXd Vr = V.middleRows(at[root], dim(root));
-      N = V * Vr.transpose() * (Vr * Vr.transpose()).inverse();
+      // A pose root whose rigid motion, carrying the others along, the summary does not see
+      // (AN = 0 for the N of that motion): the tree's factors take the others' values in its
+      // frame (LinearContainerFactor's root-relative form), whose first-order coordinates are
+      // y with that N, so that a later rigid correction of the region does not bend them.
+      N = RigidMotionOfRoot(keys, x0, root, at);
+      relative = N.size() > 0 && (A * N).norm() <= kRigidTolerance * A.norm() * N.norm();
+      if (!relative) {
+        const Eigen::MatrixXd Vr = V.middleRows(at[root], dim(root));
+        N = V * Vr.transpose() * (Vr * Vr.transpose()).inverse();
+      }
     }
   }
   // The variables of the tree (all but the root) and their columns in y.
@@ -118,7 +170,10 @@ Result<std::vector<FactorPtr>> ChowLiuTree(const KeyVector& keys, const std::vec
   };
 
   // Maximum spanning tree of the mutual information I(s; t) = ½ (log|Σss| + log|Σtt| − log|Σ|)
-  // (Prim, O(m²) pairs), rooted at the first tree variable.
+  // (Prim, O(m²) pairs), rooted at the first tree variable, or with a shifted root at the pose
+  // the root's frame determines best (the smallest covariance): its unary factor stands for its
+  // link to the root, and the tree's edges then run out from the root as the summary does
+  // (TreeEdgeFrame::kParent: a chain's conditionals each carry the child with its parent).
   std::vector<double> log_det(m);
   for (int t = 0; t < m; ++t) log_det[t] = LogDet(block(t, t));
   const auto mutual_information = [&](int s, int t) {
@@ -132,6 +187,14 @@ Result<std::vector<FactorPtr>> ChowLiuTree(const KeyVector& keys, const std::vec
   std::vector<char> in_tree(m, 0);
   std::vector<int> order;  // tree order: every variable after its parent
   int next = 0;
+  if (root >= 0) {
+    int closest = -1;
+    for (int t = 0; t < m; ++t) {
+      if (TypeOf(x0[var[t]]) != TypeOf(x0[root])) continue;
+      if (closest < 0 || log_det[t] < log_det[closest]) closest = t;
+    }
+    if (closest >= 0) next = closest;
+  }
   for (int step = 0; step < m; ++step) {
     in_tree[next] = 1;
     order.push_back(next);
@@ -156,7 +219,8 @@ Result<std::vector<FactorPtr>> ChowLiuTree(const KeyVector& keys, const std::vec
     KeyVector factor_keys;
     std::vector<Variable> points;
     const int rows = static_cast<int>(rhs.size());
-    int width = root >= 0 ? dim(root) : 0;
+    // The root's columns: none in the root-relative form, else −Σ C_t N_t.
+    int width = root >= 0 && !relative ? dim(root) : 0;
     for (const auto& term : terms) width += dim(var[term.first]);
     Eigen::MatrixXd a = Eigen::MatrixXd::Zero(rows, width);
     int c = 0;
@@ -164,15 +228,20 @@ Result<std::vector<FactorPtr>> ChowLiuTree(const KeyVector& keys, const std::vec
       factor_keys.push_back(keys[var[t]]);
       points.push_back(x0[var[t]]);
       a.middleCols(c, C.cols()) = C;
-      if (root >= 0) a.rightCols(dim(root)) -= C * N.middleRows(at[var[t]], C.cols());
+      if (root >= 0 && !relative) {
+        a.rightCols(dim(root)) -= C * N.middleRows(at[var[t]], C.cols());
+      }
       c += static_cast<int>(C.cols());
     }
     if (root >= 0) {
       factor_keys.push_back(keys[root]);
       points.push_back(x0[root]);
     }
-    Result<FactorPtr> f =
-        LinearContainerFactor::Create(std::move(factor_keys), std::move(points), std::move(a), rhs);
+    Result<FactorPtr> f = relative
+                              ? LinearContainerFactor::CreateRootRelative(
+                                    std::move(factor_keys), std::move(points), std::move(a), rhs)
+                              : LinearContainerFactor::Create(std::move(factor_keys),
+                                                              std::move(points), std::move(a), rhs);
     if (!f.ok()) return f.status();
     out.push_back(std::move(f).value());
     return Status::Ok();
@@ -201,6 +270,31 @@ Result<std::vector<FactorPtr>> ChowLiuTree(const KeyVector& keys, const std::vec
     }
     const Eigen::VectorXd c =
         mean.segment(col[i], di) - K * mean.segment(col[p], col[p + 1] - col[p]);
+    if (relative && edge_frame == TreeEdgeFrame::kParent) {
+      // On fewer keys where that drops next to nothing against W N_i^p (the parent carrying
+      // the child along; W alone if the parent is no pose): the child in the parent's frame,
+      // |W (z_i − c)|² with z_i ≈ y_i − N_i^p y_p (dropping W (N_i^p − K) y_p), or the child
+      // alone in the root's, |W (y_i − c)|² (dropping W K y_p: the parent says little of it).
+      Result<FactorPtr> in_parent = LinearContainerFactor::CreateRootRelative(
+          {keys[var[i]], keys[var[p]]}, {x0[var[i]], x0[var[p]]}, *w, -(*w) * c);
+      Eigen::MatrixXd WN;  // at x0, the parent's column of that factor is −W N_i^p
+      if (in_parent.ok()) {
+        const Variable* at_x0[] = {&x0[var[i]], &x0[var[p]]};
+        std::vector<Eigen::MatrixXd> H(2);
+        static_cast<const LinearContainerFactor&>(**in_parent).Evaluate(at_x0, &H);
+        WN = -H[1];
+      }
+      const Eigen::MatrixXd WK = (*w) * K;
+      const double scale = in_parent.ok() ? WN.norm() : w->norm();
+      if (in_parent.ok() && (WN - WK).norm() <= kEdgeTolerance * scale) {
+        out.push_back(std::move(in_parent).value());
+        continue;
+      }
+      if (WK.norm() <= kEdgeTolerance * scale) {
+        SLAMD_RETURN_IF_ERROR(make({{i, *w}}, -(*w) * c));
+        continue;
+      }
+    }
     SLAMD_RETURN_IF_ERROR(make({{i, *w}, {p, -(*w) * K}}, -(*w) * c));
   }
   return out;

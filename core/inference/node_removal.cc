@@ -3,6 +3,7 @@
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "core/base/key_slots.h"
 #include "core/factors/linear_container_factor.h"
@@ -21,12 +22,13 @@ constexpr double kRankTolerance = 1e-10;
 Result<NodeRemoval> MarginalizeOut(std::span<const FactorPtr> factors, const Values& theta,
                                    std::span<const Key> removed, const NodeRemovalParams& params) {
   if (removed.empty()) return InvalidArgument("MarginalizeOut: no variable to remove");
-  // Columns: the removed variables first (in the given order), then the blanket.
+  // Columns: the removed variables first (in the given order), then the blanket (marked
+  // kBlanket while the factors are gathered, placed in the order below).
+  constexpr int kBlanket = std::numeric_limits<int>::max();
   KeySlots column_of;  // key -> its position in `keys`
   KeyVector keys;
   std::vector<int> column{0};  // first column of keys[i]; column.back() = total
-  const auto add_key = [&](Key k) {
-    column_of.Insert(k, static_cast<int>(keys.size()));
+  const auto place = [&](Key k) {
     keys.push_back(k);
     column.push_back(column.back() + theta.DimAt(theta.SlotOf(k)));
   };
@@ -36,13 +38,24 @@ Result<NodeRemoval> MarginalizeOut(std::span<const FactorPtr> factors, const Val
     if (column_of.Find(k) >= 0) {
       return InvalidArgument("MarginalizeOut: " + KeyToString(k) + " listed twice");
     }
-    add_key(k);
+    column_of.Insert(k, static_cast<int>(keys.size()));
+    place(k);
   }
   const int num_removed = static_cast<int>(keys.size());
   const int removed_dim = column.back();
 
   NodeRemoval out;
   int rows = 0;
+  // Marks a variable of factor i as on the blanket.
+  const auto add_blanket = [&](Key k, std::size_t i) -> Status {
+    if (!theta.Contains(k)) {
+      return InvalidArgument("MarginalizeOut: factor " + std::to_string(i) + " (" +
+                             factors[i]->Name() + ") has no value for " + KeyToString(k));
+    }
+    column_of.Insert(k, kBlanket);
+    return Status::Ok();
+  };
+  const auto on_blanket = [&](Key k) { return column_of.Find(k) >= num_removed; };
   for (std::size_t i = 0; i < factors.size(); ++i) {
     const FactorPtr& f = factors[i];
     if (!f) continue;
@@ -55,11 +68,50 @@ Result<NodeRemoval> MarginalizeOut(std::span<const FactorPtr> factors, const Val
     rows += f->dim();
     for (Key k : f->keys()) {
       if (column_of.Find(k) >= 0) continue;
-      if (!theta.Contains(k)) {
-        return InvalidArgument("MarginalizeOut: factor " + std::to_string(i) + " (" + f->Name() +
-                               ") has no value for " + KeyToString(k));
+      if (Status s = add_blanket(k, i); !s.ok()) return s;
+    }
+  }
+  // A Chow-Liu summary also takes in the summaries already on its blanket (NodeRemovalParams):
+  // a root-relative one whose other variables are all on it, its root added to the blanket if
+  // need be, and then those that root completes. A factor touching M has a key off the blanket:
+  // none is taken twice.
+  if (params.form == NodeRemovalParams::Form::kChowLiu) {
+    std::vector<char> taken(factors.size(), 0);
+    for (bool grown = true; grown;) {
+      grown = false;
+      for (std::size_t i = 0; i < factors.size(); ++i) {
+        const auto* c = dynamic_cast<const LinearContainerFactor*>(factors[i].get());
+        if (!c || taken[i]) continue;
+        const std::span<const Key> fk = c->keys();
+        const auto members = fk.end() - (c->root_relative() ? 1 : 0);
+        const int root = column_of.Find(fk.back());
+        if (root >= 0 && root < num_removed) continue;  // touches M: taken in above
+        if (!std::all_of(fk.begin(), members, on_blanket)) continue;
+        if (root < 0) {
+          if (Status s = add_blanket(fk.back(), i); !s.ok()) return s;
+          grown = true;
+        }
+        taken[i] = 1;
+        out.removed_factors.push_back(static_cast<int>(i));
+        rows += c->dim();
       }
-      add_key(k);
+    }
+    std::sort(out.removed_factors.begin(), out.removed_factors.end());
+  }
+  // The order the summary is computed in: the factors by their keys, the blanket by first
+  // appearance in them, not by where `factors` holds them. A recovery's solver need not hold
+  // them where the live one did, and a tree's conditionals amplify round-off (and a choice made
+  // on a tolerance may flip): the summary must not hang on that order to be repeated exactly.
+  std::vector<int> order = out.removed_factors;
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    const std::span<const Key> ka = factors[a]->keys(), kb = factors[b]->keys();
+    return std::lexicographical_compare(ka.begin(), ka.end(), kb.begin(), kb.end());
+  });
+  for (int f : order) {
+    for (Key k : factors[f]->keys()) {
+      if (column_of.Find(k) != kBlanket) continue;
+      column_of.Set(k, static_cast<int>(keys.size()));
+      place(k);
       out.blanket.push_back(k);
     }
   }
@@ -78,7 +130,7 @@ Result<NodeRemoval> MarginalizeOut(std::span<const FactorPtr> factors, const Val
   Eigen::MatrixXd jb = Eigen::MatrixXd::Zero(rows, cols + 1);
   LinearizedFactor lf;
   int row = 0;
-  for (int i : out.removed_factors) {
+  for (int i : order) {
     const Factor& f = *factors[i];
     f.Linearize(theta, &lf);
     for (int k = 0; k < lf.num_keys(); ++k) {
@@ -122,7 +174,12 @@ Result<NodeRemoval> MarginalizeOut(std::span<const FactorPtr> factors, const Val
     out.marginal = std::move(marginal).value();
     if (params.form == NodeRemovalParams::Form::kChowLiu && out.blanket.size() >= 3) {
       // A tree the numbers cannot be trusted for (chow_liu.h) leaves the exact summary.
-      Result<std::vector<FactorPtr>> tree = ChowLiuTree(out.blanket, x0, A, b);
+      std::vector<char> preferred(out.blanket.size(), 0);
+      for (std::size_t i = 0; params.prefer_root && i < out.blanket.size(); ++i) {
+        preferred[i] = params.prefer_root(out.blanket[i]);
+      }
+      Result<std::vector<FactorPtr>> tree =
+          ChowLiuTree(out.blanket, x0, A, b, preferred, params.edge_frame);
       out.summary = tree.ok() ? std::move(tree).value() : std::vector<FactorPtr>{out.marginal};
     } else {
       out.summary = {out.marginal};

@@ -13,6 +13,7 @@
 // at any value of the blanket.
 #pragma once
 
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -20,20 +21,36 @@
 #include "core/base/status.h"
 #include "core/factors/factor.h"
 #include "core/factors/values.h"
+#include "core/inference/chow_liu.h"
 
 namespace slamd::core {
 
 struct NodeRemovalParams {
   // kDense: the exact summary, one container on the whole blanket. kChowLiu: its Chow-Liu tree
   // (chow_liu.h) when the blanket has 3 variables or more: every blanket variable's marginal
-  // kept, the couplings off the tree dropped, so summaries stay sparse over a long run.
+  // kept, the couplings off the tree dropped, so summaries stay sparse over a long run. It also
+  // takes in the summaries (linear containers) already on the blanket, so that removing poses
+  // where earlier removals left summaries replaces them rather than adding beside them: a
+  // window over a robot driving a bounded area keeps a bounded number of factors. A
+  // root-relative summary counts as on the blanket when its other variables are (its root, a
+  // pose kept elsewhere, then joins the blanket): the trees of earlier visits to a place have
+  // other roots, and left beside the new tree they would pile up.
   enum class Form { kDense, kChowLiu };
   Form form = Form::kDense;
+  // kChowLiu on a summary of relative measurements: true for the blanket poses to make the
+  // tree's root before others (chow_liu.h): variables the caller keeps, e.g. a window's
+  // keyframes, since a root removed later brings its whole tree into that removal. Null: none.
+  std::function<bool(Key)> prefer_root = nullptr;
+  // kChowLiu on a summary of relative measurements: the frame of the tree's edges (chow_liu.h).
+  // kParent keeps a long run's summaries from coupling the map through their roots, at the
+  // cost of the dependence it drops.
+  TreeEdgeFrame edge_frame = TreeEdgeFrame::kRoot;
 };
 
 struct NodeRemoval {
-  std::vector<int> removed_factors;  // indices in the input of the factors touching M
-  KeyVector blanket;                 // B, in order of first appearance in those factors
+  // Indices in the input of the factors touching M (and, kChowLiu, of the summaries taken in).
+  std::vector<int> removed_factors;
+  KeyVector blanket;  // B, in order of first appearance in those factors, sorted by their keys
   FactorPtr marginal;                // the exact container on B; null when B is empty
   // What replaces the removed factors: {marginal} (kDense, a blanket of 1-2 variables, or a
   // tree ChowLiuTree refused) or its Chow-Liu tree; empty when B is empty.

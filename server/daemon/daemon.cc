@@ -264,6 +264,7 @@ void Daemon::ApplyPoseWindow() {
   record.set_update_sequence(estimator_->snapshot()->update_sequence);
   record.mutable_keys()->Add(removed.keys.begin(), removed.keys.end());
   EncodeValues(removed.at, record.mutable_at());
+  record.mutable_roots()->Add(removed.roots.begin(), removed.roots.end());
   const core::Status s = journal_->AppendRemoval(record);
   if (!s.ok()) NoteJournalError(s);
 }

@@ -66,6 +66,7 @@
 #include "server/estimator/background_rebuild.h"
 #include "server/estimator/estimator_params.h"
 #include "server/estimator/factor_numbers.h"
+#include "server/estimator/pose_window.h"
 #include "server/estimator/process_result.h"
 #include "server/estimator/reduced_graph.h"
 #include "server/estimator/robot_registry.h"
@@ -76,14 +77,6 @@
 #include "server/snapshot/estimator_state.h"
 
 namespace slamd::server {
-
-// Variables node removal took out, and the values they and their Markov blanket were
-// marginalised at: what the journal keeps, so that a replay makes the same summary wherever its
-// own θ drifted (Isam2::RemoveVariables' `at`).
-struct NodeRemovalRecord {
-  std::vector<core::Key> keys;
-  core::Values at;
-};
 
 class Estimator {
  public:
@@ -130,11 +123,12 @@ class Estimator {
   // Lifelong window (EstimatorParams::window, pose_window.cc): when due and no rebuild is in
   // flight, removes old poses but keyframes by RemoveVariables; what it removed, for the journal.
   NodeRemovalRecord ApplyPoseWindow();
-  // Node removal (Isam2::RemoveVariables) in chunks, at `at` (a journaled record's values) or θ;
-  // FailedPrecondition while a rebuild is in flight. A chunk that fails leaves those before it
-  // removed (*done: the keys that were and their values).
-  core::Status RemoveVariables(std::span<const core::Key> keys, NodeRemovalRecord* done = nullptr,
-                               const core::Values* at = nullptr);
+  // Node removal (Isam2::RemoveVariables) in chunks, at `at` (a journaled record's values) or θ,
+  // summary trees rooted at `roots` (sorted: the window's keyframes, or a journaled record's)
+  // where they can be; FailedPrecondition while a rebuild is in flight. A chunk that fails
+  // leaves those before it removed (*done: the keys that were, their values and the roots).
+  core::Status RemoveVariables(std::span<const core::Key> keys, const std::vector<core::Key>& roots,
+                               NodeRemovalRecord* done = nullptr, const core::Values* at = nullptr);
 
   // Isam2::Refine(budget_s, max_rounds); a new snapshot when anything moved. (While a rebuild is
   // in flight, the swap discards what it did: the daemon refines only when none is.)
@@ -225,9 +219,10 @@ class Estimator {
   // Options for an update of Process: solve_first when it may finish later.
   core::Isam2UpdateOptions ProcessUpdateOptions() const;
   void StartRebuild();
-  // RemoveVariables' steps; adds what it removed to *done.
-  core::Status RemoveChunk(std::span<const core::Key> keys, const core::Values* at,
-                           NodeRemovalRecord* done);
+  PoseWindowPlan WindowPlan() const;  // pose_window.h
+  // RemoveVariables' steps; adds what it removed to *done (the roots a blanket held too).
+  core::Status RemoveChunk(std::span<const core::Key> keys, const std::vector<core::Key>& roots,
+                           const core::Values* at, NodeRemovalRecord* done);
   // Reduced pose graph (estimator_reduced.cc): a robot's policy (nullptr: off); a pose's alias
   // (staged or committed; nullptr for a node or unknown pose) and its estimate (anchor ∘ offset).
   const EstimatorParams::ReducedGraph* ReducedFor(std::uint8_t robot) const;

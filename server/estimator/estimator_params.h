@@ -100,12 +100,17 @@ struct EstimatorParams {
   // robot in a bounded area keeps a bounded graph). Landmarks stay. Each removal is journaled.
   // keep_poses 0 = off (keep everything); >= 0; keyframe_spacing_m >= 0 (0: no keyframes, a
   // fixed-lag window); every_updates >= 1.
-  // The summaries are exact (dense): in a long run each absorbs the one before, so they grow
-  // with the area mapped (BENCHMARKS.md, lifelong soak).
+  // sparse_summaries (window's only, for every robot): each removal's summary is the Chow-Liu
+  // tree of the exact one, its edges each in the parent's frame (core/inference/chow_liu.h:
+  // TreeEdgeFrame::kParent), which also takes in the summaries already on its variables, so
+  // that factors and the Bayes tree's fill-in stay bounded with the graph;
+  // false: the exact dense summaries, which in a landmark world absorb each other and grow with
+  // the area mapped until removals stall (BENCHMARKS.md, lifelong soak).
   struct PoseWindow {
     int keep_poses = 0;
     double keyframe_spacing_m = 1.0;
     int every_updates = 100;
+    bool sparse_summaries = true;
   };
   PoseWindow window = {};
   // Per robot (by name): its own keep_poses and keyframe_spacing_m in place of window's (a

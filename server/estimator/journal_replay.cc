@@ -48,8 +48,9 @@ core::Status JournalReplay::Apply(const journal::JournalRecord& record, const st
     core::Values at;  // none in a journal written before they were kept: the replay's θ
     core::Status removed = DecodeValues(removal.at(), "removal", &at);
     if (removed.ok()) {
+      const std::vector<core::Key> roots(removal.roots().begin(), removal.roots().end());
       removed = estimator_->RemoveVariables(
-          {removal.keys().data(), static_cast<size_t>(removal.keys_size())}, nullptr,
+          {removal.keys().data(), static_cast<size_t>(removal.keys_size())}, roots, nullptr,
           at.empty() ? nullptr : &at);
     }
     if (!removed.ok()) notes_.push_back(where + ": " + removed.message());

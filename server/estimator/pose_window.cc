@@ -28,6 +28,26 @@ NodeRemovalRecord Estimator::ApplyPoseWindow() {
   FinishUpdate();
   if (Rebuilding()) return {};  // the rebuild copied the graph: after its swap
   window_sequence_ = sequence_;
+  PoseWindowPlan plan = WindowPlan();
+  std::vector<core::Key>& removed = plan.removed;
+  // A robot's newest pose held as an alias (reduced pose graph) keeps its anchor.
+  std::set<core::Key> anchors;
+  for (std::uint8_t robot : registry_.ids()) {
+    const auto it = reduced_.aliases.find(core::MakeKey('x', robots_[robot].newest, robot));
+    if (it != reduced_.aliases.end()) anchors.insert(it->second.anchor);
+  }
+  std::erase_if(removed, [&](core::Key k) { return anchors.count(k) != 0; });
+  if (removed.empty()) return {};
+  if (removed.size() > kMaxRemovedPerPass) removed.resize(kMaxRemovedPerPass);
+  // A chunk that fails (nothing of it changed) ends the pass; the next tries again.
+  NodeRemovalRecord done;
+  // A Chow-Liu tree's root: a keyframe, which the window keeps, not a pose a later chunk or
+  // pass removes (that removal would take in the whole tree).
+  (void)RemoveVariables(removed, plan.keyframes, &done);
+  return done;
+}
+
+PoseWindowPlan Estimator::WindowPlan() const {
   // Each robot's poses behind its window, by index.
   std::map<std::uint8_t, std::vector<std::uint64_t>> behind;
   for (core::Key key : isam_->linearization_point().keys()) {
@@ -44,7 +64,7 @@ NodeRemovalRecord Estimator::ApplyPoseWindow() {
   // is kept when no pose kept before it lies within keyframe_spacing_m (a grid of cells that
   // size finds the neighbours), so driving through a mapped area again adds no keyframe and
   // the graph of a robot that stays in a bounded area stays bounded.
-  std::vector<core::Key> removed;
+  PoseWindowPlan plan;
   for (auto& [robot, indices] : behind) {
     const double d = params_.WindowOf(registry_.Name(robot)).keyframe_spacing_m;
     std::sort(indices.begin(), indices.end());
@@ -74,26 +94,16 @@ NodeRemovalRecord Estimator::ApplyPoseWindow() {
         keep = !near_kept(*at, cell);
         if (keep) grid[cell].push_back(*at);
       }
-      if (!keep) removed.push_back(key);
+      (keep ? plan.keyframes : plan.removed).push_back(key);
     }
   }
-  // A robot's newest pose held as an alias (reduced pose graph) keeps its anchor.
-  std::set<core::Key> anchors;
-  for (std::uint8_t robot : registry_.ids()) {
-    const auto it = reduced_.aliases.find(core::MakeKey('x', robots_[robot].newest, robot));
-    if (it != reduced_.aliases.end()) anchors.insert(it->second.anchor);
-  }
-  std::erase_if(removed, [&](core::Key k) { return anchors.count(k) != 0; });
-  if (removed.empty()) return {};
-  if (removed.size() > kMaxRemovedPerPass) removed.resize(kMaxRemovedPerPass);
-  // A chunk that fails (nothing of it changed) ends the pass; the next tries again.
-  NodeRemovalRecord done;
-  (void)RemoveVariables(removed, &done);
-  return done;
+  std::sort(plan.keyframes.begin(), plan.keyframes.end());
+  return plan;
 }
 
-core::Status Estimator::RemoveVariables(std::span<const core::Key> keys, NodeRemovalRecord* done,
-                                        const core::Values* at) {
+core::Status Estimator::RemoveVariables(std::span<const core::Key> keys,
+                                        const std::vector<core::Key>& roots,
+                                        NodeRemovalRecord* done, const core::Values* at) {
   NodeRemovalRecord local;
   if (!done) done = &local;
   *done = {};
@@ -103,8 +113,8 @@ core::Status Estimator::RemoveVariables(std::span<const core::Key> keys, NodeRem
   }
   core::Status status;
   for (std::size_t first = 0; first < keys.size() && status.ok(); first += kRemovalChunk) {
-    status =
-        RemoveChunk(keys.subspan(first, std::min(kRemovalChunk, keys.size() - first)), at, done);
+    status = RemoveChunk(keys.subspan(first, std::min(kRemovalChunk, keys.size() - first)), roots,
+                         at, done);
   }
   if (done->keys.empty()) return status;
   counters_.removed_variables += static_cast<std::int64_t>(done->keys.size());
@@ -115,11 +125,28 @@ core::Status Estimator::RemoveVariables(std::span<const core::Key> keys, NodeRem
   return status;
 }
 
-core::Status Estimator::RemoveChunk(std::span<const core::Key> keys, const core::Values* at,
+core::Status Estimator::RemoveChunk(std::span<const core::Key> keys,
+                                    const std::vector<core::Key>& roots, const core::Values* at,
                                     NodeRemovalRecord* done) {
-  const core::Isam2RemovalResult r = isam_->RemoveVariables(keys, {}, at);
+  std::vector<core::Key> used;
+  const auto keyframe = [&](core::Key key) {
+    const bool preferred = std::binary_search(roots.begin(), roots.end(), key);
+    if (preferred) used.push_back(key);
+    return preferred;
+  };
+  const core::Isam2RemovalResult r = isam_->RemoveVariables(
+      keys,
+      {.form = params_.window.sparse_summaries ? core::NodeRemovalParams::Form::kChowLiu
+                                               : core::NodeRemovalParams::Form::kDense,
+       .prefer_root = keyframe,
+       .edge_frame = core::TreeEdgeFrame::kParent},
+      at);
   if (!r.status.ok()) return r.status;
   done->keys.insert(done->keys.end(), keys.begin(), keys.end());
+  for (core::Key key : used) {
+    const auto at_key = std::lower_bound(done->roots.begin(), done->roots.end(), key);
+    if (at_key == done->roots.end() || *at_key != key) done->roots.insert(at_key, key);
+  }
   for (core::Key key : r.marginalized_at.keys()) {
     (void)done->at.Insert(key, r.marginalized_at.Get(key));  // a later chunk's may repeat one
   }

@@ -155,6 +155,23 @@ inline std::vector<FactorExample> EveryFactorTypeExample(unsigned seed) {
     e.factor = LinearContainerFactor::Create({x0, l0, c0}, x, A, b).value();
     out.push_back(e);
   }
+  {
+    // The root-relative form, a pose and a point in a root pose's frame, away from x₀.
+    const Key x1 = MakeKey('x', 1);
+    FactorExample e;
+    const std::vector<Variable> x = {RandomValue<Pose2>(rng), RandomValue<Point2>(rng),
+                                     RandomValue<Pose2>(rng)};
+    EXPECT_TRUE(e.values.Insert(x0, RandomValue<Pose2>(rng)).ok());
+    EXPECT_TRUE(e.values.Insert(l0, RandomValue<Point2>(rng)).ok());
+    EXPECT_TRUE(e.values.Insert(x1, RandomValue<Pose2>(rng)).ok());
+    std::normal_distribution<double> n01(0.0, 1.0);
+    Eigen::MatrixXd A(4, 3 + 2);
+    for (int i = 0; i < A.size(); ++i) A.data()[i] = n01(rng);
+    Eigen::VectorXd b(4);
+    for (int i = 0; i < b.size(); ++i) b[i] = n01(rng);
+    e.factor = LinearContainerFactor::CreateRootRelative({x0, l0, x1}, x, A, b).value();
+    out.push_back(e);
+  }
   internal::AddProjectionExamples<Cal3_S2>(rng, &out);
   internal::AddProjectionExamples<Cal3DS2>(rng, &out);
   internal::AddProjectionExamples<Cal3Bundler>(rng, &out);

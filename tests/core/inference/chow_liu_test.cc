@@ -9,6 +9,8 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 
+#include "core/base/check.h"
+#include "core/factors/linear_container_factor.h"
 #include "core/factors/linearized_factor.h"
 #include "core/inference/node_removal.h"
 #include "tests/core/inference/dense_system.h"
@@ -34,6 +36,20 @@ void ExpectSameMarginals(const Eigen::MatrixXd& dense_h, const Eigen::VectorXd& 
     EXPECT_LT((tree_mean.segment(a, d) - dense_mean.segment(a, d)).cwiseAbs().maxCoeff(), 1e-6)
         << KeyToString(keys[i]);
   }
+}
+
+// The values of `keys` (planar poses and points) moved rigidly together, far.
+Values RigidlyMoved(const Values& values, const KeyVector& keys) {
+  const Pose2 motion(25.0, -10.0, 1.2);
+  Values moved;
+  for (Key key : keys) {
+    const Variable& v = values.Get(key);
+    const Status s = std::holds_alternative<Pose2>(v)
+                         ? moved.Insert(key, motion * std::get<Pose2>(v))
+                         : moved.Insert(key, motion.TransformFrom(std::get<Point2>(v)));
+    SLAMD_CHECK(s.ok()) << s.ToString();
+  }
+  return moved;
 }
 
 TEST(ChowLiuTest, TreeKeepsEveryMarginalOfTheDenseSummary) {
@@ -96,6 +112,14 @@ TEST(ChowLiuTest, SummaryOfRelativeMeasurementsIsShiftedToARoot) {
     }
   }
   ASSERT_EQ(common, 1);
+  // In the root-relative form: a rigid motion of the whole blanket leaves every factor's error as
+  // it was (where the dense summary, in world coordinates, resists it).
+  const Values moved = RigidlyMoved(p.initial, r.blanket);
+  for (const FactorPtr& f : r.summary) {
+    ASSERT_TRUE(static_cast<const LinearContainerFactor&>(*f).root_relative());
+    EXPECT_LT((f->Error(moved) - f->Error(p.initial)).norm(), 1e-9);
+  }
+  EXPECT_GT(std::abs(r.marginal->Chi2(moved) - r.marginal->Chi2(p.initial)), 1.0);
   for (const FactorPtr& f : r.summary) EXPECT_LE(f->keys().size(), 3u);
   const testing::DenseSystem dense = testing::Dense({r.marginal}, p.initial, r.blanket);
   const testing::DenseSystem tree = testing::Dense(r.summary, p.initial, r.blanket);
@@ -130,6 +154,142 @@ TEST(ChowLiuTest, SummaryOfRelativeMeasurementsIsShiftedToARoot) {
   };
   const testing::DenseSystem dense_rest = rest(dense), tree_rest = rest(tree);
   ExpectSameMarginals(dense_rest.H, dense_rest.g, tree_rest.H, tree_rest.g, column, others);
+}
+
+// TreeEdgeFrame::kParent on a summary of relative measurements that is a chain (odometry alone,
+// every other pose removed): each conditional either carries the child along with its parent
+// or says nothing of it, so the factors on two keys drop nothing: the tree's system is the
+// dense summary's, gauge and all. No factor holds three keys.
+TEST(ChowLiuTest, EdgesInTheParentFrameAreExactOnAChain) {
+  const ::slamd::testing::ExampleProblem p = ::slamd::testing::MakePlanarProblem(20, 0, 11);
+  std::vector<FactorPtr> odometry;
+  for (const FactorPtr& f : p.graph.factors()) {
+    const std::span<const Key> k = f->keys();
+    if (k.size() == 2 && KeyIndex(k[1]) == KeyIndex(k[0]) + 1) odometry.push_back(f);
+  }
+  const KeyVector removed = {MakeKey('x', 3), MakeKey('x', 5), MakeKey('x', 7)};
+  const NodeRemoval r = MarginalizeOut(odometry, p.initial, removed,
+                                       {.form = NodeRemovalParams::Form::kChowLiu,
+                                        .edge_frame = TreeEdgeFrame::kParent})
+                            .value();
+  ASSERT_EQ(r.blanket.size(), 4u);
+  ASSERT_EQ(r.summary.size(), 3u);
+  for (const FactorPtr& f : r.summary) {
+    EXPECT_TRUE(static_cast<const LinearContainerFactor&>(*f).root_relative());
+    EXPECT_EQ(f->keys().size(), 2u);
+  }
+  const testing::DenseSystem dense = testing::Dense({r.marginal}, p.initial, r.blanket);
+  const testing::DenseSystem tree = testing::Dense(r.summary, p.initial, r.blanket);
+  EXPECT_LT((tree.H - dense.H).cwiseAbs().maxCoeff(), 1e-6 * dense.H.cwiseAbs().maxCoeff());
+  EXPECT_LT((tree.g - dense.g).cwiseAbs().maxCoeff(), 1e-6 * (1.0 + dense.g.cwiseAbs().maxCoeff()));
+}
+
+// A corridor: poses 1 m apart with odometry, each seeing the landmarks within 2.5 m (two rows,
+// 1.5 m apart along it); no loop closure. The summary of a stretch of poses between two kept
+// ones is then mostly local links, as a window's are.
+::slamd::testing::ExampleProblem Corridor(int num_poses, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  ::slamd::testing::ExampleProblem p;
+  const NoiseModel odo = *NoiseModel::Diagonal(Vector3(0.05, 0.05, 0.02));
+  const NoiseModel obs = *NoiseModel::Isotropic(2, 0.1);
+  for (int i = 0; i < num_poses; ++i) {
+    const Pose2 x(i, 0.1 * std::sin(0.3 * i), 0.03 * std::cos(0.3 * i));
+    (void)p.truth.Insert(MakeKey('x', i), x);
+    (void)p.initial.Insert(MakeKey('x', i),
+                           x.Compose(Pose2(0.1 * n01(rng), 0.1 * n01(rng), 0.02 * n01(rng))));
+    if (i == 0) continue;
+    const Key a = MakeKey('x', i - 1), b = MakeKey('x', i);
+    const Pose2 z = p.truth.At<Pose2>(a).Between(x).Compose(
+        Pose2(0.05 * n01(rng), 0.05 * n01(rng), 0.02 * n01(rng)));
+    p.graph.Emplace<BetweenFactor<Pose2>>(a, b, z, odo);
+  }
+  for (int j = 0; 1.5 * (j / 2) < num_poses; ++j) {
+    const Point2 l(1.5 * (j / 2), j % 2 ? 2.0 : -2.0);
+    const Key lk = MakeKey('l', j);
+    (void)p.truth.Insert(lk, l);
+    (void)p.initial.Insert(lk, Point2(l + Point2(0.1 * n01(rng), 0.1 * n01(rng))));
+    for (int i = 0; i < num_poses; ++i) {
+      const Pose2& x = p.truth.At<Pose2>(MakeKey('x', i));
+      if ((x.translation() - l).norm() > 2.5) continue;
+      const Point2 z = x.TransformTo(l) + Point2(0.1 * n01(rng), 0.1 * n01(rng));
+      p.graph.Emplace<RelativePointFactor<Pose2, Point2>>(MakeKey('x', i), lk, z, obs);
+    }
+  }
+  return p;
+}
+
+// TreeEdgeFrame::kParent where the summary is no chain (a corridor's odd poses removed over 16
+// m, the even ones kept as a window keeps keyframes): fewer factors hold the root than in the
+// root's frame (there, all), each stays blind to a rigid motion of the whole blanket, and every
+// variable's marginal variance with the root held stays near the dense summary's (7.6 % off at
+// most here).
+TEST(ChowLiuTest, EdgesInTheParentFrameLeaveTheRootOutOfSome) {
+  const ::slamd::testing::ExampleProblem p = Corridor(40, 3);
+  KeyVector removed;
+  for (int i = 11; i < 26; i += 2) removed.push_back(MakeKey('x', i));
+  const NodeRemoval in_root = MarginalizeOut(p.graph.factors(), p.initial, removed,
+                                             {.form = NodeRemovalParams::Form::kChowLiu})
+                                  .value();
+  const NodeRemoval r = MarginalizeOut(p.graph.factors(), p.initial, removed,
+                                       {.form = NodeRemovalParams::Form::kChowLiu,
+                                        .edge_frame = TreeEdgeFrame::kParent})
+                            .value();
+  const Key root = in_root.summary.front()->keys().back();
+  const auto holding_root = [&](const NodeRemoval& n) {
+    return std::count_if(n.summary.begin(), n.summary.end(), [&](const FactorPtr& f) {
+      return std::count(f->keys().begin(), f->keys().end(), root) > 0;
+    });
+  };
+  ASSERT_EQ(r.summary.size(), in_root.summary.size());
+  EXPECT_EQ(holding_root(in_root), static_cast<long>(in_root.summary.size()));
+  EXPECT_LT(holding_root(r), static_cast<long>(r.summary.size()));
+  const Values moved = RigidlyMoved(p.initial, r.blanket);
+  for (const FactorPtr& f : r.summary) {
+    ASSERT_TRUE(static_cast<const LinearContainerFactor&>(*f).root_relative());
+    EXPECT_LE(f->keys().size(), 3u);
+    EXPECT_LT((f->Error(moved) - f->Error(p.initial)).norm(), 1e-9);
+  }
+  const testing::DenseSystem dense = testing::Dense({r.marginal}, p.initial, r.blanket);
+  const testing::DenseSystem tree = testing::Dense(r.summary, p.initial, r.blanket);
+  std::vector<int> keep;
+  const std::vector<int>& at = dense.column;
+  for (std::size_t i = 0; i < r.blanket.size(); ++i) {
+    if (r.blanket[i] == root) continue;
+    for (int c = at[i]; c < at[i + 1]; ++c) keep.push_back(c);
+  }
+  const auto held = [&](const testing::DenseSystem& s) {
+    const int m = static_cast<int>(keep.size());
+    Eigen::MatrixXd h(m, m);
+    for (int a = 0; a < m; ++a) {
+      for (int c = 0; c < m; ++c) h(a, c) = s.H(keep[a], keep[c]);
+    }
+    return Eigen::MatrixXd(h.inverse());
+  };
+  const Eigen::MatrixXd dense_cov = held(dense), tree_cov = held(tree);
+  double worst = 0.0;
+  for (int c = 0; c < dense_cov.rows(); ++c) {
+    worst = std::max(worst, std::abs(tree_cov(c, c) / dense_cov(c, c) - 1.0));
+  }
+  EXPECT_LT(worst, 0.1);
+}
+
+// The caller's preference decides the root among the poses that can take the gauge.
+TEST(ChowLiuTest, PreferredPoseIsTheRoot) {
+  const ::slamd::testing::ExampleProblem p = ::slamd::testing::MakePlanarProblem(20, 4, 10);
+  const KeyVector removed = {MakeKey('x', 3), MakeKey('x', 4), MakeKey('x', 5), MakeKey('x', 6)};
+  const KeyVector blanket = MarginalizeOut(p.graph.factors(), p.initial, removed).value().blanket;
+  int roots = 0;
+  for (Key want : blanket) {
+    if (KeySymbol(want) != 'x') continue;
+    const NodeRemoval r = MarginalizeOut(p.graph.factors(), p.initial, removed,
+                                         {.form = NodeRemovalParams::Form::kChowLiu,
+                                          .prefer_root = [&](Key k) { return k == want; }})
+                              .value();
+    for (const FactorPtr& f : r.summary) EXPECT_EQ(f->keys().back(), want);
+    ++roots;
+  }
+  EXPECT_GE(roots, 2);
 }
 
 // A landmark removed with the poses: a pose that saw it elsewhere gets a range and bearing from

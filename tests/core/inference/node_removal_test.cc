@@ -26,13 +26,14 @@ double Chi2At(const std::vector<FactorPtr>& factors, const Values& theta) {
   return g.Chi2(theta);
 }
 
-// Removes `removed` from `p`'s graph at its initial guess and checks the remaining variables'
-// covariance, step and chi2 against the full graph's.
-void ExpectExactRemoval(const ::slamd::testing::ExampleProblem& p, const KeyVector& removed) {
-  const Values& theta = p.initial;
-  const std::vector<FactorPtr> all = p.graph.factors();
-  const Result<NodeRemoval> r = MarginalizeOut(all, theta, removed);
+// Removes `removed` from `all` at θ and checks the remaining variables' covariance, step and
+// chi2 against the full graph's (the exact summary, whatever the form); the removal in *out.
+void ExpectExactRemoval(const std::vector<FactorPtr>& all, const Values& theta,
+                        const KeyVector& removed, const NodeRemovalParams& params = {},
+                        NodeRemoval* out = nullptr) {
+  const Result<NodeRemoval> r = MarginalizeOut(all, theta, removed, params);
   ASSERT_TRUE(r.ok()) << r.status().ToString();
+  if (out) *out = *r;
   std::vector<FactorPtr> kept;
   for (std::size_t i = 0; i < all.size(); ++i) {
     if (std::find(r->removed_factors.begin(), r->removed_factors.end(), static_cast<int>(i)) ==
@@ -71,6 +72,11 @@ void ExpectExactRemoval(const ::slamd::testing::ExampleProblem& p, const KeyVect
     }
   }
   EXPECT_EQ(std::set<Key>(r->blanket.begin(), r->blanket.end()), blanket);
+}
+
+// The same for `p`'s graph at its initial guess.
+void ExpectExactRemoval(const ::slamd::testing::ExampleProblem& p, const KeyVector& removed) {
+  ExpectExactRemoval(p.graph.factors(), p.initial, removed);
 }
 
 TEST(NodeRemovalTest, ConsecutivePosesAndALandmark) {
@@ -124,6 +130,80 @@ TEST(NodeRemovalTest, RepeatedRemovalComposes) {
   const DenseSystem x = Dense({b.marginal}, theta, keys), y = Dense({both.marginal}, theta, keys);
   EXPECT_LT((x.H - y.H).cwiseAbs().maxCoeff(), 1e-9 * y.H.cwiseAbs().maxCoeff());
   EXPECT_LT((x.g - y.g).cwiseAbs().maxCoeff(), 1e-9 * (1.0 + y.g.cwiseAbs().maxCoeff()));
+}
+
+// A Chow-Liu removal takes in an earlier tree's root-relative summary whose other variables are
+// on its blanket though its root is not (the root joins the blanket), and leaves one with a
+// variable off the blanket; its exact summary stays exact.
+TEST(NodeRemovalTest, ChowLiuTakesInRootRelativeSummariesOnItsBlanket) {
+  const ::slamd::testing::ExampleProblem p = ::slamd::testing::MakePlanarProblem(16, 2, 4);
+  const Values& theta = p.initial;
+  const Key removed = MakeKey('x', 5), a = MakeKey('x', 4), b = MakeKey('x', 6);
+  // Poses no factor of x5 reaches: the summaries' root, and a variable off the blanket.
+  KeyVector off;
+  for (int i = 9; i < 16; ++i) {
+    const Key k = MakeKey('x', i);
+    const bool adjacent =
+        std::any_of(p.graph.factors().begin(), p.graph.factors().end(), [&](const FactorPtr& f) {
+          const std::span<const Key> fk = f->keys();
+          return std::count(fk.begin(), fk.end(), removed) > 0 &&
+                 std::count(fk.begin(), fk.end(), k) > 0;
+        });
+    if (!adjacent) off.push_back(k);
+  }
+  ASSERT_GE(off.size(), 2u);
+  const Key root = off[0], far = off[1];
+  std::mt19937 rng(4);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const auto summary = [&](Key m0, Key m1) {
+    const Eigen::MatrixXd A = 2.0 * Eigen::MatrixXd::Identity(6, 6) +
+                              0.3 * Eigen::MatrixXd::NullaryExpr(6, 6, [&] { return n01(rng); });
+    const Eigen::VectorXd rhs = Eigen::VectorXd::NullaryExpr(6, [&] { return 0.1 * n01(rng); });
+    return LinearContainerFactor::CreateRootRelative(
+               {m0, m1, root}, {theta.Get(m0), theta.Get(m1), theta.Get(root)}, A, rhs)
+        .value();
+  };
+  std::vector<FactorPtr> all = p.graph.factors();
+  const int on = static_cast<int>(all.size());
+  all.push_back(summary(a, b));
+  all.push_back(summary(a, far));
+  NodeRemoval r;
+  ExpectExactRemoval(all, theta, {removed}, {.form = NodeRemovalParams::Form::kChowLiu}, &r);
+  const auto taken = [&](int f) {
+    return std::count(r.removed_factors.begin(), r.removed_factors.end(), f) > 0;
+  };
+  EXPECT_TRUE(taken(on));
+  EXPECT_FALSE(taken(on + 1));
+  EXPECT_EQ(std::count(r.blanket.begin(), r.blanket.end(), root), 1);
+  EXPECT_EQ(std::count(r.blanket.begin(), r.blanket.end(), far), 0);
+  // The dense form takes in nothing it does not have to.
+  NodeRemoval dense;
+  ExpectExactRemoval(all, theta, {removed}, {}, &dense);
+  EXPECT_EQ(std::count(dense.blanket.begin(), dense.blanket.end(), root), 0);
+}
+
+// The summary does not depend on where the factors are held (a recovery's solver holds them in
+// other slots than the live one did): shuffled, the same blanket and bit for bit the same tree.
+TEST(NodeRemovalTest, SummaryIsTheSameWhateverTheFactorOrder) {
+  const ::slamd::testing::ExampleProblem p = ::slamd::testing::MakePlanarProblem(30, 6, 12);
+  const KeyVector removed = {MakeKey('x', 7), MakeKey('x', 8), MakeKey('x', 9), MakeKey('x', 10)};
+  const NodeRemovalParams tree{.form = NodeRemovalParams::Form::kChowLiu,
+                               .edge_frame = TreeEdgeFrame::kParent};
+  std::vector<FactorPtr> factors = p.graph.factors();
+  const NodeRemoval a = MarginalizeOut(factors, p.initial, removed, tree).value();
+  std::mt19937 rng(12);
+  std::shuffle(factors.begin(), factors.end(), rng);
+  const NodeRemoval b = MarginalizeOut(factors, p.initial, removed, tree).value();
+  EXPECT_EQ(a.blanket, b.blanket);
+  ASSERT_EQ(a.summary.size(), b.summary.size());
+  ASSERT_GE(a.summary.size(), 3u);
+  for (std::size_t i = 0; i < a.summary.size(); ++i) {
+    const auto& fa = static_cast<const LinearContainerFactor&>(*a.summary[i]);
+    const auto& fb = static_cast<const LinearContainerFactor&>(*b.summary[i]);
+    EXPECT_TRUE(std::equal(fa.keys().begin(), fa.keys().end(), fb.keys().begin(), fb.keys().end()));
+    EXPECT_EQ(fa.A(), fb.A()) << i;
+    EXPECT_EQ(fa.b(), fb.b()) << i;
+  }
 }
 
 TEST(NodeRemovalTest, BadRequestsAreRefusedByName) {

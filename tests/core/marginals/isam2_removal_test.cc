@@ -4,6 +4,7 @@
 // the graph that is left (the kept factors and the container).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "core/factors/factor_registry.h"
@@ -146,6 +147,60 @@ TEST(Isam2RemovalTest, UpdatesAfterRemovalReachTheBatchOptimum) {
     EXPECT_LT(testing::MaxDifference(estimate, testing::BatchStepAt(isam->Factors(), estimate)),
               1e-6);
   }
+}
+
+// Chow-Liu summaries take in the summaries already on their blanket (as it ends, roots taken in
+// with them included): removing the poses
+// next to an earlier removal's replaces that removal's tree factors on the shared variables
+// instead of adding a second tree beside them, and the solver still reaches the batch optimum
+// of what it holds.
+TEST(Isam2RemovalTest, ChowLiuSummariesTakeInTheSummariesOnTheirBlanket) {
+  const testing::ExampleProblem p = testing::MakePlanarProblem(40, 4, 12);
+  auto isam = Streamed(p);
+  const NodeRemovalParams tree{.form = NodeRemovalParams::Form::kChowLiu};
+  KeyVector first, second;
+  for (int i = 5; i < 9; ++i) first.push_back(MakeKey('x', i));
+  for (int i = 9; i < 13; ++i) second.push_back(MakeKey('x', i));
+  const Isam2RemovalResult a = isam->RemoveVariables(first, tree);
+  ASSERT_TRUE(a.status.ok()) << a.status.ToString();
+  ASSERT_GE(a.summary_factors.size(), 2u);
+  // The first tree's factors the second removal's blanket holds wholly.
+  std::vector<FactorPtr> first_tree;
+  for (int f : a.summary_factors) first_tree.push_back(isam->factor_slots()[f]);
+  const Isam2RemovalResult b = isam->RemoveVariables(second, tree);
+  ASSERT_TRUE(b.status.ok()) << b.status.ToString();
+  int taken = 0;
+  for (std::size_t i = 0; i < a.summary_factors.size(); ++i) {
+    const std::span<const Key> keys = first_tree[i]->keys();
+    const bool on_blanket = std::all_of(keys.begin(), keys.end(), [&](Key k) {
+      return std::find(b.blanket.begin(), b.blanket.end(), k) != b.blanket.end();
+    });
+    const bool gone = std::find(b.removed_factors.begin(), b.removed_factors.end(),
+                                a.summary_factors[i]) != b.removed_factors.end();
+    // Touching a removed pose or wholly on the blanket: taken in either way.
+    const bool touches_removed = std::any_of(keys.begin(), keys.end(), [&](Key k) {
+      return std::find(second.begin(), second.end(), k) != second.end();
+    });
+    EXPECT_EQ(gone, on_blanket || touches_removed) << i;
+    taken += on_blanket;
+  }
+  EXPECT_GT(taken, 0);
+  // No container is left wholly on the second blanket but the second tree's own.
+  for (int f = 0; f < static_cast<int>(isam->factor_slots().size()); ++f) {
+    const FactorPtr& factor = isam->factor_slots()[f];
+    if (!factor || !dynamic_cast<const LinearContainerFactor*>(factor.get())) continue;
+    const bool on_blanket = std::all_of(factor->keys().begin(), factor->keys().end(), [&](Key k) {
+      return std::find(b.blanket.begin(), b.blanket.end(), k) != b.blanket.end();
+    });
+    if (on_blanket) {
+      EXPECT_NE(std::find(b.summary_factors.begin(), b.summary_factors.end(), f),
+                b.summary_factors.end());
+    }
+  }
+  ASSERT_TRUE(isam->Refine(10.0).converged);
+  const Values estimate = isam->CalculateEstimate();
+  EXPECT_LT(testing::MaxDifference(estimate, testing::BatchStepAt(isam->Factors(), estimate)),
+            1e-6);
 }
 
 TEST(Isam2RemovalTest, RefusalsChangeNothing) {

@@ -131,7 +131,7 @@ isam2 { relinearization {
 TEST(ConfigLoaderTest, LifelongWindowAndJournalSegments) {
   const core::Result<ServerParams> p = ParseConfigText(R"(
 estimator {
-  window { keep_poses: 300 keyframe_spacing_m: 2.5 every_updates: 20 }
+  window { keep_poses: 300 keyframe_spacing_m: 2.5 every_updates: 20 sparse_summaries: false }
   robot_window { robot: "car" keep_poses: 1000 }
 }
 journal { segment_bytes: 1048576 delete_covered_segments: false })");
@@ -139,6 +139,8 @@ journal { segment_bytes: 1048576 delete_covered_segments: false })");
   EXPECT_EQ(p->estimator.window.keep_poses, 300);
   EXPECT_EQ(p->estimator.window.keyframe_spacing_m, 2.5);
   EXPECT_EQ(p->estimator.window.every_updates, 20);
+  EXPECT_FALSE(p->estimator.window.sparse_summaries);
+  EXPECT_TRUE(EstimatorParams{}.window.sparse_summaries);
   EXPECT_EQ(p->estimator.WindowOf("car").keep_poses, 1000);
   EXPECT_EQ(p->estimator.WindowOf("car").keyframe_spacing_m, 2.5);
   EXPECT_EQ(p->estimator.WindowOf("bike").keep_poses, 300);

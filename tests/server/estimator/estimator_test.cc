@@ -9,6 +9,7 @@
 #include <set>
 #include <thread>
 
+#include "core/factors/linear_container_factor.h"
 #include "tests/server/estimator/estimator_test_messages.h"
 
 namespace slamd::server {
@@ -464,6 +465,72 @@ TEST(EstimatorTest, FinishingLaterPublishesTheSameNewestPosesAndEndsTheSame) {
       const Pose2 a = PoseOf(*plain, robot, i), b = PoseOf(*later, robot, i);
       ASSERT_TRUE(a.x() == b.x() && a.y() == b.y() && a.theta() == b.theta()) << robot << i;
     }
+  }
+}
+
+// The window's summaries in a landmark world: a robot circling a ring of 21 poses, seeing the
+// ring's 7 landmarks, every pose behind 10 removed but keyframes. Sparse (the default), every
+// summary is a tree factor on at most three variables (two and the root, a keyframe the removal
+// reports for the journal, or a child and its parent pose), in the root-relative form, and the
+// factors stay bounded lap after
+// lap; dense, each summary is one factor on the whole blanket. Either way the estimate keeps up
+// with the robot (its newest pose within 0.5 m of the ring's).
+TEST(EstimatorTest, WindowSummariesInALandmarkWorld) {
+  const Pose2 step(1.0, 0.0, 2 * M_PI / 21);
+  for (const bool sparse : {true, false}) {
+    SCOPED_TRACE(sparse ? "sparse" : "dense");
+    EstimatorParams p{.chi2_interval_s = 0.0};
+    p.window = {.keep_poses = 10,
+                .keyframe_spacing_m = 3.0,
+                .every_updates = 5,
+                .sparse_summaries = sparse};
+    auto e = Make(p);
+    ASSERT_TRUE(e->Process({Prior("r", 0, Pose2())}).status.ok());
+    std::vector<std::int64_t> factors_per_lap;
+    std::size_t roots = 0;
+    const auto truth = [&](std::uint64_t i) {
+      Pose2 pose;
+      for (std::uint64_t k = 0; k < i % 21; ++k) pose = pose * step;
+      return pose;
+    };
+    for (std::uint64_t i = 0; i < 126; ++i) {
+      std::vector<Inbound> batch = {Odo("r", i, i + 1, step)};
+      // Landmark j sits 2 m to the left of ring pose 3j; seen from that pose and the next.
+      if (i % 3 != 2) {
+        const std::uint64_t j = i % 21 / 3;
+        const core::Point2 at = truth(i).TransformTo(truth(3 * j).TransformFrom({0.0, 2.0}));
+        batch.push_back(Landmark("r", i, j, std::atan2(at.y(), at.x()), at.norm()));
+      }
+      ASSERT_TRUE(e->Process(batch).status.ok()) << i;
+      const NodeRemovalRecord removal = e->ApplyPoseWindow();
+      // The trees' roots, for the journal: kept poses (keyframes), sorted.
+      EXPECT_TRUE(std::is_sorted(removal.roots.begin(), removal.roots.end()));
+      for (core::Key root : removal.roots) {
+        EXPECT_TRUE(e->solver().linearization_point().Contains(root)) << core::KeyToString(root);
+      }
+      roots += removal.roots.size();
+      if (i % 21 == 20) factors_per_lap.push_back(e->snapshot()->num_factors);
+    }
+    EXPECT_GT(e->snapshot()->counters.removed_variables, 60);
+    int trees = 0, wide = 0;
+    for (const core::FactorPtr& f : e->solver().factor_slots()) {
+      const auto* c = dynamic_cast<const core::LinearContainerFactor*>(f.get());
+      if (!c) continue;
+      trees += c->root_relative() && c->keys().size() <= 3;
+      wide += c->keys().size() > 3;
+    }
+    if (sparse) {
+      EXPECT_GT(roots, 0u);
+      EXPECT_GT(trees, 0);
+      EXPECT_EQ(wide, 0);
+      // Bounded: the last lap holds no more factors than the second or third (a few more: a
+      // lap's removals end at another point of the ring).
+      ASSERT_EQ(factors_per_lap.size(), 6u);
+      EXPECT_LE(factors_per_lap.back(), std::max(factors_per_lap[1], factors_per_lap[2]) + 5);
+    } else {
+      EXPECT_GT(wide, 0);
+    }
+    EXPECT_LT((PoseOf(*e, "r", 126).translation() - truth(126).translation()).norm(), 0.5);
   }
 }
 
