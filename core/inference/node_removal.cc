@@ -76,12 +76,18 @@ Result<NodeRemoval> MarginalizeOut(std::span<const FactorPtr> factors, const Val
   // need be, and then those that root completes. A factor touching M has a key off the blanket:
   // none is taken twice.
   if (params.form == NodeRemovalParams::Form::kChowLiu) {
+    std::vector<int> containers;  // the summaries in `factors`, looked up once
+    for (std::size_t i = 0; i < factors.size(); ++i) {
+      if (dynamic_cast<const LinearContainerFactor*>(factors[i].get())) {
+        containers.push_back(static_cast<int>(i));
+      }
+    }
     std::vector<char> taken(factors.size(), 0);
     for (bool grown = true; grown;) {
       grown = false;
-      for (std::size_t i = 0; i < factors.size(); ++i) {
-        const auto* c = dynamic_cast<const LinearContainerFactor*>(factors[i].get());
-        if (!c || taken[i]) continue;
+      for (const int i : containers) {
+        if (taken[i]) continue;
+        const auto* c = static_cast<const LinearContainerFactor*>(factors[i].get());
         const std::span<const Key> fk = c->keys();
         const auto members = fk.end() - (c->root_relative() ? 1 : 0);
         const int root = column_of.Find(fk.back());
@@ -92,7 +98,7 @@ Result<NodeRemoval> MarginalizeOut(std::span<const FactorPtr> factors, const Val
           grown = true;
         }
         taken[i] = 1;
-        out.removed_factors.push_back(static_cast<int>(i));
+        out.removed_factors.push_back(i);
         rows += c->dim();
       }
     }

@@ -150,10 +150,9 @@ TEST(Isam2RemovalTest, UpdatesAfterRemovalReachTheBatchOptimum) {
 }
 
 // Chow-Liu summaries take in the summaries already on their blanket (as it ends, roots taken in
-// with them included): removing the poses
-// next to an earlier removal's replaces that removal's tree factors on the shared variables
-// instead of adding a second tree beside them, and the solver still reaches the batch optimum
-// of what it holds.
+// with them included): removing the poses next to an earlier removal's replaces that removal's
+// tree factors on the shared variables instead of adding a second tree beside them, and the
+// solver still reaches the batch optimum of what it holds.
 TEST(Isam2RemovalTest, ChowLiuSummariesTakeInTheSummariesOnTheirBlanket) {
   const testing::ExampleProblem p = testing::MakePlanarProblem(40, 4, 12);
   auto isam = Streamed(p);

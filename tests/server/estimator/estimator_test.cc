@@ -472,9 +472,8 @@ TEST(EstimatorTest, FinishingLaterPublishesTheSameNewestPosesAndEndsTheSame) {
 // ring's 7 landmarks, every pose behind 10 removed but keyframes. Sparse (the default), every
 // summary is a tree factor on at most three variables (two and the root, a keyframe the removal
 // reports for the journal, or a child and its parent pose), in the root-relative form, and the
-// factors stay bounded lap after
-// lap; dense, each summary is one factor on the whole blanket. Either way the estimate keeps up
-// with the robot (its newest pose within 0.5 m of the ring's).
+// factors stay bounded lap after lap; dense, each summary is one factor on the whole blanket.
+// Either way the estimate keeps up with the robot (its newest pose within 0.5 m of the ring's).
 TEST(EstimatorTest, WindowSummariesInALandmarkWorld) {
   const Pose2 step(1.0, 0.0, 2 * M_PI / 21);
   for (const bool sparse : {true, false}) {
