@@ -4,7 +4,6 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <cmath>
-#include <initializer_list>
 #include <limits>
 #include <string>
 #include <tuple>
@@ -27,6 +26,9 @@ constexpr double kRegularization = 1e-9;
 constexpr double kRigidTolerance = 1e-8;
 // TreeEdgeFrame::kParent: an edge factor drops a term below this x the scale of its coupling.
 constexpr double kEdgeTolerance = 0.05;
+// parents == 2: a second parent that would lower the divergence by less than this (nats) is
+// round-off, not taken: it would cost the factor a key for nothing.
+constexpr double kMinSecondParentGain = 1e-6;
 
 // log det of a symmetric positive-definite block; -inf when it is not.
 double LogDet(const Eigen::MatrixXd& m) {
@@ -84,7 +86,7 @@ Eigen::MatrixXd RigidMotionOfRoot(const KeyVector& keys, const std::vector<Varia
 Result<std::vector<FactorPtr>> ChowLiuTree(const KeyVector& keys, const std::vector<Variable>& x0,
                                            const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
                                            std::span<const char> preferred,
-                                           TreeEdgeFrame edge_frame) {
+                                           TreeEdgeFrame edge_frame, int parents) {
   const int k = static_cast<int>(keys.size());
   SLAMD_CHECK(k >= 3 && x0.size() == keys.size()) << "ChowLiuTree of " << k << " variables";
   std::vector<int> at{0};  // first column of each variable in δ
@@ -214,7 +216,7 @@ Result<std::vector<FactorPtr>> ChowLiuTree(const KeyVector& keys, const std::vec
   // A factor |Σ C_t y_t + rhs|² on tree variables, written on δ: y_t = δ_t − N_t δ_root adds
   // −Σ C_t N_t on the root's columns.
   std::vector<FactorPtr> out;
-  const auto make = [&](std::initializer_list<std::pair<int, Eigen::MatrixXd>> terms,
+  const auto make = [&](const std::vector<std::pair<int, Eigen::MatrixXd>>& terms,
                         const Eigen::VectorXd& rhs) -> Status {
     KeyVector factor_keys;
     std::vector<Variable> points;
@@ -254,48 +256,96 @@ Result<std::vector<FactorPtr>> ChowLiuTree(const KeyVector& keys, const std::vec
   if (!w.ok()) return w.status();
   if (!plausible(r, *w)) return FailedPrecondition("ChowLiuTree: the root's marginal is round-off");
   SLAMD_RETURN_IF_ERROR(make({{r, *w}}, -(*w) * mean.segment(col[r], dr)));
-  // Each edge: p(y_i | y_p) = N(μ_i + K (y_p − μ_p), Σii − K Σpi), K = Σip Σpp⁻¹, as
-  // |W (y_i − K y_p − c)|² with c = μ_i − K μ_p and WᵀW the conditional's information.
-  for (std::size_t s = 1; s < order.size(); ++s) {
+  // parents == 2: each variable after the tree's second also conditioned on the earlier one
+  // (in tree order) that tells most about it beyond its tree parent, the largest conditional
+  // mutual information I(i; q | p) = ½ (log|Σ_{i|p}| + log|Σ_{q|p}| − log|Σ_{iq|p}|): the
+  // divergence from the dense summary drops by exactly that (a Bayes net's is Σ_i H(i | its
+  // parents) − H(all)), and every tree parent stays.
+  std::vector<int> second(m, -1);
+  for (std::size_t s = 2; parents >= 2 && s < order.size(); ++s) {
     const int i = order[s], p = parent[i];
-    const int di = col[i + 1] - col[i];
-    const Eigen::MatrixXd pp = block(p, p);
-    const Eigen::MatrixXd K = pp.llt().solve(Eigen::MatrixXd(block(p, i))).transpose();
-    const Eigen::MatrixXd conditional = block(i, i) - K * block(p, i);
+    const Eigen::LLT<Eigen::MatrixXd> pp(block(p, p));
+    double best_gain = kMinSecondParentGain;
+    for (std::size_t u = 0; u < s; ++u) {
+      const int q = order[u];
+      if (q == p) continue;
+      const int di = col[i + 1] - col[i], dq = col[q + 1] - col[q];
+      Eigen::MatrixXd joint(di + dq, di + dq), cross(di + dq, col[p + 1] - col[p]);
+      joint << block(i, i), block(i, q), block(q, i), block(q, q);
+      cross << block(i, p), block(q, p);
+      joint -= cross * pp.solve(Eigen::MatrixXd(cross.transpose()));
+      const double gain = 0.5 * (LogDet(joint.topLeftCorner(di, di)) +
+                                 LogDet(joint.bottomRightCorner(dq, dq)) - LogDet(joint));
+      if (gain > best_gain) best_gain = gain, second[i] = q;
+    }
+  }
+
+  // Each edge: p(y_i | y_S) = N(μ_i + K (y_S − μ_S), Σii − K ΣSi), K = ΣiS ΣSS⁻¹ over its
+  // parents S (p, and q if it has one), as |W (y_i − K y_S − c)|² with c = μ_i − K μ_S and WᵀW
+  // the conditional's information.
+  for (std::size_t s = 1; s < order.size(); ++s) {
+    const int i = order[s], p = parent[i], q = second[i];
+    const int di = col[i + 1] - col[i], dp = col[p + 1] - col[p];
+    const int dq = q >= 0 ? col[q + 1] - col[q] : 0;
+    Eigen::MatrixXd SS(dp + dq, dp + dq), Si(dp + dq, di);
+    Eigen::VectorXd mS(dp + dq);
+    SS.topLeftCorner(dp, dp) = block(p, p);
+    Si.topRows(dp) = block(p, i);
+    mS.head(dp) = mean.segment(col[p], dp);
+    if (q >= 0) {
+      SS.topRightCorner(dp, dq) = block(p, q);
+      SS.bottomLeftCorner(dq, dp) = block(q, p);
+      SS.bottomRightCorner(dq, dq) = block(q, q);
+      Si.bottomRows(dq) = block(q, i);
+      mS.tail(dq) = mean.segment(col[q], dq);
+    }
+    const Eigen::MatrixXd K = SS.llt().solve(Si).transpose();
+    const Eigen::MatrixXd conditional = block(i, i) - K * Si;
     w = SqrtInformation(conditional.llt().solve(Eigen::MatrixXd::Identity(di, di)));
     if (!w.ok()) return w.status();
-    if (!plausible(i, *w) || !plausible(p, (*w) * K)) {
+    const Eigen::MatrixXd WKp = (*w) * K.leftCols(dp), WKq = (*w) * K.rightCols(dq);
+    if (!plausible(i, *w) || !plausible(p, WKp) || (q >= 0 && !plausible(q, WKq))) {
       return FailedPrecondition("ChowLiuTree: the conditional of " + KeyToString(keys[var[i]]) +
                                 " is round-off");
     }
-    const Eigen::VectorXd c =
-        mean.segment(col[i], di) - K * mean.segment(col[p], col[p + 1] - col[p]);
+    const Eigen::VectorXd c = mean.segment(col[i], di) - K * mS;
+    std::vector<std::pair<int, Eigen::MatrixXd>> terms{{i, *w}};  // without the tree parent's
+    if (q >= 0) terms.emplace_back(q, -WKq);
     if (relative && edge_frame == TreeEdgeFrame::kParent) {
-      // On fewer keys where that drops next to nothing against W N_i^p (the parent carrying
-      // the child along; W alone if the parent is no pose): the child in the parent's frame,
-      // |W (z_i − c)|² with z_i ≈ y_i − N_i^p y_p (dropping W (N_i^p − K) y_p), or the child
-      // alone in the root's, |W (y_i − c)|² (dropping W K y_p: the parent says little of it).
+      // On fewer keys where that drops next to nothing against the parent's column in the
+      // parent's frame, W (N_i^p − K_q N_q^p) (the parent carrying the others along; W alone if
+      // the parent is no pose): the others in the parent's frame, |W (z_i − K_q z_q − c)|² with
+      // z ≈ y − N^p y_p (dropping W (N_i^p − K_q N_q^p − K_p) y_p), or in the root's without
+      // the parent, |W (y_i − K_q y_q − c)|² (dropping W K_p y_p: the parent says little).
+      KeyVector in_keys{keys[var[i]]};
+      std::vector<Variable> in_x0{x0[var[i]]};
+      Eigen::MatrixXd in_a(di, di + dq);
+      in_a << *w, -WKq;
+      if (q >= 0) in_keys.push_back(keys[var[q]]), in_x0.push_back(x0[var[q]]);
+      in_keys.push_back(keys[var[p]]);
+      in_x0.push_back(x0[var[p]]);
       Result<FactorPtr> in_parent = LinearContainerFactor::CreateRootRelative(
-          {keys[var[i]], keys[var[p]]}, {x0[var[i]], x0[var[p]]}, *w, -(*w) * c);
-      Eigen::MatrixXd WN;  // at x0, the parent's column of that factor is −W N_i^p
+          std::move(in_keys), in_x0, std::move(in_a), -(*w) * c);
+      Eigen::MatrixXd parent_column;  // at x0, −W (N_i^p − K_q N_q^p)
       if (in_parent.ok()) {
-        const Variable* at_x0[] = {&x0[var[i]], &x0[var[p]]};
-        std::vector<Eigen::MatrixXd> H(2);
+        std::vector<const Variable*> at_x0;
+        for (const Variable& v : in_x0) at_x0.push_back(&v);
+        std::vector<Eigen::MatrixXd> H(in_x0.size());
         static_cast<const LinearContainerFactor&>(**in_parent).Evaluate(at_x0, &H);
-        WN = -H[1];
+        parent_column = H.back();
       }
-      const Eigen::MatrixXd WK = (*w) * K;
-      const double scale = in_parent.ok() ? WN.norm() : w->norm();
-      if (in_parent.ok() && (WN - WK).norm() <= kEdgeTolerance * scale) {
+      const double scale = in_parent.ok() ? parent_column.norm() : w->norm();
+      if (in_parent.ok() && (parent_column + WKp).norm() <= kEdgeTolerance * scale) {
         out.push_back(std::move(in_parent).value());
         continue;
       }
-      if (WK.norm() <= kEdgeTolerance * scale) {
-        SLAMD_RETURN_IF_ERROR(make({{i, *w}}, -(*w) * c));
+      if (WKp.norm() <= kEdgeTolerance * scale) {
+        SLAMD_RETURN_IF_ERROR(make(terms, -(*w) * c));
         continue;
       }
     }
-    SLAMD_RETURN_IF_ERROR(make({{i, *w}, {p, -(*w) * K}}, -(*w) * c));
+    terms.emplace_back(p, -WKp);
+    SLAMD_RETURN_IF_ERROR(make(terms, -(*w) * c));
   }
   return out;
 }

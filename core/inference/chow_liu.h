@@ -31,6 +31,13 @@
 // smallest covariance in its frame, so that its edges run out from the root as the summary's
 // links do: a chain's are then all exact.) In the lifelong soak's trees about 80 % of the edges
 // go in a parent's frame and 8 % alone.
+// With parents = 2 each variable after the tree's first two is also conditioned on a second
+// earlier one (in tree order), the one with the largest conditional mutual information given its
+// tree parent: a Bayes net of at most two parents a variable, p(y_i | y_p, y_q), whose
+// divergence from the dense summary is the tree's less the sum of those informations (the net's
+// divergence is Σ_i H(y_i | parents) − H(y)). The marginals are then no longer all exact, but
+// the couplings kept are. kParent puts such a factor in the tree parent's frame (the child and
+// the second parent taken there) on the same rule.
 #pragma once
 
 #include <Eigen/Core>
@@ -46,7 +53,8 @@ namespace slamd::core {
 // it): LinearContainerFactors at the same linearisation point, the tree's root first, each on
 // one or two of the keys plus the shifted root if there is one (then k − 1 factors for k keys,
 // else k; kParent: most edges on fewer, see above); at least 3 keys.
-// `preferred` (empty, or a flag per key): poses to shift to before the others.
+// `preferred` (empty, or a flag per key): poses to shift to before the others. `parents`: 1 (the
+// tree) or 2 (factors on up to three of the keys, and the root).
 // FailedPrecondition when the information is not positive definite, or a tree factor would hold
 // more information than the summary gives its variable (round-off where the summary is nearly
 // singular): keep the dense one then.
@@ -54,6 +62,7 @@ enum class TreeEdgeFrame { kRoot, kParent };
 Result<std::vector<FactorPtr>> ChowLiuTree(const KeyVector& keys, const std::vector<Variable>& x0,
                                            const Eigen::MatrixXd& A, const Eigen::VectorXd& b,
                                            std::span<const char> preferred = {},
-                                           TreeEdgeFrame edge_frame = TreeEdgeFrame::kRoot);
+                                           TreeEdgeFrame edge_frame = TreeEdgeFrame::kRoot,
+                                           int parents = 1);
 
 }  // namespace slamd::core

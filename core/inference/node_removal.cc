@@ -185,7 +185,7 @@ Result<NodeRemoval> MarginalizeOut(std::span<const FactorPtr> factors, const Val
         preferred[i] = params.prefer_root(out.blanket[i]);
       }
       Result<std::vector<FactorPtr>> tree =
-          ChowLiuTree(out.blanket, x0, A, b, preferred, params.edge_frame);
+          ChowLiuTree(out.blanket, x0, A, b, preferred, params.edge_frame, params.tree_parents);
       out.summary = tree.ok() ? std::move(tree).value() : std::vector<FactorPtr>{out.marginal};
     } else {
       out.summary = {out.marginal};

@@ -45,6 +45,9 @@ struct NodeRemovalParams {
   // kParent keeps a long run's summaries from coupling the map through their roots, at the
   // cost of the dependence it drops.
   TreeEdgeFrame edge_frame = TreeEdgeFrame::kRoot;
+  // kChowLiu: 2 conditions each tree variable on a second earlier one as well (chow_liu.h),
+  // keeping more of the summary's couplings at a key more per factor.
+  int tree_parents = 1;
 };
 
 struct NodeRemoval {

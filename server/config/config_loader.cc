@@ -183,6 +183,7 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
     if (w.has_keyframe_spacing_m()) p->estimator.window.keyframe_spacing_m = w.keyframe_spacing_m();
     if (w.has_every_updates()) p->estimator.window.every_updates = w.every_updates();
     if (w.has_sparse_summaries()) p->estimator.window.sparse_summaries = w.sparse_summaries();
+    if (w.has_summary_parents()) p->estimator.window.summary_parents = w.summary_parents();
   }
   const auto read_reduced = [](const auto& in, EstimatorParams::ReducedGraph* out) {
     if (in.has_distance_m()) out->distance_m = in.distance_m();
@@ -357,6 +358,8 @@ std::string DefaultConfigText() {
       << "    every_updates: " << d.estimator.window.every_updates << "  # how often, >= 1\n"
       << "    sparse_summaries: " << (d.estimator.window.sparse_summaries ? "true" : "false")
       << "  # Chow-Liu trees; false: exact dense summaries, which grow with the area\n"
+      << "    summary_parents: " << d.estimator.window.summary_parents
+      << "  # sparse: each variable conditioned on 1 (a tree) or 2 others (closer, denser)\n"
       << "  }\n"
       << "  # robot_window { robot: \"car\" keep_poses: 500 keyframe_spacing_m: 2 }  # one "
          "robot's\n"

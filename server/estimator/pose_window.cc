@@ -139,7 +139,8 @@ core::Status Estimator::RemoveChunk(std::span<const core::Key> keys,
       {.form = params_.window.sparse_summaries ? core::NodeRemovalParams::Form::kChowLiu
                                                : core::NodeRemovalParams::Form::kDense,
        .prefer_root = keyframe,
-       .edge_frame = core::TreeEdgeFrame::kParent},
+       .edge_frame = core::TreeEdgeFrame::kParent,
+       .tree_parents = params_.window.summary_parents},
       at);
   if (!r.status.ok()) return r.status;
   done->keys.insert(done->keys.end(), keys.begin(), keys.end());

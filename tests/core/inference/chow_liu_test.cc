@@ -52,6 +52,38 @@ Values RigidlyMoved(const Values& values, const KeyVector& keys) {
   return moved;
 }
 
+// `s` (on `keys`) with `root` held, the gauge of a summary of relative measurements fixed: the
+// rest of the system, its columns renumbered.
+testing::DenseSystem Held(const testing::DenseSystem& s, const KeyVector& keys, Key root) {
+  std::vector<int> keep;
+  testing::DenseSystem out;
+  out.column.push_back(0);
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    if (keys[i] == root) continue;
+    for (int c = s.column[i]; c < s.column[i + 1]; ++c) keep.push_back(c);
+    out.column.push_back(static_cast<int>(keep.size()));
+  }
+  const int m = static_cast<int>(keep.size());
+  out.H.resize(m, m);
+  out.g.resize(m);
+  for (int a = 0; a < m; ++a) {
+    out.g(a) = s.g(keep[a]);
+    for (int c = 0; c < m; ++c) out.H(a, c) = s.H(keep[a], keep[c]);
+  }
+  return out;
+}
+
+// The Kullback-Leibler divergence KL(p || q) of the Gaussians of two (held) systems, in nats.
+double Divergence(const testing::DenseSystem& p, const testing::DenseSystem& q) {
+  const auto log_det = [](const Eigen::MatrixXd& m) {
+    const Eigen::MatrixXd l = Eigen::LLT<Eigen::MatrixXd>(m).matrixL();
+    return 2.0 * l.diagonal().array().log().sum();
+  };
+  const Eigen::VectorXd d = q.H.ldlt().solve(-q.g) - p.H.ldlt().solve(-p.g);
+  return 0.5 * ((q.H * p.H.inverse()).trace() - static_cast<double>(p.H.rows()) + log_det(p.H) -
+                log_det(q.H) + d.dot(q.H * d));
+}
+
 TEST(ChowLiuTest, TreeKeepsEveryMarginalOfTheDenseSummary) {
   const ::slamd::testing::ExampleProblem p = ::slamd::testing::MakePlanarProblem(20, 4, 13);
   // x0 carries the prior: the summary determines every blanket variable (checked below).
@@ -135,25 +167,12 @@ TEST(ChowLiuTest, SummaryOfRelativeMeasurementsIsShiftedToARoot) {
   EXPECT_LT((tree.H * null).cwiseAbs().maxCoeff(), 1e-8 * top);
   EXPECT_LT((tree.g.transpose() * null).cwiseAbs().maxCoeff(), 1e-8 * dense.g.norm() + 1e-12);
   // The root held: the rest of both systems.
-  std::vector<int> keep, column{0};
-  KeyVector others;
-  for (int i = 0; i < k; ++i) {
-    if (i == root) continue;
-    for (int c = at[i]; c < at[i + 1]; ++c) keep.push_back(c);
-    column.push_back(static_cast<int>(keep.size()));
-    others.push_back(r.blanket[i]);
-  }
-  const auto rest = [&](const testing::DenseSystem& s) {
-    const int m = static_cast<int>(keep.size());
-    testing::DenseSystem out{.H = Eigen::MatrixXd(m, m), .g = Eigen::VectorXd(m)};
-    for (int a = 0; a < m; ++a) {
-      out.g(a) = s.g(keep[a]);
-      for (int c = 0; c < m; ++c) out.H(a, c) = s.H(keep[a], keep[c]);
-    }
-    return out;
-  };
-  const testing::DenseSystem dense_rest = rest(dense), tree_rest = rest(tree);
-  ExpectSameMarginals(dense_rest.H, dense_rest.g, tree_rest.H, tree_rest.g, column, others);
+  KeyVector others = r.blanket;
+  others.erase(others.begin() + root);
+  const testing::DenseSystem dense_rest = Held(dense, r.blanket, r.blanket[root]);
+  const testing::DenseSystem tree_rest = Held(tree, r.blanket, r.blanket[root]);
+  ExpectSameMarginals(dense_rest.H, dense_rest.g, tree_rest.H, tree_rest.g, dense_rest.column,
+                      others);
 }
 
 // TreeEdgeFrame::kParent on a summary of relative measurements that is a chain (odometry alone,
@@ -250,23 +269,11 @@ TEST(ChowLiuTest, EdgesInTheParentFrameLeaveTheRootOutOfSome) {
     EXPECT_LE(f->keys().size(), 3u);
     EXPECT_LT((f->Error(moved) - f->Error(p.initial)).norm(), 1e-9);
   }
-  const testing::DenseSystem dense = testing::Dense({r.marginal}, p.initial, r.blanket);
-  const testing::DenseSystem tree = testing::Dense(r.summary, p.initial, r.blanket);
-  std::vector<int> keep;
-  const std::vector<int>& at = dense.column;
-  for (std::size_t i = 0; i < r.blanket.size(); ++i) {
-    if (r.blanket[i] == root) continue;
-    for (int c = at[i]; c < at[i + 1]; ++c) keep.push_back(c);
-  }
-  const auto held = [&](const testing::DenseSystem& s) {
-    const int m = static_cast<int>(keep.size());
-    Eigen::MatrixXd h(m, m);
-    for (int a = 0; a < m; ++a) {
-      for (int c = 0; c < m; ++c) h(a, c) = s.H(keep[a], keep[c]);
-    }
-    return Eigen::MatrixXd(h.inverse());
+  const auto held_cov = [&](const std::vector<FactorPtr>& factors) {
+    return Eigen::MatrixXd(
+        Held(testing::Dense(factors, p.initial, r.blanket), r.blanket, root).H.inverse());
   };
-  const Eigen::MatrixXd dense_cov = held(dense), tree_cov = held(tree);
+  const Eigen::MatrixXd dense_cov = held_cov({r.marginal}), tree_cov = held_cov(r.summary);
   double worst = 0.0;
   for (int c = 0; c < dense_cov.rows(); ++c) {
     worst = std::max(worst, std::abs(tree_cov(c, c) / dense_cov(c, c) - 1.0));
@@ -316,6 +323,45 @@ TEST(ChowLiuTest, NullDirectionsBeyondTheGaugeGetANegligiblePrior) {
   EXPECT_LT((null.transpose() * tree.H * null).norm(), 1e-7 * top);
   // Elsewhere it is no weaker than the summary: about as much information in total.
   EXPECT_GT(tree.H.trace(), 0.5 * dense.H.trace());
+}
+
+// Two parents per variable (a second one where it tells most beyond the tree parent): closer to
+// the dense summary than the tree, in either edge frame, with every factor on three blanket
+// variables at most (plus the root it is relative to), and still blind to a rigid motion of the
+// whole blanket.
+TEST(ChowLiuTest, SecondParentsBringTheSummaryCloser) {
+  const ::slamd::testing::ExampleProblem p = Corridor(40, 3);
+  KeyVector removed;
+  for (int i = 11; i < 26; i += 2) removed.push_back(MakeKey('x', i));
+  const auto summary = [&](TreeEdgeFrame frame, int parents) {
+    return MarginalizeOut(p.graph.factors(), p.initial, removed,
+                          {.form = NodeRemovalParams::Form::kChowLiu,
+                           .edge_frame = frame,
+                           .tree_parents = parents})
+        .value();
+  };
+  const Values moved = RigidlyMoved(p.initial, summary(TreeEdgeFrame::kRoot, 1).blanket);
+  for (TreeEdgeFrame frame : {TreeEdgeFrame::kRoot, TreeEdgeFrame::kParent}) {
+    const NodeRemoval tree = summary(frame, 1), two = summary(frame, 2);
+    const Key root = tree.summary.front()->keys().back();
+    ASSERT_EQ(two.summary.front()->keys().back(), root);
+    ASSERT_EQ(two.blanket, tree.blanket);
+    const auto held = [&](const std::vector<FactorPtr>& factors) {
+      return Held(testing::Dense(factors, p.initial, two.blanket), two.blanket, root);
+    };
+    const testing::DenseSystem dense = held({two.marginal});
+    const double tree_kl = Divergence(dense, held(tree.summary));
+    const double two_kl = Divergence(dense, held(two.summary));
+    EXPECT_GT(tree_kl, 0.1);
+    EXPECT_LT(two_kl, 0.5 * tree_kl);
+    int three = 0;
+    for (const FactorPtr& f : two.summary) {
+      EXPECT_LE(f->keys().size(), 4u);
+      three += f->keys().size() == 4u || (f->keys().size() == 3u && frame == TreeEdgeFrame::kRoot);
+      EXPECT_LT((f->Error(moved) - f->Error(p.initial)).norm(), 1e-9);
+    }
+    EXPECT_GT(three, 0);
+  }
 }
 
 }  // namespace

@@ -131,7 +131,10 @@ isam2 { relinearization {
 TEST(ConfigLoaderTest, LifelongWindowAndJournalSegments) {
   const core::Result<ServerParams> p = ParseConfigText(R"(
 estimator {
-  window { keep_poses: 300 keyframe_spacing_m: 2.5 every_updates: 20 sparse_summaries: false }
+  window {
+    keep_poses: 300 keyframe_spacing_m: 2.5 every_updates: 20 sparse_summaries: false
+    summary_parents: 2
+  }
   robot_window { robot: "car" keep_poses: 1000 }
 }
 journal { segment_bytes: 1048576 delete_covered_segments: false })");
@@ -140,7 +143,14 @@ journal { segment_bytes: 1048576 delete_covered_segments: false })");
   EXPECT_EQ(p->estimator.window.keyframe_spacing_m, 2.5);
   EXPECT_EQ(p->estimator.window.every_updates, 20);
   EXPECT_FALSE(p->estimator.window.sparse_summaries);
+  EXPECT_EQ(p->estimator.window.summary_parents, 2);
   EXPECT_TRUE(EstimatorParams{}.window.sparse_summaries);
+  EXPECT_EQ(EstimatorParams{}.window.summary_parents, 1);
+  const core::Result<ServerParams> three =
+      ParseConfigText("estimator {\n  window { summary_parents: 3 }\n}\n", "c");
+  ASSERT_FALSE(three.ok());
+  EXPECT_EQ(three.status().message(),
+            "c:2:12: estimator.window.summary_parents = 3; violates <= 2");
   EXPECT_EQ(p->estimator.WindowOf("car").keep_poses, 1000);
   EXPECT_EQ(p->estimator.WindowOf("car").keyframe_spacing_m, 2.5);
   EXPECT_EQ(p->estimator.WindowOf("bike").keep_poses, 300);

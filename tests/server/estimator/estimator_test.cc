@@ -470,19 +470,22 @@ TEST(EstimatorTest, FinishingLaterPublishesTheSameNewestPosesAndEndsTheSame) {
 
 // The window's summaries in a landmark world: a robot circling a ring of 21 poses, seeing the
 // ring's 7 landmarks, every pose behind 10 removed but keyframes. Sparse (the default), every
-// summary is a tree factor on at most three variables (two and the root, a keyframe the removal
-// reports for the journal, or a child and its parent pose), in the root-relative form, and the
-// factors stay bounded lap after lap; dense, each summary is one factor on the whole blanket.
-// Either way the estimate keeps up with the robot (its newest pose within 0.5 m of the ring's).
+// summary factor is on at most 1 + summary_parents variables and the root (a keyframe the
+// removal reports for the journal; a child in its parent pose's frame has that parent as root),
+// in the root-relative form, and the factors stay bounded lap after lap; dense, each summary is
+// one factor on the whole blanket. Either way the estimate keeps up with the robot (its newest
+// pose within 0.5 m of the ring's).
 TEST(EstimatorTest, WindowSummariesInALandmarkWorld) {
   const Pose2 step(1.0, 0.0, 2 * M_PI / 21);
-  for (const bool sparse : {true, false}) {
-    SCOPED_TRACE(sparse ? "sparse" : "dense");
+  for (const int parents : {1, 2, 0}) {
+    const bool sparse = parents > 0;
+    SCOPED_TRACE(sparse ? "sparse, parents " + std::to_string(parents) : "dense");
     EstimatorParams p{.chi2_interval_s = 0.0};
     p.window = {.keep_poses = 10,
                 .keyframe_spacing_m = 3.0,
                 .every_updates = 5,
-                .sparse_summaries = sparse};
+                .sparse_summaries = sparse,
+                .summary_parents = std::max(parents, 1)};
     auto e = Make(p);
     ASSERT_TRUE(e->Process({Prior("r", 0, Pose2())}).status.ok());
     std::vector<std::int64_t> factors_per_lap;
@@ -511,17 +514,20 @@ TEST(EstimatorTest, WindowSummariesInALandmarkWorld) {
       if (i % 21 == 20) factors_per_lap.push_back(e->snapshot()->num_factors);
     }
     EXPECT_GT(e->snapshot()->counters.removed_variables, 60);
-    int trees = 0, wide = 0;
+    int trees = 0, wide = 0, widest = 0;
     for (const core::FactorPtr& f : e->solver().factor_slots()) {
       const auto* c = dynamic_cast<const core::LinearContainerFactor*>(f.get());
       if (!c) continue;
-      trees += c->root_relative() && c->keys().size() <= 3;
-      wide += c->keys().size() > 3;
+      const int keys = static_cast<int>(c->keys().size());
+      trees += c->root_relative() && keys <= parents + 2;
+      wide += keys > parents + 2;
+      widest = std::max(widest, keys);
     }
     if (sparse) {
       EXPECT_GT(roots, 0u);
       EXPECT_GT(trees, 0);
       EXPECT_EQ(wide, 0);
+      EXPECT_EQ(widest, parents + 2);
       // Bounded: the last lap holds no more factors than the second or third (a few more: a
       // lap's removals end at another point of the ring).
       ASSERT_EQ(factors_per_lap.size(), 6u);
