@@ -359,7 +359,7 @@ std::string DefaultConfigText() {
       << "    sparse_summaries: " << (d.estimator.window.sparse_summaries ? "true" : "false")
       << "  # Chow-Liu trees; false: exact dense summaries, which grow with the area\n"
       << "    summary_parents: " << d.estimator.window.summary_parents
-      << "  # sparse: each variable conditioned on 1 (a tree) or 2 others (closer, denser)\n"
+      << "  # sparse: a variable conditioned on 1 (a tree) or 2 others (closer, denser)\n"
       << "  }\n"
       << "  # robot_window { robot: \"car\" keep_poses: 500 keyframe_spacing_m: 2 }  # one "
          "robot's\n"
