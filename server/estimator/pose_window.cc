@@ -111,10 +111,17 @@ core::Status Estimator::RemoveVariables(std::span<const core::Key> keys,
   if (Rebuilding()) {
     return core::FailedPrecondition("node removal while a rebuild is in flight");
   }
+  // A chunk holds one robot's poses: the summary of several robots' would be one tree over
+  // blankets that share nothing, its root in one robot's map and bridges of no information to
+  // the others', which tie their maps together across the world (fill-in of the Bayes tree).
   core::Status status;
-  for (std::size_t first = 0; first < keys.size() && status.ok(); first += kRemovalChunk) {
-    status = RemoveChunk(keys.subspan(first, std::min(kRemovalChunk, keys.size() - first)), roots,
-                         at, done);
+  for (std::size_t first = 0, end; first < keys.size() && status.ok(); first = end) {
+    end = first + 1;
+    while (end < keys.size() && end - first < kRemovalChunk &&
+           core::KeyRobot(keys[end]) == core::KeyRobot(keys[first])) {
+      ++end;
+    }
+    status = RemoveChunk(keys.subspan(first, end - first), roots, at, done);
   }
   if (done->keys.empty()) return status;
   counters_.removed_variables += static_cast<std::int64_t>(done->keys.size());

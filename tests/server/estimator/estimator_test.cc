@@ -539,6 +539,50 @@ TEST(EstimatorTest, WindowSummariesInALandmarkWorld) {
   }
 }
 
+// Two robots circling rings 100 m apart, each seeing its own landmarks, their old poses removed
+// in the same window passes: each summary factor holds one robot's poses (a removal's chunk is
+// one robot's, so that no tree bridges the maps of robots that share nothing).
+TEST(EstimatorTest, WindowSummariesStayWithinOneRobot) {
+  const Pose2 step(1.0, 0.0, 2 * M_PI / 21);
+  EstimatorParams p{.chi2_interval_s = 0.0};
+  p.window = {.keep_poses = 10, .keyframe_spacing_m = 3.0, .every_updates = 5};
+  auto e = Make(p);
+  ASSERT_TRUE(e->Process({Prior("a", 0, Pose2()), Prior("b", 0, Pose2(100, 0, 0))}).status.ok());
+  const auto ring = [&](std::uint64_t i) {
+    Pose2 pose;
+    for (std::uint64_t k = 0; k < i % 21; ++k) pose = pose * step;
+    return pose;
+  };
+  std::int64_t removed = 0;
+  for (std::uint64_t i = 0; i < 84; ++i) {
+    std::vector<Inbound> batch = {Odo("a", i, i + 1, step), Odo("b", i, i + 1, step)};
+    if (i % 3 != 2) {
+      const std::uint64_t j = i % 21 / 3;
+      const core::Point2 at = ring(i).TransformTo(ring(3 * j).TransformFrom({0.0, 2.0}));
+      const double bearing = std::atan2(at.y(), at.x());
+      batch.push_back(Landmark("a", i, j, bearing, at.norm()));
+      batch.push_back(Landmark("b", i, 100 + j, bearing, at.norm()));
+    }
+    ASSERT_TRUE(e->Process(batch).status.ok()) << i;
+    const NodeRemovalRecord now = e->ApplyPoseWindow();
+    std::set<std::uint8_t> robots;
+    for (core::Key k : now.keys) robots.insert(core::KeyRobot(k));
+    removed += robots.size() == 2;
+  }
+  EXPECT_GT(removed, 5);  // passes that removed poses of both robots
+  int containers = 0;
+  for (const core::FactorPtr& f : e->solver().factor_slots()) {
+    if (!dynamic_cast<const core::LinearContainerFactor*>(f.get())) continue;
+    ++containers;
+    std::set<std::uint8_t> robots;
+    for (core::Key k : f->keys()) {
+      if (core::KeySymbol(k) == 'x') robots.insert(core::KeyRobot(k));
+    }
+    EXPECT_LE(robots.size(), 1u) << f->Name() << " on " << core::KeyToString(f->keys().front());
+  }
+  EXPECT_GT(containers, 10);
+}
+
 // A robot's own window (robot_windows) in place of the default one: robot "a" keeps its newest
 // 10 poses and keyframes 3 m apart, robot "b" (default window: off) keeps everything; the
 // counters and the graph say so, and a loop closure to one of a's removed poses is rejected.
