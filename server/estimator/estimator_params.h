@@ -108,15 +108,14 @@ struct EstimatorParams {
   // the area mapped until removals stall (BENCHMARKS.md, lifelong soak).
   // summary_parents (window's only; 1 or 2): sparse summaries condition each variable on its
   // tree parent and, with 2, also on the one other variable that tells most about it beyond
-  // that (NodeRemovalParams::tree_parents): closer to the exact summaries (the lifelong soak's
-  // error about halved), but the solver's fill-in, memory and update time then keep growing
-  // over a long run; 1 keeps them bounded (BENCHMARKS.md, lifelong soak).
+  // that (NodeRemovalParams::tree_parents): closer to the exact summaries, for a little more
+  // fill-in and update time (BENCHMARKS.md, lifelong soak).
   struct PoseWindow {
     int keep_poses = 0;
     double keyframe_spacing_m = 1.0;
     int every_updates = 100;
     bool sparse_summaries = true;
-    int summary_parents = 1;
+    int summary_parents = 2;
   };
   PoseWindow window = {};
   // Per robot (by name): its own keep_poses and keyframe_spacing_m in place of window's (a

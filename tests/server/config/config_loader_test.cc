@@ -133,7 +133,7 @@ TEST(ConfigLoaderTest, LifelongWindowAndJournalSegments) {
 estimator {
   window {
     keep_poses: 300 keyframe_spacing_m: 2.5 every_updates: 20 sparse_summaries: false
-    summary_parents: 2
+    summary_parents: 1
   }
   robot_window { robot: "car" keep_poses: 1000 }
 }
@@ -143,9 +143,9 @@ journal { segment_bytes: 1048576 delete_covered_segments: false })");
   EXPECT_EQ(p->estimator.window.keyframe_spacing_m, 2.5);
   EXPECT_EQ(p->estimator.window.every_updates, 20);
   EXPECT_FALSE(p->estimator.window.sparse_summaries);
-  EXPECT_EQ(p->estimator.window.summary_parents, 2);
+  EXPECT_EQ(p->estimator.window.summary_parents, 1);
   EXPECT_TRUE(EstimatorParams{}.window.sparse_summaries);
-  EXPECT_EQ(EstimatorParams{}.window.summary_parents, 1);
+  EXPECT_EQ(EstimatorParams{}.window.summary_parents, 2);
   const core::Result<ServerParams> three =
       ParseConfigText("estimator {\n  window { summary_parents: 3 }\n}\n", "c");
   ASSERT_FALSE(three.ok());
