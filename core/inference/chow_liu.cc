@@ -276,7 +276,8 @@ Result<std::vector<FactorPtr>> ChowLiuTree(const KeyVector& keys, const std::vec
       joint -= cross * pp.solve(Eigen::MatrixXd(cross.transpose()));
       const double gain = 0.5 * (LogDet(joint.topLeftCorner(di, di)) +
                                  LogDet(joint.bottomRightCorner(dq, dq)) - LogDet(joint));
-      if (gain > best_gain) best_gain = gain, second[i] = q;
+      // (Not finite: a conditional round-off left singular, no information to trust.)
+      if (std::isfinite(gain) && gain > best_gain) best_gain = gain, second[i] = q;
     }
   }
 
