@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include "core/base/key_slots.h"
 #include "core/factors/linear_container_factor.h"
@@ -22,6 +23,10 @@ constexpr double kRankTolerance = 1e-10;
 Result<NodeRemoval> MarginalizeOut(std::span<const FactorPtr> factors, const Values& theta,
                                    std::span<const Key> removed, const NodeRemovalParams& params) {
   if (removed.empty()) return InvalidArgument("MarginalizeOut: no variable to remove");
+  if (params.tree_parents < 1 || params.tree_parents > 2) {
+    return InvalidArgument("MarginalizeOut: tree_parents = " + std::to_string(params.tree_parents) +
+                           "; must be 1 or 2");
+  }
   // Columns: the removed variables first (in the given order), then the blanket (marked
   // kBlanket while the factors are gathered, placed in the order below).
   constexpr int kBlanket = std::numeric_limits<int>::max();

@@ -63,9 +63,10 @@ struct NodeRemoval {
 
 // Marginalises `removed` out of `factors` (null entries skipped, as Isam2::factor_slots has
 // them) at `theta`, which holds every variable of the factors touching them. Errors:
-// InvalidArgument for an empty, repeated or unknown key in `removed`; FailedPrecondition naming
-// the variable when its factors do not determine it (its block of R_MM is singular: nothing to
-// marginalise, e.g. a landmark with one bearing), as a marginal would be undefined.
+// InvalidArgument for an empty, repeated or unknown key in `removed` or tree_parents outside
+// 1-2; FailedPrecondition naming the variable when its factors do not determine it (its block
+// of R_MM is singular: nothing to marginalise, e.g. a landmark with one bearing), as a marginal
+// would be undefined.
 Result<NodeRemoval> MarginalizeOut(std::span<const FactorPtr> factors, const Values& theta,
                                    std::span<const Key> removed,
                                    const NodeRemovalParams& params = {});

@@ -217,6 +217,11 @@ TEST(NodeRemovalTest, BadRequestsAreRefusedByName) {
   const Status twice =
       MarginalizeOut(f, p.initial, KeyVector{MakeKey('x', 2), MakeKey('x', 2)}).status();
   EXPECT_NE(twice.message().find("twice"), std::string::npos) << twice.message();
+  const Status parents =
+      MarginalizeOut(f, p.initial, KeyVector{MakeKey('x', 2)},
+                     {.form = NodeRemovalParams::Form::kChowLiu, .tree_parents = 3})
+          .status();
+  EXPECT_EQ(parents.message(), "MarginalizeOut: tree_parents = 3; must be 1 or 2");
 
   // A variable no factor constrains, and one its factors leave undetermined (one row of
   // information on a 3-dof pose): a marginal over them does not exist.
