@@ -1,0 +1,167 @@
+// The lifelong window in the estimator (server/estimator/pose_window.cc): its summaries, their
+// chunks and a robot's own window.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <string>
+
+#include "core/factors/linear_container_factor.h"
+#include "server/estimator/estimator.h"
+#include "tests/server/estimator/estimator_test_messages.h"
+
+namespace slamd::server {
+namespace {
+
+using core::Pose2;
+using namespace estimator_test;  // NOLINT: the shared messages and checks
+
+// The window's summaries in a landmark world: a robot circling a ring of 21 poses, seeing the
+// ring's 7 landmarks, every pose behind 10 removed but keyframes. Sparse (the default), every
+// summary factor is on at most 1 + summary_parents variables and the root (a keyframe the
+// removal reports for the journal; a child in its parent pose's frame has that parent as root),
+// in the root-relative form, and the factors stay bounded lap after lap; dense, each summary is
+// one factor on the whole blanket. Either way the estimate keeps up with the robot (its newest
+// pose within 0.5 m of the ring's).
+TEST(EstimatorTest, WindowSummariesInALandmarkWorld) {
+  const Pose2 step(1.0, 0.0, 2 * M_PI / 21);
+  for (const int parents : {1, 2, 0}) {
+    const bool sparse = parents > 0;
+    SCOPED_TRACE(sparse ? "sparse, parents " + std::to_string(parents) : "dense");
+    EstimatorParams p{.chi2_interval_s = 0.0};
+    p.window = {.keep_poses = 10,
+                .keyframe_spacing_m = 3.0,
+                .every_updates = 5,
+                .sparse_summaries = sparse,
+                .summary_parents = std::max(parents, 1)};
+    auto e = Make(p);
+    ASSERT_TRUE(e->Process({Prior("r", 0, Pose2())}).status.ok());
+    std::vector<std::int64_t> factors_per_lap;
+    std::size_t roots = 0;
+    const auto truth = [&](std::uint64_t i) {
+      Pose2 pose;
+      for (std::uint64_t k = 0; k < i % 21; ++k) pose = pose * step;
+      return pose;
+    };
+    for (std::uint64_t i = 0; i < 126; ++i) {
+      std::vector<Inbound> batch = {Odo("r", i, i + 1, step)};
+      // Landmark j sits 2 m to the left of ring pose 3j; seen from that pose and the next.
+      if (i % 3 != 2) {
+        const std::uint64_t j = i % 21 / 3;
+        const core::Point2 at = truth(i).TransformTo(truth(3 * j).TransformFrom({0.0, 2.0}));
+        batch.push_back(Landmark("r", i, j, std::atan2(at.y(), at.x()), at.norm()));
+      }
+      ASSERT_TRUE(e->Process(batch).status.ok()) << i;
+      const NodeRemovalRecord removal = e->ApplyPoseWindow();
+      // The trees' roots, for the journal: kept poses (keyframes), sorted.
+      EXPECT_TRUE(std::is_sorted(removal.roots.begin(), removal.roots.end()));
+      for (core::Key root : removal.roots) {
+        EXPECT_TRUE(e->solver().linearization_point().Contains(root)) << core::KeyToString(root);
+      }
+      roots += removal.roots.size();
+      if (i % 21 == 20) factors_per_lap.push_back(e->snapshot()->num_factors);
+    }
+    EXPECT_GT(e->snapshot()->counters.removed_variables, 60);
+    int trees = 0, wide = 0, widest = 0;
+    for (const core::FactorPtr& f : e->solver().factor_slots()) {
+      const auto* c = dynamic_cast<const core::LinearContainerFactor*>(f.get());
+      if (!c) continue;
+      const int keys = static_cast<int>(c->keys().size());
+      trees += c->root_relative() && keys <= parents + 2;
+      wide += keys > parents + 2;
+      widest = std::max(widest, keys);
+    }
+    if (sparse) {
+      EXPECT_GT(roots, 0u);
+      EXPECT_GT(trees, 0);
+      EXPECT_EQ(wide, 0);
+      EXPECT_EQ(widest, parents + 2);
+      // Bounded: the last lap holds no more factors than the second or third (a few more: a
+      // lap's removals end at another point of the ring).
+      ASSERT_EQ(factors_per_lap.size(), 6u);
+      EXPECT_LE(factors_per_lap.back(), std::max(factors_per_lap[1], factors_per_lap[2]) + 5);
+    } else {
+      EXPECT_GT(wide, 0);
+    }
+    EXPECT_LT((PoseOf(*e, "r", 126).translation() - truth(126).translation()).norm(), 0.5);
+  }
+}
+
+// Two robots circling rings 100 m apart, each seeing its own landmarks, their old poses removed
+// in the same window passes: each summary factor holds one robot's poses (a removal's chunk is
+// one robot's, so that no tree bridges the maps of robots that share nothing).
+TEST(EstimatorTest, WindowSummariesStayWithinOneRobot) {
+  const Pose2 step(1.0, 0.0, 2 * M_PI / 21);
+  EstimatorParams p{.chi2_interval_s = 0.0};
+  p.window = {.keep_poses = 10, .keyframe_spacing_m = 3.0, .every_updates = 5};
+  auto e = Make(p);
+  ASSERT_TRUE(e->Process({Prior("a", 0, Pose2()), Prior("b", 0, Pose2(100, 0, 0))}).status.ok());
+  const auto ring = [&](std::uint64_t i) {
+    Pose2 pose;
+    for (std::uint64_t k = 0; k < i % 21; ++k) pose = pose * step;
+    return pose;
+  };
+  std::int64_t removed = 0;
+  for (std::uint64_t i = 0; i < 84; ++i) {
+    std::vector<Inbound> batch = {Odo("a", i, i + 1, step), Odo("b", i, i + 1, step)};
+    if (i % 3 != 2) {
+      const std::uint64_t j = i % 21 / 3;
+      const core::Point2 at = ring(i).TransformTo(ring(3 * j).TransformFrom({0.0, 2.0}));
+      const double bearing = std::atan2(at.y(), at.x());
+      batch.push_back(Landmark("a", i, j, bearing, at.norm()));
+      batch.push_back(Landmark("b", i, 100 + j, bearing, at.norm()));
+    }
+    ASSERT_TRUE(e->Process(batch).status.ok()) << i;
+    const NodeRemovalRecord now = e->ApplyPoseWindow();
+    std::set<std::uint8_t> robots;
+    for (core::Key k : now.keys) robots.insert(core::KeyRobot(k));
+    removed += robots.size() == 2;
+  }
+  EXPECT_GT(removed, 5);  // passes that removed poses of both robots
+  int containers = 0;
+  for (const core::FactorPtr& f : e->solver().factor_slots()) {
+    if (!dynamic_cast<const core::LinearContainerFactor*>(f.get())) continue;
+    ++containers;
+    std::set<std::uint8_t> robots;
+    for (core::Key k : f->keys()) {
+      if (core::KeySymbol(k) == 'x') robots.insert(core::KeyRobot(k));
+    }
+    EXPECT_LE(robots.size(), 1u) << f->Name() << " on " << core::KeyToString(f->keys().front());
+  }
+  EXPECT_GT(containers, 10);
+}
+
+// A robot's own window (robot_windows) in place of the default one: robot "a" keeps its newest
+// 10 poses and keyframes 3 m apart, robot "b" (default window: off) keeps everything; the
+// counters and the graph say so, and a loop closure to one of a's removed poses is rejected.
+TEST(EstimatorTest, RobotWindowRemovesOnlyThatRobotsOldPoses) {
+  EstimatorParams p{.chi2_interval_s = 0.0};
+  p.window.every_updates = 5;
+  p.robot_windows = {{.robot = "a", .window = {.keep_poses = 10, .keyframe_spacing_m = 3.0}}};
+  ASSERT_TRUE(p.Validate().ok());
+  auto e = Make(p);
+  ASSERT_TRUE(e->Process({Prior("a", 0, Pose2()), Prior("b", 0, Pose2(0, 5, 0))}).status.ok());
+  std::vector<core::Key> removed;
+  for (std::uint64_t i = 0; i < 60; ++i) {
+    ASSERT_TRUE(e->Process({Odo("a", i, i + 1, kStep), Odo("b", i, i + 1, kStep)}).status.ok());
+    const NodeRemovalRecord now = e->ApplyPoseWindow();
+    removed.insert(removed.end(), now.keys.begin(), now.keys.end());
+  }
+  ASSERT_FALSE(removed.empty());
+  const std::uint8_t a = *e->registry().Find("a");
+  for (core::Key k : removed) EXPECT_EQ(core::KeyRobot(k), a) << core::KeyToString(k);
+  EXPECT_EQ(e->snapshot()->counters.removed_variables, static_cast<std::int64_t>(removed.size()));
+  EXPECT_EQ(e->snapshot()->num_variables, 2 * 61 - static_cast<std::int64_t>(removed.size()));
+  EXPECT_TRUE(e->PoseEstimate("b", 1).ok());  // b keeps every pose
+  const ProcessResult r = e->Process({Loop("a", 60, "a", 1, Pose2())});
+  ASSERT_EQ(r.rejections.size(), 1u);
+  EXPECT_EQ(r.rejections[0].verdict.reason, RejectReason::kUnknownPose);
+  // Validation names the entry.
+  p.robot_windows.push_back({.robot = "a"});
+  EXPECT_EQ(p.Validate().message(),
+            "estimator.robot_window[1].robot = \"a\"; already given a window");
+}
+
+}  // namespace
+}  // namespace slamd::server
