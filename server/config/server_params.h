@@ -87,6 +87,7 @@ struct ServerParams {
     // next waits at least 20 t (the cost grows with the map: 20000 poses ~30 ms, 4.4 MB).
     double snapshot_every_s = 300.0;
     // Snapshots kept on disk (the newest and older ones, in case the newest is damaged); >= 1.
+    // With 2 or more, the oldest goes just before a new one is written: never more on disk.
     int keep_snapshots = 2;
     // The journal is a sequence of segment files; a new one starts after this many bytes
     // [bytes]; >= 4096.

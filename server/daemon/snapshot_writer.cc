@@ -85,6 +85,7 @@ void SnapshotWriter::WriteNow(const Job& job) {
   const JournalPosition& position = job.position;
   core::Stopwatch timer;
   std::string bytes = EncodeState(*job.state, position);
+  MakeRoom();
   const core::Result<std::string> path = WriteSnapshotFile(data_dir_, position.journal_offset,
                                                            bytes, {.keep = params_.keep_snapshots});
   cost_us_ = job.export_us + static_cast<std::int64_t>(timer.Seconds() * 1e6);
@@ -113,6 +114,13 @@ void SnapshotWriter::WriteNow(const Job& job) {
   } else {
     log_->error("replication: snapshot not stored in the stream: {}", put.ToString());
   }
+}
+
+void SnapshotWriter::MakeRoom() {
+  if (params_.keep_snapshots < 2) return;  // its one snapshot stays until the next is durable
+  const core::Status pruned = PruneSnapshots(data_dir_, params_.keep_snapshots - 1);
+  if (!pruned.ok()) log_->error("snapshot: {}", pruned.ToString());
+  if (params_.delete_covered_segments) DeleteCoveredSegments();
 }
 
 void SnapshotWriter::DeleteCoveredSegments() {

@@ -4,7 +4,10 @@
 // snapshot, where a thread per snapshot could land in another arena and leave them behind),
 // encodes it and writes it atomically (server/journal/snapshot_file.h), keeping
 // journal.keep_snapshots, then deletes the journal segments the oldest kept snapshot covers
-// (journal.delete_covered_segments). At most 5% of the time goes to snapshots: the next is due
+// (journal.delete_covered_segments). With keep_snapshots >= 2 the oldest snapshot and the
+// segments only it needed go before the new one is written, so the data directory never holds
+// more than keep_snapshots snapshots and the journal from the oldest of them (one snapshot kept
+// stays until the next is durable). At most 5% of the time goes to snapshots: the next is due
 // no sooner than 20x the last one's export + write time, as on a large map both grow.
 // With a replicated journal, the leader's snapshots are also stored in the stream's snapshot
 // stream, which truncates the journal stream (server/replication/stream_snapshots.h).
@@ -72,7 +75,9 @@ class SnapshotWriter {
   };
   void Run();                     // the writer's thread
   void WriteNow(const Job& job);  // on the writer's thread
-  // On the writer's thread, after a snapshot is durable.
+  // On the writer's thread: before a snapshot is written (keep_snapshots - 1 kept), and after
+  // it is durable.
+  void MakeRoom();
   void DeleteCoveredSegments();
 
   std::string data_dir_;

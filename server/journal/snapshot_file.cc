@@ -123,6 +123,25 @@ bool RemoveGradually(const std::string& dir, const std::string& name) {
   return ::unlink(temp.c_str()) == 0;
 }
 
+// Removes the snapshots of `dir` beyond the newest `keep`, except `spare` (a caller writing an
+// older sequence keeps the file it wrote), and any temporaries.
+core::Status Prune(const std::string& dir, int keep, const std::string& spare) {
+  std::vector<std::string> names;
+  SLAMD_RETURN_IF_ERROR(ListDir(dir, &names));
+  auto list = ListSnapshots(dir);
+  if (!list.ok()) return list.status();
+  bool removed = false;
+  for (std::size_t i = static_cast<std::size_t>(keep); i < list->size(); ++i) {
+    if ((*list)[i].path == spare) continue;
+    removed |= RemoveGradually(dir, std::filesystem::path((*list)[i].path).filename().string());
+  }
+  for (const std::string& n : names) {
+    if (IsTempName(n)) removed |= RemoveGradually(dir, n);
+  }
+  if (removed) SLAMD_RETURN_IF_ERROR(internal::SyncDirectory(dir));
+  return core::Status::Ok();
+}
+
 }  // namespace
 
 core::Status SnapshotFileOptions::Validate() const {
@@ -156,20 +175,15 @@ core::Result<std::string> WriteSnapshotFile(const std::string& dir, int64_t sequ
   }
   SLAMD_RETURN_IF_ERROR(internal::SyncDirectory(dir));
   // 4. Only now prune: older snapshots beyond `keep`, and temporaries of interrupted writes.
-  std::vector<std::string> names;
-  SLAMD_RETURN_IF_ERROR(ListDir(dir, &names));
-  auto list = ListSnapshots(dir);
-  if (!list.ok()) return list.status();
-  bool removed = false;
-  for (std::size_t i = static_cast<std::size_t>(options.keep); i < list->size(); ++i) {
-    if ((*list)[i].path == final_path) continue;  // a caller writing an older sequence
-    removed |= RemoveGradually(dir, std::filesystem::path((*list)[i].path).filename().string());
-  }
-  for (const std::string& n : names) {
-    if (IsTempName(n)) removed |= RemoveGradually(dir, n);
-  }
-  if (removed) SLAMD_RETURN_IF_ERROR(internal::SyncDirectory(dir));
+  SLAMD_RETURN_IF_ERROR(Prune(dir, options.keep, final_path));
   return final_path;
+}
+
+core::Status PruneSnapshots(const std::string& dir, int keep) {
+  if (keep < 1) {
+    return core::InvalidArgument("PruneSnapshots: keep = " + std::to_string(keep) + " < 1");
+  }
+  return Prune(dir, keep, "");
 }
 
 core::Result<std::vector<SnapshotFileInfo>> ListSnapshots(const std::string& dir) {

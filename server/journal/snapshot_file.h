@@ -46,6 +46,10 @@ core::Result<std::string> WriteSnapshotFile(const std::string& dir, int64_t sequ
                                             std::string_view bytes,
                                             const SnapshotFileOptions& options = {});
 
+// Removes the snapshots of `dir` beyond the newest `keep` (>= 1; InvalidArgument otherwise) and
+// any temporaries; the snapshot writer makes room so before a write (server/daemon).
+core::Status PruneSnapshots(const std::string& dir, int keep);
+
 // The snapshot files in `dir` (by name only; contents not checked), newest (highest sequence)
 // first. Temporaries and other files are ignored. IoError / NotFound if dir cannot be listed.
 core::Result<std::vector<SnapshotFileInfo>> ListSnapshots(const std::string& dir);

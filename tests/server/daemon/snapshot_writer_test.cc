@@ -1,10 +1,16 @@
 // The snapshot writer's thread: each state handed over is written, in order, and the one handed
-// over last before the writer ends is written too (no snapshot lost at shutdown).
+// over last before the writer ends is written too (no snapshot lost at shutdown); the room a
+// snapshot needs is made before it is written.
 #include "server/daemon/snapshot_writer.h"
 
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
 
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "server/journal/journal_segments.h"
 #include "server/journal/snapshot_file.h"
 #include "tests/testing/files.h"
 
@@ -41,6 +47,64 @@ TEST(SnapshotWriterTest, WritesEveryStateHandedOverAndTheLastBeforeItEnds) {
     EXPECT_EQ(state.value().update_sequence, offset / 10);
     EXPECT_EQ(position.last_message_sequence, offset / 100);
   }
+}
+
+// With keep_snapshots 2 the oldest snapshot and the segments only it needed are gone before the
+// next is written, so the directory never holds three. Seen through a write that fails (its
+// temporary's name taken by a directory): what is left is the room made for it.
+TEST(SnapshotWriterTest, TheOldestSnapshotAndItsSegmentsGoBeforeTheNextIsWritten) {
+  testing::TempDir dir("slamd_snapshot_room_");
+  core::Result<std::unique_ptr<Journal>> opened = Journal::Open(
+      dir.path(), {.writer = {.sync_policy = SyncPolicy::kNever}, .segment_bytes = 4096}, {}, 0);
+  ASSERT_TRUE(opened.ok()) << opened.status().ToString();
+  Journal& journal = *opened.value();
+  const std::vector<std::uint8_t> payload(500, 7);
+  // Appends 20 messages (2-3 segments) and returns the position after them.
+  auto append = [&]() -> JournalPosition {
+    for (int i = 0; i < 20; ++i) {
+      EXPECT_TRUE(journal.AppendMessage("SLAMD_ODOMETRY", "odometry_t", payload, 1).ok());
+    }
+    EXPECT_TRUE(journal.Sync().ok());
+    return {.last_message_sequence = journal.last_sequence(), .journal_offset = journal.offset()};
+  };
+  auto segment_bases = [&] {
+    std::vector<std::int64_t> bases;
+    for (const JournalSegment& s : ListJournalSegments(dir.path()).value()) bases.push_back(s.base);
+    return bases;
+  };
+  ServerParams::Journal params;  // keep_snapshots 2, delete_covered_segments
+  SnapshotWriter writer(dir.path(), params, &journal, spdlog::default_logger(), 0, nullptr, 0);
+  auto write = [&](const JournalPosition& at, std::int64_t sequence) {
+    writer.Write(std::make_shared<EstimatorState>(), at, sequence, sequence, 0);
+    writer.Join();
+  };
+  const JournalPosition first = append();
+  write(first, 1);
+  const JournalPosition second = append();
+  write(second, 2);
+  ASSERT_EQ(ListSnapshots(dir.path()).value().size(), 2u);
+  // Kept from the first snapshot on: a segment starts before the second.
+  ASSERT_LT(segment_bases().front(), second.journal_offset);
+
+  const JournalPosition third = append();
+  const std::string blocked = dir.File("." + SnapshotFileName(third.journal_offset) + ".tmp");
+  std::filesystem::create_directory(blocked);
+  write(third, 3);
+  const std::vector<SnapshotFileInfo> left = ListSnapshots(dir.path()).value();
+  ASSERT_EQ(left.size(), 1u);
+  EXPECT_EQ(left.front().sequence, second.journal_offset);
+  // The journal from the second snapshot on, no segment wholly before it.
+  const std::vector<std::int64_t> bases = segment_bases();
+  ASSERT_GE(bases.size(), 2u);
+  EXPECT_GT(bases[1], second.journal_offset);
+
+  // Once the write can go through, two snapshots again.
+  std::filesystem::remove(blocked);
+  write(third, 4);
+  const std::vector<SnapshotFileInfo> now = ListSnapshots(dir.path()).value();
+  ASSERT_EQ(now.size(), 2u);
+  EXPECT_EQ(now.front().sequence, third.journal_offset);
+  EXPECT_EQ(now.back().sequence, second.journal_offset);
 }
 
 }  // namespace

@@ -79,6 +79,25 @@ TEST_F(SnapshotFileTest, KeepsTheNewestAndListsNewestFirst) {
   EXPECT_EQ(Sequences(), (std::vector<int64_t>{60}));
 }
 
+// PruneSnapshots keeps the newest `keep` and removes temporaries; keep 0 is refused (it would
+// leave nothing to recover from).
+TEST_F(SnapshotFileTest, PruneKeepsTheNewest) {
+  for (int64_t seq = 1; seq <= 3; ++seq) {
+    ASSERT_TRUE(WriteSnapshotFile(dir_, seq, "state", {.keep = 3}).ok());
+  }
+  const std::string temp = dir_ + "/." + SnapshotFileName(4) + ".tmp";
+  testing::WriteFileBytes(temp, "SLAMDSNP");
+  const core::Status zero = PruneSnapshots(dir_, 0);
+  EXPECT_EQ(zero.code(), core::StatusCode::kInvalidArgument);
+  EXPECT_NE(zero.message().find("keep = 0"), std::string::npos) << zero.ToString();
+  EXPECT_EQ(Sequences(), (std::vector<int64_t>{3, 2, 1}));
+  ASSERT_TRUE(PruneSnapshots(dir_, 2).ok());
+  EXPECT_EQ(Sequences(), (std::vector<int64_t>{3, 2}));
+  EXPECT_FALSE(fs::exists(temp));
+  ASSERT_TRUE(PruneSnapshots(dir_, 5).ok());
+  EXPECT_EQ(Sequences(), (std::vector<int64_t>{3, 2}));
+}
+
 // A pruned snapshot larger than the 8 MiB truncation step is removed whole, leaving neither the
 // file nor the temporary it is renamed to; the kept one reads back.
 TEST_F(SnapshotFileTest, LargeSnapshotsArePrunedCompletely) {
