@@ -117,6 +117,7 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
     p->journal.snapshot_every_updates = j.snapshot_every_updates();
   }
   if (j.has_snapshot_every_s()) p->journal.snapshot_every_s = j.snapshot_every_s();
+  if (j.has_snapshot_every_bytes()) p->journal.snapshot_every_bytes = j.snapshot_every_bytes();
   if (j.has_keep_snapshots()) p->journal.keep_snapshots = j.keep_snapshots();
   if (j.has_segment_bytes()) p->journal.segment_bytes = j.segment_bytes();
   if (j.has_delete_covered_segments()) {
@@ -386,6 +387,8 @@ std::string DefaultConfigText() {
       << "  snapshot_every_updates: " << d.journal.snapshot_every_updates
       << "  # 0 = not by count\n"
       << "  snapshot_every_s: " << Num(d.journal.snapshot_every_s) << "  # [s], 0 = not by time\n"
+      << "  snapshot_every_bytes: " << d.journal.snapshot_every_bytes
+      << "  # journal bytes since the last [bytes], 0 = not by size\n"
       << "  keep_snapshots: " << d.journal.keep_snapshots << "  # >= 1\n"
       << "  segment_bytes: " << d.journal.segment_bytes
       << "  # a new journal segment after this many [bytes]\n"

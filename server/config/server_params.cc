@@ -87,6 +87,7 @@ core::Status ServerParams::Validate() const {
   SLAMD_CONFIG_CHECK(journal.snapshot_every_updates, >=, 0);
   SLAMD_CONFIG_CHECK(journal.snapshot_every_s, >=, 0.0);
   SLAMD_CONFIG_CHECK(journal.snapshot_every_s, <=, 1e6);
+  SLAMD_CONFIG_CHECK(journal.snapshot_every_bytes, >=, 0);
   SLAMD_CONFIG_CHECK(journal.keep_snapshots, >=, 1);
   SLAMD_CONFIG_CHECK(journal.segment_bytes, >=, 4096);
   const core::Status isam2_ok = isam2.Validate();

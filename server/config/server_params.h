@@ -86,6 +86,10 @@ struct ServerParams {
     // 0..1e6. Either way at most 5% of the time goes to snapshots: after one that took t, the
     // next waits at least 20 t (the cost grows with the map: 20000 poses ~30 ms, 4.4 MB).
     double snapshot_every_s = 300.0;
+    // ... or once the journal grew this many bytes since the last one (0 = not by size)
+    // [bytes]; >= 0. Bounds the journal on disk whatever the message and update rates: with
+    // delete_covered_segments it holds about keep_snapshots x this, plus a segment.
+    std::int64_t snapshot_every_bytes = std::int64_t{256} << 20;
     // Snapshots kept on disk (the newest and older ones, in case the newest is damaged); >= 1.
     // With 2 or more, the oldest goes just before a new one is written: never more on disk.
     int keep_snapshots = 2;

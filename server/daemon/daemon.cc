@@ -359,7 +359,7 @@ void Daemon::MaybeSnapshot() {
   if (!snapshot_writer_) return;
   const std::int64_t sequence = estimator_->snapshot()->update_sequence;
   const std::int64_t now = SteadyMicros();
-  if (!snapshot_writer_->Due(sequence, now)) return;
+  if (!snapshot_writer_->Due(sequence, now, journal_->offset())) return;
   snapshot_writer_->Join();  // before the export: it may still be reading the last state
   auto state = std::make_shared<const EstimatorState>(estimator_->ExportState());
   const JournalPosition position{.last_message_sequence = processed_sequence_,

@@ -25,7 +25,7 @@
 // appends an update boundary after each update and commits (journal.sync) before publishing;
 // refinements are journaled by round count, swaps of a solver rebuilt in the background
 // (Estimator::FinishRebuild) by a record; the SnapshotWriter writes snapshots from an
-// exported copy of the estimator every journal.snapshot_every_updates / _s.
+// exported copy of the estimator every journal.snapshot_every_updates / _s / _bytes.
 //
 // Threads, each named and owned by one object, started and stopped in this order:
 //   slamd-estimator  Daemon (Start; Stop joins it after slamd-intake, once the queue is drained)

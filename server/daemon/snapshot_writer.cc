@@ -20,7 +20,8 @@ SnapshotWriter::SnapshotWriter(std::string data_dir, const ServerParams::Journal
       journal_(journal),
       log_(std::move(log)),
       last_sequence_(last_sequence),
-      last_us_(now_us) {
+      last_us_(now_us),
+      last_offset_(recovered ? recovered->journal_offset : 0) {
   if (recovered) known_[recovered->journal_offset] = recovered->last_message_sequence;
   thread_ = std::thread([this] { Run(); });
 }
@@ -53,13 +54,16 @@ void SnapshotWriter::Run() {
   }
 }
 
-bool SnapshotWriter::Due(std::int64_t sequence, std::int64_t now_us) const {
+bool SnapshotWriter::Due(std::int64_t sequence, std::int64_t now_us,
+                         std::int64_t journal_offset) const {
   if (busy_ || sequence == last_sequence_) return false;
   const bool by_count = params_.snapshot_every_updates > 0 &&
                         sequence - last_sequence_ >= params_.snapshot_every_updates;
   const bool by_time =
       params_.snapshot_every_s > 0 && now_us - last_us_ >= params_.snapshot_every_s * 1e6;
-  if (!by_count && !by_time) return false;
+  const bool by_size = params_.snapshot_every_bytes > 0 &&
+                       journal_offset - last_offset_ >= params_.snapshot_every_bytes;
+  if (!by_count && !by_time && !by_size) return false;
   // A snapshot of a large map costs (export on the estimator thread, encoding and writing
   // here): at most kMaxLoad of the time goes to them, whatever snapshot_every_* ask for.
   constexpr double kMaxLoad = 0.05;
@@ -73,6 +77,7 @@ void SnapshotWriter::Write(std::shared_ptr<const EstimatorState> state,
   Join();
   last_sequence_ = sequence;
   last_us_ = now_us;
+  last_offset_ = position.journal_offset;
   busy_ = true;
   {
     std::lock_guard<std::mutex> lock(mutex_);

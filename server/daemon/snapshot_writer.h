@@ -1,8 +1,8 @@
 // SnapshotWriter: the daemon's snapshots. The estimator thread exports its state when one is due
-// (journal.snapshot_every_updates / _s) and hands it over; the writer's thread, slamd-snapshot
-// (one for the writer's life: its allocator arena keeps the encoding's buffers for the next
-// snapshot, where a thread per snapshot could land in another arena and leave them behind),
-// encodes it and writes it atomically (server/journal/snapshot_file.h), keeping
+// (journal.snapshot_every_updates / _s / _bytes) and hands it over; the writer's thread,
+// slamd-snapshot (one for the writer's life: its allocator arena keeps the encoding's buffers for
+// the next snapshot, where a thread per snapshot could land in another arena and leave them
+// behind), encodes it and writes it atomically (server/journal/snapshot_file.h), keeping
 // journal.keep_snapshots, then deletes the journal segments the oldest kept snapshot covers
 // (journal.delete_covered_segments). With keep_snapshots >= 2 the oldest snapshot and the
 // segments only it needed go before the new one is written, so the data directory never holds
@@ -49,8 +49,9 @@ class SnapshotWriter {
   SnapshotWriter(const SnapshotWriter&) = delete;
   SnapshotWriter& operator=(const SnapshotWriter&) = delete;
 
-  // A snapshot of update `sequence` is due at `now_us` and none is being written.
-  bool Due(std::int64_t sequence, std::int64_t now_us) const;
+  // A snapshot of update `sequence` is due at `now_us`, the journal ending at `journal_offset`
+  // (global), and none is being written.
+  bool Due(std::int64_t sequence, std::int64_t now_us, std::int64_t journal_offset) const;
   // Where a snapshot also goes: the replicated journal's snapshot stream (not owned; it
   // outlives the writer), with what a reader of the journal stream needs.
   struct ToStream {
@@ -89,6 +90,7 @@ class SnapshotWriter {
   std::shared_ptr<spdlog::logger> log_;
   std::int64_t last_sequence_;  // of the last snapshot written (or recovered)
   std::int64_t last_us_;        // when it was due
+  std::int64_t last_offset_;    // its journal offset (0: none)
   std::mutex mutex_;
   std::condition_variable wake_;  // a job, the stop, or (to Join) the job done
   std::optional<Job> job_;        // handed over, not yet done (under mutex_)

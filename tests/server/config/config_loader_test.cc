@@ -137,7 +137,7 @@ estimator {
   }
   robot_window { robot: "car" keep_poses: 1000 }
 }
-journal { segment_bytes: 1048576 delete_covered_segments: false })");
+journal { segment_bytes: 1048576 delete_covered_segments: false snapshot_every_bytes: 8388608 })");
   ASSERT_TRUE(p.ok()) << p.status().ToString();
   EXPECT_EQ(p->estimator.window.keep_poses, 300);
   EXPECT_EQ(p->estimator.window.keyframe_spacing_m, 2.5);
@@ -156,6 +156,13 @@ journal { segment_bytes: 1048576 delete_covered_segments: false })");
   EXPECT_EQ(p->estimator.WindowOf("bike").keep_poses, 300);
   EXPECT_EQ(p->journal.segment_bytes, 1048576);
   EXPECT_FALSE(p->journal.delete_covered_segments);
+  EXPECT_EQ(p->journal.snapshot_every_bytes, 8388608);
+  const core::Result<ServerParams> negative =
+      ParseConfigText("journal { snapshot_every_bytes: -1 }", "c");
+  ASSERT_FALSE(negative.ok());
+  EXPECT_NE(negative.status().message().find("journal.snapshot_every_bytes = -1; violates >= 0"),
+            std::string::npos)
+      << negative.status().message();
   const core::Result<ServerParams> q = ParseConfigText("journal { segment_bytes: 100 }", "c");
   ASSERT_FALSE(q.ok());
   EXPECT_NE(q.status().message().find("journal.segment_bytes = 100; violates >= 4096"),

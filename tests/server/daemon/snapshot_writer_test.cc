@@ -107,5 +107,30 @@ TEST(SnapshotWriterTest, TheOldestSnapshotAndItsSegmentsGoBeforeTheNextIsWritten
   EXPECT_EQ(now.back().sequence, second.journal_offset);
 }
 
+// A snapshot is due once the journal grew snapshot_every_bytes since the last one (or since the
+// snapshot recovery loaded), whatever the update count and the time.
+TEST(SnapshotWriterTest, DueOnceTheJournalGrewTheConfiguredBytes) {
+  testing::TempDir dir("slamd_snapshot_bytes_");
+  ServerParams::Journal params;
+  params.snapshot_every_updates = 0;
+  params.snapshot_every_s = 0;
+  params.snapshot_every_bytes = 1000;
+  params.delete_covered_segments = false;  // no journal here
+  const JournalPosition recovered{.last_message_sequence = 40, .journal_offset = 5000};
+  SnapshotWriter writer(dir.path(), params, nullptr, spdlog::default_logger(), 7, &recovered, 0);
+  EXPECT_FALSE(writer.Due(7, 1'000'000, 9000)) << "the recovered state has not moved on";
+  EXPECT_FALSE(writer.Due(8, 1'000'000, 5999));
+  EXPECT_TRUE(writer.Due(8, 1'000'000, 6000));
+  writer.Write(std::make_shared<EstimatorState>(),
+               {.last_message_sequence = 50, .journal_offset = 6100}, 8, 1'000'000, 0);
+  writer.Join();
+  // Long after (the 5% gate open), counted from the snapshot just written.
+  EXPECT_FALSE(writer.Due(9, 100'000'000, 7099));
+  EXPECT_TRUE(writer.Due(9, 100'000'000, 7100));
+  params.snapshot_every_bytes = 0;
+  SnapshotWriter never(dir.path(), params, nullptr, spdlog::default_logger(), 7, &recovered, 0);
+  EXPECT_FALSE(never.Due(8, 100'000'000, 1'000'000'000));
+}
+
 }  // namespace
 }  // namespace slamd::server
