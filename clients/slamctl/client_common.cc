@@ -154,6 +154,7 @@ JsonWriter StatusJson(const slamd::status_t& s) {
       .Add("merged_poses", static_cast<long long>(s.merged_poses))
       .Add("reduced_left_out", static_cast<long long>(s.reduced_left_out))
       .Add("rss_bytes", static_cast<long long>(s.rss_bytes))
+      .Add("heap_in_use_bytes", static_cast<long long>(s.heap_in_use_bytes))
       .Add("chi2", s.chi2)
       .Add("residual_dimension", static_cast<long long>(s.residual_dimension))
       .Add("settled", static_cast<bool>(s.settled));

@@ -27,6 +27,15 @@ std::int64_t AllocatorBytes() {
 #endif
 }
 
+std::int64_t AllocatorInUseBytes() {
+#ifdef __GLIBC__
+  const struct mallinfo2 info = ::mallinfo2();
+  return static_cast<std::int64_t>(info.uordblks + info.hblkhd);
+#else
+  return 0;
+#endif
+}
+
 void KeepFreedMemoryForReuse() {
   ::mallopt(M_MMAP_THRESHOLD, 32 << 20);  // glibc's largest
   ::mallopt(M_TRIM_THRESHOLD, 1 << 30);
@@ -34,8 +43,7 @@ void KeepFreedMemoryForReuse() {
 
 bool TrimFreedMemoryBeyondUse(std::int64_t slack_bytes) {
 #ifdef __GLIBC__
-  const struct mallinfo2 info = ::mallinfo2();
-  const auto in_use = static_cast<std::int64_t>(info.uordblks + info.hblkhd);
+  const std::int64_t in_use = AllocatorInUseBytes();
   if (ResidentBytes() - in_use <= std::max(in_use / 2, slack_bytes)) return false;
   ::malloc_trim(0);
   return true;

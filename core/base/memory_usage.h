@@ -16,6 +16,11 @@ std::int64_t ResidentBytes();
 // each fault on a file, so a rebuild alone moved slamctl's peak RSS by ~0.3 MB).
 std::int64_t AllocatorBytes();
 
+// What the allocator has handed out and not had back [bytes] (glibc's arenas and the blocks it
+// mapped one by one; 0 without glibc): the live heap. The resident set less this is code,
+// stacks, and freed memory kept for reuse (KeepFreedMemoryForReuse).
+std::int64_t AllocatorInUseBytes();
+
 // Keeps freed memory in the process for reuse instead of giving it back to the kernel at once
 // (glibc: blocks up to 32 MiB from the heap, not mapped one by one; the heap's free top kept up
 // to 1 GiB). Re-eliminating the top of a Bayes tree with large cliques (cameras sharing long

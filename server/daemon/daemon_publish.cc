@@ -194,6 +194,7 @@ void Daemon::PublishStatus(const EstimateSnapshot& snap) {
   out.merged_poses = snap.counters.merged_poses;
   out.reduced_left_out = snap.counters.reduced_left_out;
   out.rss_bytes = core::ResidentBytes();
+  out.heap_in_use_bytes = core::AllocatorInUseBytes();
   out.num_rejects_by_reason = kNumRejectReasonCodes;
   out.rejects_by_reason.resize(kNumRejectReasonCodes);
   for (int i = 0; i < kNumRejectReasonCodes; ++i) {

@@ -30,6 +30,23 @@ TEST(MemoryUsageTest, AllocatorBytesKeepTheHighWaterMark) {
   EXPECT_GT(ResidentBytes(), static_cast<std::int64_t>(kBlock));
 }
 
+// The heap in use counts a block while it is held and not once it is freed, whatever the
+// allocator keeps for reuse.
+TEST(MemoryUsageTest, InUseFollowsTheLiveBlocks) {
+  KeepFreedMemoryForReuse();
+  constexpr std::size_t kBlock = 24 << 20;
+  const std::int64_t before = AllocatorInUseBytes();
+  std::int64_t with = 0;
+  {
+    std::unique_ptr<char[]> block(new char[kBlock]);
+    std::memset(block.get(), 1, kBlock);
+    with = AllocatorInUseBytes();
+    EXPECT_GE(with - before, static_cast<std::int64_t>(kBlock));
+  }
+  EXPECT_LE(AllocatorInUseBytes(), with - static_cast<std::int64_t>(kBlock));
+  EXPECT_LT(AllocatorInUseBytes(), ResidentBytes());
+}
+
 // What is kept for reuse goes back to the kernel once it outweighs what is in use, and only
 // then: 160 MiB of blocks in use are left alone, and once freed their pages leave the resident
 // set.

@@ -143,7 +143,8 @@ inline void Put(Fields& f, const std::string& path, const slamd::status_t& m) {
   PUT(num_factors), PUT(messages_received), PUT(messages_accepted), PUT(messages_rejected);
   PUT(messages_already_held), PUT(decode_errors), PUT(landmark_tracks), PUT(track_observations);
   PUT(landmarks_dropped), PUT(removed_variables), PUT(merged_poses);
-  PUT(reduced_left_out), PUT(rss_bytes), PUT(num_rejects_by_reason);
+  PUT(reduced_left_out), PUT(rss_bytes), PUT(heap_in_use_bytes);
+  PUT(num_rejects_by_reason);
   PUT(rejects_by_reason), PUT(queue_depth), PUT(queue_peak), PUT(queue_capacity);
   PUT(update_latency_p50_us), PUT(update_latency_p90_us), PUT(update_latency_p99_us);
   PUT(update_latency_max_us), PUT(publish_latency_p50_us), PUT(publish_latency_p99_us);

@@ -30,6 +30,7 @@
 #include "slamd/status_t.hpp"
 #include "slamd_proto/journal.pb.h"
 #include "tests/server/daemon/daemon_test_client.h"
+#include "tests/testing/glibc_malloc.h"
 
 namespace slamd::server {
 namespace {
@@ -241,6 +242,10 @@ TEST(DaemonTest, FullQueueRejectsAfterBlockingNeverDropsSilently) {
     EXPECT_EQ(s.queue_capacity, 2);
     EXPECT_EQ(s.num_factors, 2);  // prior + the one odometry that was queued
     EXPECT_EQ(s.residual_dimension, 6);
+#if SLAMD_GLIBC_MALLOC
+    EXPECT_GT(s.heap_in_use_bytes, 0);
+    EXPECT_LT(s.heap_in_use_bytes, s.rss_bytes);
+#endif
     if (journaled) {
       EXPECT_EQ(daemon->journal_for_tests()->last_sequence(), 2);
       EXPECT_EQ(s.journal_segments, 1);
