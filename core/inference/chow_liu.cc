@@ -263,13 +263,13 @@ Result<std::vector<FactorPtr>> ChowLiuTree(const KeyVector& keys, const std::vec
   // parents) − H(all)), and every tree parent stays.
   std::vector<int> second(m, -1);
   for (std::size_t s = 2; parents >= 2 && s < order.size(); ++s) {
-    const int i = order[s], p = parent[i];
+    const int i = order[s], p = parent[i], di = col[i + 1] - col[i];
     const Eigen::LLT<Eigen::MatrixXd> pp(block(p, p));
     double best_gain = kMinSecondParentGain;
     for (std::size_t u = 0; u < s; ++u) {
       const int q = order[u];
       if (q == p) continue;
-      const int di = col[i + 1] - col[i], dq = col[q + 1] - col[q];
+      const int dq = col[q + 1] - col[q];
       Eigen::MatrixXd joint(di + dq, di + dq), cross(di + dq, col[p + 1] - col[p]);
       joint << block(i, i), block(i, q), block(q, i), block(q, q);
       cross << block(i, p), block(q, p);

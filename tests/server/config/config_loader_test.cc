@@ -157,17 +157,14 @@ journal { segment_bytes: 1048576 delete_covered_segments: false snapshot_every_b
   EXPECT_EQ(p->journal.segment_bytes, 1048576);
   EXPECT_FALSE(p->journal.delete_covered_segments);
   EXPECT_EQ(p->journal.snapshot_every_bytes, 8388608);
-  const core::Result<ServerParams> negative =
-      ParseConfigText("journal { snapshot_every_bytes: -1 }", "c");
-  ASSERT_FALSE(negative.ok());
-  EXPECT_NE(negative.status().message().find("journal.snapshot_every_bytes = -1; violates >= 0"),
-            std::string::npos)
-      << negative.status().message();
-  const core::Result<ServerParams> q = ParseConfigText("journal { segment_bytes: 100 }", "c");
-  ASSERT_FALSE(q.ok());
-  EXPECT_NE(q.status().message().find("journal.segment_bytes = 100; violates >= 4096"),
-            std::string::npos)
-      << q.status().message();
+  for (const auto& [text, error] : std::vector<std::pair<std::string, std::string>>{
+           {"journal { snapshot_every_bytes: -1 }",
+            "journal.snapshot_every_bytes = -1; violates >= 0"},
+           {"journal { segment_bytes: 100 }", "journal.segment_bytes = 100; violates >= 4096"}}) {
+    const core::Result<ServerParams> q = ParseConfigText(text, "c");
+    ASSERT_FALSE(q.ok()) << text;
+    EXPECT_NE(q.status().message().find(error), std::string::npos) << q.status().message();
+  }
 }
 
 // The reduced pose graph: the default one and a robot's own (unset fields from the default).
