@@ -33,6 +33,8 @@ struct ServerParams {
     // Bound of the ingest queue [messages]; 1..10'000'000.
     int depth = 10000;
     // How long intake blocks on a full queue before it rejects (REASON_QUEUE_FULL) [s]; 0..10.
+    // After such a reject, the next messages are rejected at once until the estimator takes the
+    // queue: a blocked intake does not read the transport, which then loses messages unanswered.
     double block_timeout_s = 0.05;
     // The estimator takes a camera robot's messages that come within this long of each other
     // into one update (its odometry and a frame's observations, sent back to back), waiting

@@ -18,12 +18,22 @@ IngestQueue::IngestQueue(int capacity) : capacity_(capacity) {
   SLAMD_CHECK(capacity >= 1) << "IngestQueue capacity " << capacity;
 }
 
+template <typename HasRoom>
+bool IngestQueue::WaitLocked(std::unique_lock<std::mutex>& lock, double timeout_s,
+                             HasRoom has_room) {
+  const bool wait = timeout_s > 0.0 && !saturated_;
+  const bool room = not_full_.wait_for(lock, ToDuration(wait ? timeout_s : 0.0),
+                                       [&] { return closed_ || has_room(); });
+  if (!room && wait) saturated_ = true;
+  return room && !closed_;
+}
+
 bool IngestQueue::Push(Inbound in, double timeout_s) {
   std::unique_lock lock(mutex_);
-  const bool room = not_full_.wait_for(lock, ToDuration(timeout_s), [&] {
-    return closed_ || static_cast<int>(queue_.size()) < capacity_;
-  });
-  if (!room || closed_) return false;
+  if (!WaitLocked(lock, timeout_s,
+                  [&] { return static_cast<int>(queue_.size()) < capacity_; })) {
+    return false;
+  }
   queue_.push_back(std::move(in));
   peak_ = std::max(peak_, static_cast<int>(queue_.size()));
   lock.unlock();
@@ -34,17 +44,18 @@ bool IngestQueue::Push(Inbound in, double timeout_s) {
 bool IngestQueue::WaitForRoom(double timeout_s, int count) {
   SLAMD_CHECK(count >= 1) << "IngestQueue::WaitForRoom count " << count;
   std::unique_lock lock(mutex_);
-  const bool room = not_full_.wait_for(lock, ToDuration(timeout_s), [&] {
-    return closed_ || static_cast<int>(queue_.size()) + count <= capacity_;
-  });
-  return room && !closed_;
+  return WaitLocked(lock, timeout_s,
+                    [&] { return static_cast<int>(queue_.size()) + count <= capacity_; });
 }
 
 int IngestQueue::TakeAllLocked(std::vector<Inbound>* out) {
   const int n = static_cast<int>(queue_.size());
   for (Inbound& in : queue_) out->push_back(std::move(in));
   queue_.clear();
-  if (n > 0) not_full_.notify_all();
+  if (n > 0) {
+    saturated_ = false;
+    not_full_.notify_all();
+  }
   return n;
 }
 
@@ -95,6 +106,11 @@ int IngestQueue::peak() const {
 bool IngestQueue::closed() const {
   std::lock_guard lock(mutex_);
   return closed_;
+}
+
+bool IngestQueue::saturated() const {
+  std::lock_guard lock(mutex_);
+  return saturated_;
 }
 
 }  // namespace slamd::server

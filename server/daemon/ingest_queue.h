@@ -1,6 +1,10 @@
 // IngestQueue: the bounded queue between the transport thread (producer) and the estimator
 // thread (consumer). Never drops silently: Push on a full queue waits up to a timeout and then
 // reports failure, so the caller rejects the message (reject_t REASON_QUEUE_FULL) and counts it.
+// Once such a wait has timed out, later ones do not wait until the consumer takes the queue: a
+// burst is waited out once, but a sustained overload is answered with rejects at once, since a
+// producer blocked again and again cannot read its transport, which then loses messages
+// unanswered (UDP multicast has no back-pressure).
 // PopAll hands the consumer everything queued at once (the estimator coalesces it into one
 // update). Thread-safe: any number of producers, one consumer.
 #pragma once
@@ -18,13 +22,14 @@ class IngestQueue {
  public:
   explicit IngestQueue(int capacity);  // capacity >= 1 (checked)
 
-  // Appends `in`, waiting up to timeout_s while the queue is full. False (and `in` untouched
-  // in effect: it is dropped by the caller with a reject) when still full or Close()d.
+  // Appends `in`, waiting up to timeout_s while the queue is full (not at all while
+  // saturated()). False (and `in` untouched in effect: it is dropped by the caller with a
+  // reject) when still full or Close()d.
   bool Push(Inbound in, double timeout_s);
 
-  // Waits up to timeout_s until there is room for `count` more messages (or the queue is
-  // closed: false). With a single producer, that many Pushes right after a true result cannot
-  // fail for lack of room. count >= 1 (checked).
+  // Waits up to timeout_s (not at all while saturated()) until there is room for `count` more
+  // messages (or the queue is closed: false). With a single producer, that many Pushes right
+  // after a true result cannot fail for lack of room. count >= 1 (checked).
   bool WaitForRoom(double timeout_s, int count = 1);
 
   // Waits up to timeout_s for a message, then moves every queued message (in arrival order) to
@@ -44,10 +49,17 @@ class IngestQueue {
   int peak() const;  // the largest size() has been since construction
   int capacity() const { return capacity_; }
   bool closed() const;
+  // A wait for room timed out and the consumer has taken nothing since.
+  bool saturated() const;
 
  private:
   // Moves everything queued to the end of *out and wakes blocked pushers; mutex_ held.
   int TakeAllLocked(std::vector<Inbound>* out);
+  // Waits until `has_room` or the queue is closed, up to timeout_s unless saturated_, and sets
+  // saturated_ when a wait of timeout_s > 0 ends without room; mutex_ held by `lock`. Whether
+  // there is room and the queue is open.
+  template <typename HasRoom>
+  bool WaitLocked(std::unique_lock<std::mutex>& lock, double timeout_s, HasRoom has_room);
 
   const int capacity_;
   mutable std::mutex mutex_;
@@ -55,6 +67,7 @@ class IngestQueue {
   std::deque<Inbound> queue_;
   int peak_ = 0;
   bool closed_ = false;
+  bool saturated_ = false;
 };
 
 }  // namespace slamd::server

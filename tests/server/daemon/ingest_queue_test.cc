@@ -45,6 +45,34 @@ TEST(IngestQueueTest, FullQueueBlocksForTheTimeoutThenRefuses) {
   EXPECT_EQ(q.size(), 2);
 }
 
+// A sustained overload: after one wait has timed out, a full queue refuses at once (however
+// long the caller would wait) until the consumer takes it; then pushes wait again.
+TEST(IngestQueueTest, AfterATimedOutWaitAFullQueueRefusesAtOnceUntilTaken) {
+  IngestQueue q(1);
+  ASSERT_TRUE(q.Push(Msg(0), 0.0));
+  EXPECT_FALSE(q.Push(Msg(1), 0.0));
+  EXPECT_FALSE(q.saturated());  // a caller that does not wait saturates nothing
+  EXPECT_FALSE(q.WaitForRoom(0.01));
+  EXPECT_TRUE(q.saturated());
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_FALSE(q.Push(Msg(2), 5.0));
+  EXPECT_FALSE(q.WaitForRoom(5.0));
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(2));
+  std::vector<Inbound> out;
+  ASSERT_EQ(q.PopAll(&out, 0.0), 1);
+  EXPECT_FALSE(q.saturated());
+  ASSERT_TRUE(q.Push(Msg(3), 0.0));
+  std::thread consumer([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    std::vector<Inbound> taken;
+    q.PopAll(&taken, 0.0);
+  });
+  EXPECT_TRUE(q.Push(Msg(4), 5.0));  // waits for the consumer again
+  consumer.join();
+  EXPECT_EQ(q.size(), 1);
+  EXPECT_FALSE(q.saturated());
+}
+
 TEST(IngestQueueTest, BlockedPushSucceedsWhenTheConsumerDrains) {
   IngestQueue q(1);
   ASSERT_TRUE(q.Push(Msg(0), 0.0));
