@@ -99,7 +99,9 @@ struct EstimatorParams {
   // robot lies within `keyframe_spacing_m` (by place: revisiting a mapped area adds none, so a
   // robot in a bounded area keeps a bounded graph). Landmarks stay. Each removal is journaled.
   // keep_poses 0 = off (keep everything); >= 0; keyframe_spacing_m >= 0 (0: no keyframes, a
-  // fixed-lag window); every_updates >= 1.
+  // fixed-lag window); every_updates >= 1 (a pass that left poses behind, having removed as
+  // many as one pass may, runs again at the next update: under load, updates take many poses
+  // at once and the graph would otherwise grow between passes).
   // sparse_summaries (window's only, for every robot): each removal's summary is the Chow-Liu
   // tree of the exact one, its edges each in the parent's frame (core/inference/chow_liu.h:
   // TreeEdgeFrame::kParent), which also takes in the summaries already on its variables, so

@@ -13,8 +13,8 @@ namespace {
 
 // Node removal factors the removed variables' stacked Jacobian densely (node_removal.h): cost
 // O(rows x columns²). Removed in chunks of this many, in order, each costs little, and a window
-// pass removes at most kMaxRemovedPerPass (the rest at the next), so a pass that finds a long
-// stretch of old poses does not stall the estimator for seconds.
+// pass removes at most kMaxRemovedPerPass (the rest at the next update's pass), so a pass that
+// finds a long stretch of old poses does not stall the estimator for seconds.
 constexpr std::size_t kRemovalChunk = 16;
 constexpr std::size_t kMaxRemovedPerPass = 256;
 
@@ -24,7 +24,10 @@ NodeRemovalRecord Estimator::ApplyPoseWindow() {
   const bool any = params_.window.keep_poses > 0 ||
                    std::any_of(params_.robot_windows.begin(), params_.robot_windows.end(),
                                [](const auto& r) { return r.window.keep_poses > 0; });
-  if (!any || sequence_ < window_sequence_ + params_.window.every_updates) return {};
+  if (!any || sequence_ == window_sequence_ ||
+      (sequence_ < window_sequence_ + params_.window.every_updates && !window_behind_)) {
+    return {};
+  }
   FinishUpdate();
   if (Rebuilding()) return {};  // the rebuild copied the graph: after its swap
   window_sequence_ = sequence_;
@@ -37,8 +40,9 @@ NodeRemovalRecord Estimator::ApplyPoseWindow() {
     if (it != reduced_.aliases.end()) anchors.insert(it->second.anchor);
   }
   std::erase_if(removed, [&](core::Key k) { return anchors.count(k) != 0; });
+  window_behind_ = removed.size() > kMaxRemovedPerPass;
   if (removed.empty()) return {};
-  if (removed.size() > kMaxRemovedPerPass) removed.resize(kMaxRemovedPerPass);
+  if (window_behind_) removed.resize(kMaxRemovedPerPass);
   // A chunk that fails (nothing of it changed) ends the pass; the next tries again.
   NodeRemovalRecord done;
   // A Chow-Liu tree's root: a keyframe, which the window keeps, not a pose a later chunk or

@@ -132,6 +132,36 @@ TEST(EstimatorTest, WindowSummariesStayWithinOneRobot) {
   EXPECT_GT(containers, 10);
 }
 
+// A window left behind by one large update (a burst of messages taken at once) does not wait
+// `every_updates` for its next pass while more than a pass's worth of poses is behind it: it
+// removes at every update until it has caught up, so that under sustained load the graph stays
+// bounded rather than growing between passes.
+TEST(EstimatorTest, WindowBehindRemovesAtEveryUpdateUntilCaughtUp) {
+  EstimatorParams p{.chi2_interval_s = 0.0};
+  p.window = {.keep_poses = 10, .keyframe_spacing_m = 0.0, .every_updates = 50};
+  auto e = Make(p);
+  ASSERT_TRUE(e->Process({Prior("a", 0, Pose2())}).status.ok());
+  std::vector<Inbound> burst;
+  for (std::uint64_t i = 0; i < 700; ++i) burst.push_back(Odo("a", i, i + 1, kStep));
+  ASSERT_TRUE(e->Process(burst).status.ok());
+  std::uint64_t next = 700;
+  std::vector<std::size_t> removed;  // per update, once the first pass has run
+  for (int update = 0; update < 60 && removed.size() < 5; ++update, ++next) {
+    ASSERT_TRUE(e->Process({Odo("a", next, next + 1, kStep)}).status.ok());
+    const NodeRemovalRecord now = e->ApplyPoseWindow();
+    if (!removed.empty() || !now.keys.empty()) removed.push_back(now.keys.size());
+  }
+  ASSERT_EQ(removed.size(), 5u);
+  // 691 poses behind: passes of 256 at three updates in a row, then one pose an update as
+  // the robot moves on.
+  EXPECT_EQ(removed[0], 256u);
+  EXPECT_EQ(removed[1], 256u);
+  EXPECT_GT(removed[2], 150u);
+  EXPECT_EQ(removed[3], 0u);  // caught up: the next pass waits `every_updates` again
+  EXPECT_EQ(e->snapshot()->counters.removed_variables,
+            static_cast<std::int64_t>(removed[0] + removed[1] + removed[2]));
+}
+
 // A robot's own window (robot_windows) in place of the default one: robot "a" keeps its newest
 // 10 poses and keyframes 3 m apart, robot "b" (default window: off) keeps everything; the
 // counters and the graph say so, and a loop closure to one of a's removed poses is rejected.
