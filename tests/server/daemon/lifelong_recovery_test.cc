@@ -44,20 +44,26 @@ TEST(RecoveryTest, CoveredJournalSegmentsAreDeletedAndRecoveryStaysExact) {
   p.isam2.refine_threshold = 1e-10;
   p.isam2.wildfire_threshold = 0.0;  // settled means at the optimum, not within the wildfire
   p.estimator.window = {.keep_poses = 40, .keyframe_spacing_m = 2.0, .every_updates = 10};
-  // Streams poses from..to, settles, stops; returns the settled estimate. A pause in the middle
-  // lets the 5% rule allow a snapshot after it, whatever the machine's speed.
-  const auto session = [&](int from, int to, unsigned seed) {
+  const auto first_base = [&] { return ListJournalSegments(dir.str()).value().front().base; };
+  // Streams poses from `from` on, settles, stops; returns the settled estimate and the pose it
+  // ended at. After two thirds of the way to `to` it goes on in steps of 10 poses with pauses
+  // between them, past `to` if need be, until the journal's first segment is beyond `base`: the
+  // 5% rule allows the next snapshot once 20x the last one's time has passed, however slow the
+  // machine is.
+  const auto session = [&](int from, int to, std::int64_t base, unsigned seed) {
     InProcessBus bus;
     std::mt19937 rng(seed);
     auto d = Daemon::Create(p, &bus).value();
-    const int mid = (from + 2 * to) / 3;
-    Stream(bus, *d, from, mid, rng);
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    Stream(bus, *d, mid, to, rng);
-    for (int k = 0; k < 1000 && !d->snapshot()->settled; ++k) d->StepEstimator(0.0);
+    int k = (from + 2 * to) / 3;
+    Stream(bus, *d, from, k, rng);
+    for (; k < to || (first_base() <= base && k < to + 300); k += 10) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      Stream(bus, *d, k, k + 10, rng);
+    }
+    for (int i = 0; i < 1000 && !d->snapshot()->settled; ++i) d->StepEstimator(0.0);
     EXPECT_TRUE(d->snapshot()->settled);
     d->Stop();
-    return Estimate(*d);
+    return std::make_pair(Estimate(*d), k);
   };
   const auto recovered = [&] {
     core::Result<RecoveryResult> r = Recover(dir.str(), p.estimator, p.isam2, false);
@@ -68,16 +74,15 @@ TEST(RecoveryTest, CoveredJournalSegmentsAreDeletedAndRecoveryStaysExact) {
     EXPECT_TRUE(e.Refine(10.0).converged);
     return e.solver().CalculateEstimate();
   };
-  const auto first_base = [&] { return ListJournalSegments(dir.str()).value().front().base; };
 
-  const core::Values first = session(0, 150, 21);
+  const auto [first, end] = session(0, 150, 0, 21);
   ExpectSameValues(recovered(), first, 1e-8);
   const std::int64_t deleted_up_to = first_base();
   EXPECT_GT(deleted_up_to, 0);
   ExpectOnlySegmentsFromTheSnapshotOn(dir.str());
 
   // A restart carries on: new snapshots delete further segments.
-  const core::Values settled = session(150, 250, 22);
+  const core::Values settled = session(end, end + 100, deleted_up_to, 22).first;
   EXPECT_GT(first_base(), deleted_up_to);
   ExpectOnlySegmentsFromTheSnapshotOn(dir.str());
   ExpectSameValues(recovered(), settled, 1e-8);
