@@ -277,6 +277,10 @@ class Estimator::Builder final : public GraphBuilder {
   bool Anchored(std::uint8_t robot) const override { return e_.robots_[robot].anchored; }
   bool Known(Key key) const override { return e_.Known(key, s_); }
   Variable Estimate(Key key) const override { return e_.Estimate(key, s_); }
+  bool Ahead(Key pose) const override {
+    const RobotState& r = e_.robots_[core::KeyRobot(pose)];
+    return r.anchored && core::KeyIndex(pose) > r.newest;
+  }
   void AddPose(std::uint8_t robot, std::uint64_t index, const Variable& value) override {
     if (e_.robots_[robot].anchored && e_.ReducedFor(robot) != nullptr && !s_.reduced.pending_pose) {
       // Node or alias: its factor (AddMeasured) decides.

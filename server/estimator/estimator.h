@@ -16,7 +16,8 @@
 //   applied   factors (and variables) added to the update;
 //   held      it needs a pose that may still come: odometry neither of whose poses is known yet
 //             (pose index ahead of the next expected, or a robot not anchored under
-//             kHoldUntilConnected), a landmark observation or prior on an unknown pose. Held
+//             kHoldUntilConnected), a landmark observation or prior on an unknown pose, a loop
+//             closure to a pose beyond its robot's newest (the other side known or ahead too). Held
 //             messages are retried whenever a pose is added (in the same batch too); a message
 //             held for more than max_hold_updates Process calls, or the oldest beyond
 //             max_held_messages, is rejected with kOutOfOrderTimeout;
@@ -25,7 +26,8 @@
 //             its robots listed so the daemon acknowledges it with their estimates;
 //   rejected  with a Verdict: kDuplicate (a different measurement of the same type between the
 //             same variables as one applied before), kUnknownRobot / kUnknownPose (loop closure to
-//             a robot or pose not in the graph, unless it connects an unanchored robot),
+//             a robot not in the graph or a pose at or before its robot's newest that is not,
+//             unless it connects an unanchored robot),
 //             kBadMeasurement (2D measurement on a 3D pose or vice versa; the solver refused the
 //             update: then every message applied in this batch is rejected and the estimator's
 //             state is unchanged), kTooManyElements (more than 255 robots).

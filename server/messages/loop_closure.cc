@@ -102,8 +102,12 @@ Outcome LoopClosureSpec::Apply(const Value& m, GraphBuilder& g, Verdict* v) {
       *v = {RejectReason::kUnknownRobot,
             "loop_closure_t.robot_b: robot '" + m.robot_b + "' has no pose in the graph"};
     } else {
-      *v = {RejectReason::kUnknownPose,
-            "loop_closure_t.pose_a: " + PoseName(m.robot_a, m.pose_a) + " is not in the graph"};
+      // Both poses may still come: held until they do. One that cannot is named.
+      const bool ahead_a = g.Ahead(core::MakeKey('x', m.pose_a, *ida));
+      if (ahead_a && g.Ahead(core::MakeKey('x', m.pose_b, *idb))) return Outcome::kHeld;
+      const std::string past = ahead_a ? "pose_b: " + PoseName(m.robot_b, m.pose_b)
+                                       : "pose_a: " + PoseName(m.robot_a, m.pose_a);
+      *v = {RejectReason::kUnknownPose, "loop_closure_t." + past + " is not in the graph"};
     }
     return Outcome::kRejected;
   }
@@ -114,6 +118,7 @@ Outcome LoopClosureSpec::Apply(const Value& m, GraphBuilder& g, Verdict* v) {
     const std::optional<std::uint8_t> id = known_a ? idb : ida;
     const std::uint64_t index = known_a ? m.pose_b : m.pose_a;
     if (id && g.Anchored(*id) && g.policy().shards.Owns(robot)) {
+      if (g.Ahead(core::MakeKey('x', index, *id))) return Outcome::kHeld;  // it may still come
       *v = {RejectReason::kUnknownPose, std::string("loop_closure_t.") +
                                             (known_a ? "pose_b: " : "pose_a: ") +
                                             PoseName(robot, index) + " is not in the graph"};

@@ -81,6 +81,9 @@ class GraphBuilder {
   // The variable is in the graph or staged; its current estimate or staged initial guess.
   virtual bool Known(core::Key key) const = 0;
   virtual core::Variable Estimate(core::Key key) const = 0;
+  // A pose beyond its anchored robot's newest: one that may still come (its odometry delayed,
+  // refused while the server was busy, or sent by another process than the message's).
+  virtual bool Ahead(core::Key pose) const = 0;
 
   // Stages pose `index` of `robot` (a new key) at `value`; the robot is then anchored and this
   // message its latest.

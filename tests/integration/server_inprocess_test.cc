@@ -118,11 +118,18 @@ TEST(ServerInProcessTest, LockStepEstimatesEqualOfflineIsam2AndBadMessagesChange
       asym.to_index = 100001;
       asym.covariance[1] += 1.0;
       ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", asym).ok());
-      slamd::loop_closure_t unknown;  // to a pose that does not exist
-      ToLcm(LoopClosureMeasurement{k, robot, 0, robot, 999999, b.measured(), b.noise_model(), {}},
-            &unknown);
-      ASSERT_TRUE(Publish(bus, "SLAMD_LOOP_CLOSURE", unknown).ok());
-      slamd::loop_closure_t stranger = unknown;  // from a robot nobody knows
+      slamd::loop_closure_t spatial;  // a 3D measurement between 2D poses
+      ToLcm(LoopClosureMeasurement{k,
+                                   robot,
+                                   0,
+                                   robot,
+                                   1,
+                                   core::Pose3(),
+                                   core::NoiseModel::Isotropic(6, 0.1).value(),
+                                   {}},
+            &spatial);
+      ASSERT_TRUE(Publish(bus, "SLAMD_LOOP_CLOSURE", spatial).ok());
+      slamd::loop_closure_t stranger = spatial;  // from a robot nobody knows
       stranger.robot_a = "nobody";
       stranger.robot_b = "noone";
       ASSERT_TRUE(Publish(bus, "SLAMD_LOOP_CLOSURE", stranger).ok());
@@ -143,7 +150,7 @@ TEST(ServerInProcessTest, LockStepEstimatesEqualOfflineIsam2AndBadMessagesChange
       // Stateless rejects are published by the intake, before the estimator's stateful ones.
       EXPECT_EQ(rejects[n - 4].reason, slamd::reject_t::REASON_COVARIANCE_NOT_SYMMETRIC);
       EXPECT_EQ(rejects[n - 3].reason, slamd::reject_t::REASON_DUPLICATE);
-      EXPECT_EQ(rejects[n - 2].reason, slamd::reject_t::REASON_UNKNOWN_POSE);
+      EXPECT_EQ(rejects[n - 2].reason, slamd::reject_t::REASON_BAD_MEASUREMENT);
       EXPECT_EQ(rejects[n - 1].reason, slamd::reject_t::REASON_UNKNOWN_ROBOT);
       EXPECT_EQ(rejects[n - 1].robot, "nobody");
     }
