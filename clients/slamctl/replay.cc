@@ -194,6 +194,12 @@ void RegisterReplay(CLI::App& app) {
                   "baseline)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  cmd->add_option("--resend-for", opt->resend_for_s,
+                  "A message the server refuses because its queue is full (queue_full) is sent "
+                  "again, after 20 ms, then twice as long each time up to 1 s, while it is "
+                  "refused, for at most this long [s]; nothing new is sent meanwhile. 0: never")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   cmd->add_option("--anchor-sigma", opt->anchor_sigma,
                   "Sigma of the prior anchoring each dataset's first pose [m, rad]; 0: no prior")
       ->check(CLI::NonNegativeNumber)

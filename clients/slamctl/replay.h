@@ -34,6 +34,7 @@ struct ReplayOptions {
   double settle_timeout_s = 30.0;
   double ack_timeout_s = 10.0;  // --lockstep / --fast: longest wait for an estimate
   double wait_server_s = 2.0;   // wait for a first status_t before sending
+  double resend_for_s = 60.0;   // a message refused as queue_full goes again (replay_resend.h)
   double anchor_sigma = 1e-3;
   std::string isam_noise = "sqrt-information";
   bool shared_landmarks = false;  // --shared-landmarks: datasets' landmark ids name one map

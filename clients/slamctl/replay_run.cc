@@ -7,15 +7,18 @@
 //    --fast waits until fewer than --window poses of that robot are unacknowledged (UDP loses
 //    what a busy server cannot read in time, so the client must not run ahead unboundedly);
 //    --rate waits for the pose's time slot; logs (--speed) wait for the scaled log time.
-//    Incoming messages are handled while waiting, and drained between sends.
-// 3. Wait until a status_t shows everything received, nothing queued, every pose acknowledged
-//    and the estimate settled (or --settle-timeout), then print the summary.
+//    Incoming messages are handled while waiting, and drained between sends. A message the
+//    server refuses as queue_full goes again after a back-off (replay_resend.h), in any wait.
+// 3. Wait until nothing refused waits to go again (and 50 ms more for late rejects), then until
+//    a status_t shows everything received, nothing queued, every pose acknowledged and the
+//    estimate settled (or --settle-timeout); print the summary.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <string>
 
 #include "clients/slamctl/replay.h"
+#include "clients/slamctl/replay_resend.h"
 #include "clients/slamctl/replay_tracker.h"
 #include "slamd/estimate_t.hpp"
 
@@ -72,8 +75,8 @@ class Progress {
   bool drawn_ = false;
 };
 
-void PrintSummary(const ReplayOptions& opt, const ReplayTracker& tracker, double wall_s,
-                  bool settled, bool answered) {
+void PrintSummary(const ReplayOptions& opt, const ReplayTracker& tracker,
+                  const ReplayResender& resender, double wall_s, bool settled, bool answered) {
   const LatencySummary lat = tracker.Latency();
   const double chi2 = tracker.last_status() ? tracker.last_status()->chi2 : NAN;
   if (opt.json) {
@@ -92,6 +95,7 @@ void PrintSummary(const ReplayOptions& opt, const ReplayTracker& tracker, double
     };
     JsonWriter j;
     j.Add("sent", static_cast<long long>(tracker.sent()))
+        .Add("resent", static_cast<long long>(resender.resent()))
         .Add("rejected", static_cast<long long>(tracker.rejected()))
         .Add("rejected_by_reason", reasons)
         .Add("already_held", static_cast<long long>(tracker.already_held()))
@@ -111,8 +115,9 @@ void PrintSummary(const ReplayOptions& opt, const ReplayTracker& tracker, double
     std::fflush(stdout);
     return;
   }
-  std::printf("sent        %lld messages in %.3f s\n", static_cast<long long>(tracker.sent()),
-              wall_s);
+  std::printf("sent        %lld messages in %.3f s (%lld of them again after queue_full)\n",
+              static_cast<long long>(tracker.sent()), wall_s,
+              static_cast<long long>(resender.resent()));
   std::printf("rejected    %lld\n", static_cast<long long>(tracker.rejected()));
   for (const auto& [name, count] : tracker.rejected_by_reason()) {
     std::printf("  %-28s %lld\n", name.c_str(), static_cast<long long>(count));
@@ -150,18 +155,39 @@ int Run(const ReplayOptions& opt, const std::vector<ReplayItem>& items,
   server::ChannelNames channels;
   std::unique_ptr<LcmClient> client = ConnectOrFail(kReplayRunCommand, opt.connection, &channels);
   ReplayTracker tracker(robots);
+  const ResendParams resend{.give_up_after_s = opt.resend_for_s};
+  ReplayResender resender(resend);
   auto check = [&](const core::Status& s) {
     if (!s.ok()) CommandFail(kReplayRunCommand, kExitFailure, s.ToString());
   };
   check(client->Subscribe<slamd::estimate_t>(channels.Estimate(), [&](const slamd::estimate_t& e) {
     tracker.OnEstimate(e.robot, e.pose_index, Now());
   }));
-  check(client->Subscribe<slamd::reject_t>(channels.Reject(),
-                                           [&](const slamd::reject_t& r) { tracker.OnReject(r); }));
+  check(client->Subscribe<slamd::reject_t>(channels.Reject(), [&](const slamd::reject_t& r) {
+    if (!resender.OnReject(r, Now())) tracker.OnReject(r);
+  }));
   check(client->Subscribe<slamd::status_t>(channels.Status(),
                                            [&](const slamd::status_t& s) { tracker.OnStatus(s); }));
+  double last_send_s = Now();
+  auto send = [&](std::size_t i) {
+    last_send_s = Now();
+    check(client->PublishBytes(items[i].channel, items[i].bytes));
+    resender.OnSent(i, items[i], last_send_s);
+  };
+  // What was refused and is due again goes first, in every wait.
+  auto send_due = [&] {
+    for (std::size_t i : resender.TakeDue(Now())) {
+      send(i);
+      tracker.OnResent();
+    }
+  };
   auto handle_until = [&](const std::function<bool()>& done, double timeout_s) {
-    core::Result<bool> r = client->HandleUntil(done, timeout_s);
+    core::Result<bool> r = client->HandleUntil(
+        [&] {
+          send_due();
+          return done();
+        },
+        timeout_s);
     if (!r.ok()) CommandFail(kReplayRunCommand, kExitFailure, r.status().ToString());
     return *r;
   };
@@ -182,9 +208,19 @@ int Run(const ReplayOptions& opt, const std::vector<ReplayItem>& items,
   const double t0 = Now();
   const std::int64_t log_t0 = items.empty() ? 0 : items.front().log_utime;
   std::size_t poses_sent = 0;
+  double slip_s = 0;  // time the schedule (--rate, --speed) slipped by waiting for re-sends
+  const double longest_resend_s = resend.give_up_after_s + resend.max_delay_s + 1.0;
   for (std::size_t i = 0; i < items.size(); ++i) {
     const ReplayItem& item = items[i];
     const bool pose = item.new_pose >= 0;
+    // While a refused message waits to go again the server is saturated: nothing new goes out
+    // until it went (flow control: a --rate above what the server takes is then its rate), and
+    // the schedule slips by the wait rather than catching up in a burst.
+    if (!resender.idle()) {
+      const double paused = Now();
+      handle_until([&] { return resender.idle(); }, longest_resend_s);
+      slip_s += Now() - paused;
+    }
     if (pose && opt.pacing == Pacing::kLockstep &&
         !handle_until([&] { return tracker.AllAcked(); }, opt.ack_timeout_s)) {
       CommandFail(kReplayRunCommand, kExitFailure,
@@ -207,14 +243,14 @@ int Run(const ReplayOptions& opt, const std::vector<ReplayItem>& items,
     }
     double target = -1;
     if (pose && opt.pacing == Pacing::kRate)
-      target = t0 + static_cast<double>(poses_sent) / opt.rate_hz;
+      target = t0 + slip_s + static_cast<double>(poses_sent) / opt.rate_hz;
     if (opt.pacing == Pacing::kSpeed)
-      target = t0 + static_cast<double>(item.log_utime - log_t0) * 1e-6 / opt.speed;
+      target = t0 + slip_s + static_cast<double>(item.log_utime - log_t0) * 1e-6 / opt.speed;
     // Until the send time itself: incoming messages are handled meanwhile, but do not decide
     // when it ends (a later deadline made the wait end only with the next message to arrive,
     // so poses went out in bursts).
     if (target > 0 && Now() < target) handle_until([&] { return Now() >= target; }, target - Now());
-    check(client->PublishBytes(item.channel, item.bytes));
+    send(i);
     tracker.OnSent(item, Now());
     if (pose) ++poses_sent;
     if (!client->Drain().ok()) CommandFail(kReplayRunCommand, kExitFailure, "LCM handle failed");
@@ -223,9 +259,11 @@ int Run(const ReplayOptions& opt, const std::vector<ReplayItem>& items,
   progress.Update(items.size(), tracker, Now() - t0, true);
   progress.Finish();
 
-  // 3. Settle.
+  // 3. The refused messages sent again, then settle.
+  handle_until([&] { return resender.idle() && Now() >= last_send_s + 0.05; }, longest_resend_s);
   const std::int64_t statuses_before = tracker.status_count();
-  const bool settled = handle_until([&] { return tracker.Settled(); }, opt.settle_timeout_s);
+  const bool settled =
+      handle_until([&] { return tracker.Settled() && resender.idle(); }, opt.settle_timeout_s);
   handle_until([] { return false; }, 0.05);  // late reject_t
   const double wall_s = Now() - t0;
   const bool answered = settled || tracker.status_count() > statuses_before;
@@ -240,7 +278,7 @@ int Run(const ReplayOptions& opt, const std::vector<ReplayItem>& items,
       std::fprintf(stderr, "slamctl replay: not settled within %.1f s\n", opt.settle_timeout_s);
     }
   }
-  PrintSummary(opt, tracker, wall_s, settled, answered);
+  PrintSummary(opt, tracker, resender, wall_s, settled, answered);
   const bool ok = tracker.rejected() == 0 && answered && tracker.ReceivedAll();
   return ok ? kExitOk : kExitFailure;
 }

@@ -182,7 +182,8 @@ core::Result<std::vector<ReplayItem>> InterleaveRobots(
                     .bytes = {},
                     .robot = robot,
                     .new_pose = new_pose,
-                    .log_utime = 0};
+                    .log_utime = 0,
+                    .utime = std::visit([](const auto& m) { return m.utime; }, message)};
     SLAMD_RETURN_IF_ERROR(EncodeMessage(message, &item.bytes));
     items.push_back(std::move(item));
     return core::Status::Ok();
@@ -261,6 +262,7 @@ core::Result<std::vector<ReplayItem>> ReadLcmLog(const std::string& path,
       slamd::odometry_t m;
       if (Decode(item.bytes, &m) && m.from_index >= 0 && m.to_index >= 0) {
         item.robot = m.robot;
+        item.utime = m.utime;
         known[m.robot].insert(static_cast<std::uint64_t>(m.from_index));
         introduce(m.robot, static_cast<std::uint64_t>(m.to_index));
       }
@@ -268,14 +270,21 @@ core::Result<std::vector<ReplayItem>> ReadLcmLog(const std::string& path,
       slamd::prior_t m;
       if (Decode(item.bytes, &m) && m.pose_index >= 0) {
         item.robot = m.robot;
+        item.utime = m.utime;
         introduce(m.robot, static_cast<std::uint64_t>(m.pose_index));
       }
     } else if (event->channel == channels.Inbound<server::LoopClosureSpec>()) {
       slamd::loop_closure_t m;
-      if (Decode(item.bytes, &m)) item.robot = m.robot_a;
+      if (Decode(item.bytes, &m)) {
+        item.robot = m.robot_a;
+        item.utime = m.utime;
+      }
     } else if (event->channel == channels.Inbound<server::LandmarkObservationSpec>()) {
       slamd::landmark_observation_t m;
-      if (Decode(item.bytes, &m)) item.robot = m.robot;
+      if (Decode(item.bytes, &m)) {
+        item.robot = m.robot;
+        item.utime = m.utime;
+      }
     }
     items.push_back(std::move(item));
   }

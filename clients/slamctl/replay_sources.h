@@ -36,6 +36,9 @@ struct ReplayItem {
   // acknowledges it. -1 when the message adds no pose.
   std::int64_t new_pose = -1;
   std::int64_t log_utime = 0;  // the event's log timestamp [µs] (logs only; 0 for datasets)
+  // The message's own utime [µs], by which a reject_t names it (with channel and robot); 0 when
+  // it did not decode.
+  std::int64_t utime = 0;
 };
 
 struct RobotDataset {

@@ -45,6 +45,8 @@ class ReplayTracker {
   }
 
   void OnSent(const ReplayItem& item, double now_s);
+  // A message sent again (refused as queue_full): counted as sent, its pose already pending.
+  void OnResent() { ++sent_; }
   void OnEstimate(const std::string& robot, std::int64_t pose_index, double now_s);
   void OnReject(const slamd::reject_t& reject);
   void OnStatus(const slamd::status_t& status);

@@ -52,5 +52,49 @@ TEST(ReplayPacingNetnsTest, RateSendsEveryPoseAtItsTime) {
   EXPECT_GE(JsonNumber(run.out, "wall_s"), (kPoses - 1) / kRate) << run.out;
 }
 
+// A slamd whose ingest queue holds one message refuses most of a fast replay (queue_full).
+// The replay sends each refused message again and sends nothing new while one waits: every pose
+// gets in, nothing is rejected. Without re-sends the refusals stand, and the odometry held
+// behind the gaps they leave never connects.
+TEST(ReplayPacingNetnsTest, RefusedMessagesAreSentAgainAndAllArrive) {
+  ASSERT_TRUE(testing::OnlyLoopback()) << testing::kNotInNetns;
+  constexpr int kPoses = 600;
+  std::ostringstream graph;
+  for (int i = 0; i < kPoses; ++i) graph << "VERTEX_SE2 " << i << " " << i << " 0 0\n";
+  for (int i = 0; i + 1 < kPoses; ++i)
+    graph << "EDGE_SE2 " << i << " " << i + 1 << " 1 0 0 1 0 0 1 0 1\n";
+  for (int i = 10; i < kPoses; i += 7)
+    graph << "EDGE_SE2 " << i - 10 << " " << i << " 10 0 0 1 0 0 1 0 1\n";
+  const std::string data = testing::WriteTempFile("loops600.g2o", graph.str());
+  // Every update relinearises every variable, so the estimator falls behind 50,000 messages
+  // per second; held messages wait as long as it takes (the test is about the refusals, not
+  // the hold's bound).
+  const std::string config = testing::WriteTempFile(
+      "queue1.textproto",
+      "queue { depth: 1 block_timeout_s: 0 }\nestimator { max_hold_updates: 1000000 }\n"
+      "isam2 { relinearization { rotation_threshold: 1e-12 translation_threshold: 1e-12 "
+      "skip: 1 } }\n");
+  const auto replay = [&](const std::string& resend_for) {
+    const pid_t slamd =
+        testing::Spawn({SLAMD_PATH, "--config", config, "--lcm-url", kUrl, "--log-level", "error"});
+    const testing::CommandRun run = testing::RunCommand(
+        {SLAMCTL_PATH, "replay", data, "--lcm-url", kUrl, "--rate", "50000", "--resend-for",
+         resend_for, "--wait-server", "10", "--settle-timeout", "10", "-q", "--json"},
+        testing::Streams::kStdout, 120);
+    kill(slamd, SIGTERM);
+    EXPECT_EQ(testing::WaitExit(slamd), 0);
+    return run;
+  };
+  const testing::CommandRun resent = replay("60");
+  EXPECT_EQ(resent.exit_code, 0) << resent.out;
+  EXPECT_GT(JsonNumber(resent.out, "resent"), 0) << resent.out;
+  EXPECT_EQ(JsonNumber(resent.out, "rejected"), 0) << resent.out;
+  EXPECT_EQ(JsonNumber(resent.out, "poses_acknowledged"), kPoses) << resent.out;
+  const testing::CommandRun refused = replay("0");
+  EXPECT_NE(refused.exit_code, 0) << refused.out;
+  EXPECT_GT(JsonNumber(refused.out, "rejected"), 0) << refused.out;
+  EXPECT_LT(JsonNumber(refused.out, "poses_acknowledged"), kPoses) << refused.out;
+}
+
 }  // namespace
 }  // namespace slamd::server
