@@ -19,7 +19,10 @@ namespace {
 using namespace recovery_test;  // NOLINT: the helpers of these tests
 
 // With one snapshot kept, the disk holds the journal segment its position falls in and those
-// after it, none before. (How many snapshots a run writes depends on the machine's speed.)
+// after it, none before. (How many snapshots a run writes depends on the machine's speed.) A
+// snapshot that ends exactly where its segment does may find that segment still the one being
+// written, which is never deleted: it goes with the next snapshot, so the second segment may
+// begin at the snapshot's position.
 void ExpectOnlySegmentsFromTheSnapshotOn(const std::string& dir) {
   const std::vector<SnapshotFileInfo> snapshots = ListSnapshots(dir).value();
   ASSERT_EQ(snapshots.size(), 1u);
@@ -27,7 +30,7 @@ void ExpectOnlySegmentsFromTheSnapshotOn(const std::string& dir) {
   const std::vector<JournalSegment> segments = ListJournalSegments(dir).value();
   ASSERT_FALSE(segments.empty());
   EXPECT_LE(segments.front().base, position);
-  if (segments.size() > 1) EXPECT_GT(segments[1].base, position);
+  if (segments.size() > 1) EXPECT_GE(segments[1].base, position);
 }
 
 // Journal segments a kept snapshot covers are deleted as snapshots are written, so the disk holds
