@@ -256,6 +256,12 @@ bool Daemon::FromCameraRobot(const std::vector<Inbound>& popped) {
 }
 
 void Daemon::ApplyPoseWindow() {
+  // The window waits for a rebuild in flight; once it fell behind, the rebuild is swapped in
+  // now (journaled as any swap), so that the graph stays bounded under a sustained load.
+  if (estimator_->Rebuilding() && estimator_->WindowBehind()) {
+    estimator_->HurryRebuild();
+    SwapRebuild();
+  }
   const NodeRemovalRecord removed = estimator_->ApplyPoseWindow();
   if (removed.keys.empty()) return;
   log_->debug("lifelong window: removed {} variables", removed.keys.size());

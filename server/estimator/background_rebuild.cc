@@ -76,7 +76,8 @@ void BackgroundRebuild::Run(core::Isam2Params params, core::FactorGraph factors,
         std::lock_guard lock(log_mutex_);
         end = log_.size();
         if (end == caught_up_ || !status_.ok() ||
-            static_cast<int>(rounds_.size()) >= options.max_rounds) {
+            static_cast<int>(rounds_.size()) >= options.max_rounds ||
+            hurry_.load(std::memory_order_acquire)) {
           if (finish) done_.store(true, std::memory_order_release);
           return;
         }
@@ -90,7 +91,7 @@ void BackgroundRebuild::Run(core::Isam2Params params, core::FactorGraph factors,
   // The status chi2 of the rebuilt map, here rather than on the estimator thread, where a
   // pass over every factor (50-350 ms at 250k variables) held up every message behind it.
   // It describes the updates taken so far; the swap hands it over.
-  if (status_.ok() && options.with_chi2) {
+  if (status_.ok() && options.with_chi2 && !hurry_.load(std::memory_order_acquire)) {
     chi2_ = solver_->Chi2();
     std::lock_guard lock(log_mutex_);
     chi2_sequence_ = caught_up_ == 0 ? options.start_sequence : log_[caught_up_ - 1].sequence;

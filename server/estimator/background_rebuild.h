@@ -51,6 +51,10 @@ class BackgroundRebuild {
 
   // The helper is done: it built the solver and caught up (or failed).
   bool Ready() const { return done_.load(std::memory_order_acquire); }
+  // The helper stops catching up after the round it is in (and computes no chi2): the swap is
+  // wanted now, the rest of the log taken in the swap's update. The rounds it ran are what the
+  // swap reports (and the journal records), so a replay does the same.
+  void Hurry() { hurry_.store(true, std::memory_order_release); }
 
   // Logs a successful live update (its new factors with their live indices, new variables at
   // their initial guesses, removed live factor indices) for the rebuild to take.
@@ -94,6 +98,7 @@ class BackgroundRebuild {
 
   std::thread thread_;
   std::atomic<bool> done_ = false;
+  std::atomic<bool> hurry_ = false;
   std::unique_ptr<core::Isam2> solver_;
   core::Status status_;
   std::vector<int> position_;  // per live factor index

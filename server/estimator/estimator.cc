@@ -63,9 +63,9 @@ Estimator::~Estimator() {
 }
 
 core::Isam2UpdateOptions Estimator::UpdateOptions() const {
-  return {
-      .defer_relinearization_above = rebuild_failed_ ? 0 : params_.background_relinearization_above,
-      .skip_relinearization = rebuild_ != nullptr};
+  return {.defer_relinearization_above =
+              relinearize_inline_ ? 0 : params_.background_relinearization_above,
+          .skip_relinearization = rebuild_ != nullptr};
 }
 
 core::Isam2UpdateOptions Estimator::ProcessUpdateOptions() const {
@@ -75,8 +75,17 @@ core::Isam2UpdateOptions Estimator::ProcessUpdateOptions() const {
 }
 
 void Estimator::AfterUpdate(int relinearization_deferred) {
-  if (relinearization_deferred > 0 && !rebuild_) StartRebuild();
-  if (relinearization_deferred == 0) rebuild_failed_ = false;
+  // Not while the window is behind: it does not remove while a rebuild is in flight, and under
+  // a sustained load the rebuild (on a graph the window no longer bounds) would not end. The
+  // next update relinearises inline instead.
+  if (relinearization_deferred > 0 && !rebuild_) {
+    if (WindowBehind()) {
+      relinearize_inline_ = true;
+    } else {
+      StartRebuild();
+    }
+  }
+  if (relinearization_deferred == 0) relinearize_inline_ = false;
 }
 
 void Estimator::AfterUpdateOnceSolved(int relinearization_deferred) {
@@ -126,7 +135,7 @@ core::Result<bool> Estimator::FinishRebuild(std::span<const int> replay_rounds) 
       rebuild_->Finish(replay_rounds, UpdateOptions(), *isam_);
   rebuild_.reset();
   if (!finished.ok()) {
-    rebuild_failed_ = true;
+    relinearize_inline_ = true;
     return finished.status();
   }
   BackgroundRebuild::Swap& r = finished.value();

@@ -125,6 +125,10 @@ class Estimator {
   // Lifelong window (EstimatorParams::window, pose_window.cc): when due and no rebuild is in
   // flight, removes old poses but keyframes by RemoveVariables; what it removed, for the journal.
   NodeRemovalRecord ApplyPoseWindow();
+  // The window fell behind (a robot has more than half of its poses one to two windows back):
+  // no rebuild starts, one in flight is to be hurried and swapped in. A function of the graph.
+  bool WindowBehind() const;
+  void HurryRebuild() { rebuild_->Hurry(); }
   // Node removal (Isam2::RemoveVariables) in chunks, at `at` (a journaled record's values) or θ,
   // summary trees rooted at `roots` (sorted: the window's keyframes, or a journaled record's)
   // where they can be; FailedPrecondition while a rebuild is in flight. A chunk that fails
@@ -157,11 +161,9 @@ class Estimator {
   const RobotRegistry& registry() const { return registry_; }
   const core::Isam2& solver() const { return *isam_; }
   int held_messages() const { return static_cast<int>(held_.size()); }
-  // Factor numbers, used and free: the graph's largest size, however many factors were replaced.
-  std::size_t factor_numbers() const { return numbers_.size(); }
-  // Cameras (camera_info_t) and the held observations of landmarks not determined yet.
-  const CameraTable& cameras() const { return cameras_; }
-  const LandmarkTracks& tracks() const { return tracks_; }
+  std::size_t factor_numbers() const { return numbers_.size(); }  // used + free: largest size
+  const CameraTable& cameras() const { return cameras_; }         // camera_info_t
+  const LandmarkTracks& tracks() const { return tracks_; }        // landmarks not determined yet
 
   ~Estimator();  // waits for a rebuild in flight
 
@@ -264,7 +266,8 @@ class Estimator {
   int marginals_threads_;  // Isam2Params::threads as configured (a rebuilt solver has 1)
   std::unique_ptr<core::Isam2Marginals> marginals_;
   std::unique_ptr<BackgroundRebuild> rebuild_;
-  bool rebuild_failed_ = false;  // the last rebuild failed: the next update relinearises inline
+  // The next update relinearises inline: the last rebuild failed, or none could start.
+  bool relinearize_inline_ = false;
   std::thread retire_thread_;    // frees the solver a rebuild replaced
   std::vector<int> last_swap_rounds_;
   bool replaying_ = false;  // SetReplaying

@@ -13,8 +13,10 @@ namespace {
 
 // Node removal factors the removed variables' stacked Jacobian densely (node_removal.h): cost
 // O(rows x columns²). Removed in chunks of this many, in order, each costs little, and a window
-// pass removes at most kMaxRemovedPerPass (the rest at the next update's pass), so a pass that
-// finds a long stretch of old poses does not stall the estimator for seconds.
+// pass removes at most kMaxRemovedPerPass or half of the poses behind the window, whichever is
+// more (the rest at the next update's pass): a pass that finds a long stretch of old poses does
+// not stall the estimator for seconds, and the window still keeps up with a sustained load
+// whose updates each bring thousands of poses.
 constexpr std::size_t kRemovalChunk = 16;
 constexpr std::size_t kMaxRemovedPerPass = 256;
 
@@ -40,15 +42,36 @@ NodeRemovalRecord Estimator::ApplyPoseWindow() {
     if (it != reduced_.aliases.end()) anchors.insert(it->second.anchor);
   }
   std::erase_if(removed, [&](core::Key k) { return anchors.count(k) != 0; });
-  window_behind_ = removed.size() > kMaxRemovedPerPass;
+  const std::size_t most = std::max(kMaxRemovedPerPass, removed.size() / 2);
+  window_behind_ = removed.size() > most;
   if (removed.empty()) return {};
-  if (window_behind_) removed.resize(kMaxRemovedPerPass);
+  if (window_behind_) removed.resize(most);
   // A chunk that fails (nothing of it changed) ends the pass; the next tries again.
   NodeRemovalRecord done;
   // A Chow-Liu tree's root: a keyframe, which the window keeps, not a pose a later chunk or
   // pass removes (that removal would take in the whole tree).
   (void)RemoveVariables(removed, plan.keyframes, &done);
   return done;
+}
+
+bool Estimator::WindowBehind() const {
+  // Per robot with a window of k poses: how many of its poses in [newest - 2k, newest - k).
+  std::map<std::uint8_t, std::pair<std::uint64_t, std::uint64_t>> band;  // robot: k, poses
+  for (std::uint8_t robot : registry_.ids()) {
+    const int keep = params_.WindowOf(registry_.Name(robot)).keep_poses;
+    if (keep > 0 && robots_[robot].anchored) band[robot] = {keep, 0};
+  }
+  if (band.empty()) return false;
+  for (core::Key key : isam_->linearization_point().keys()) {
+    if (core::KeySymbol(key) != 'x') continue;
+    const auto it = band.find(core::KeyRobot(key));
+    if (it == band.end()) continue;
+    const std::uint64_t index = core::KeyIndex(key), keep = it->second.first;
+    const std::uint64_t newest = robots_[it->first].newest;
+    if (index + keep < newest && index + 2 * keep >= newest) ++it->second.second;
+  }
+  return std::any_of(band.begin(), band.end(),
+                     [](const auto& b) { return 2 * b.second.second > b.second.first; });
 }
 
 PoseWindowPlan Estimator::WindowPlan() const {

@@ -297,5 +297,52 @@ TEST(EstimatorTest, SwapHandsOverTheChi2ItsHelperComputed) {
   EXPECT_EQ(e->snapshot()->chi2, e->solver().Chi2());
 }
 
+// The window removes nothing while a rebuild is in flight. Once it has fallen behind (a robot
+// keeps more than half of its poses one to two windows back), no rebuild starts and one in
+// flight is hurried and swapped in (the daemon does that before a window pass), so the window
+// goes on; caught up, rebuilds start again.
+TEST(EstimatorTest, NoRebuildStartsWhileTheWindowIsBehind) {
+  EstimatorParams p{.chi2_interval_s = 0.0, .background_relinearization_above = 2};
+  p.window = {.keep_poses = 20, .keyframe_spacing_m = 0.0, .every_updates = 1};
+  auto e = Make(p);
+  ASSERT_TRUE(e->Process({Prior("r", 0, Pose2())}).status.ok());
+  int i = 0;
+  for (; i < 400 && !e->Rebuilding(); ++i) {
+    ASSERT_TRUE(e->Process(LoopingStep(i)).status.ok());
+    if (!e->Rebuilding()) (void)e->ApplyPoseWindow();
+  }
+  ASSERT_TRUE(e->Rebuilding());
+  ASSERT_FALSE(e->WindowBehind());
+  // In flight: the window waits, and falls behind once 11 of the poses 20-40 back are still
+  // there (it last removed those 20 behind the rebuild's start).
+  const int started = i;
+  for (; !e->WindowBehind(); ++i) {
+    ASSERT_LT(i, started + 60);
+    ASSERT_TRUE(e->Process(LoopingStep(i)).status.ok());
+    EXPECT_TRUE(e->ApplyPoseWindow().keys.empty());
+  }
+  EXPECT_GE(i, started + 10);
+  e->HurryRebuild();
+  const core::Result<bool> swapped = e->FinishRebuild();
+  ASSERT_TRUE(swapped.ok() && swapped.value()) << swapped.status().ToString();
+  // Behind: the updates that defer their relinearisation start no rebuild.
+  int deferred = 0;
+  for (int k = 0; k < 30; ++k, ++i) {
+    const ProcessResult r = e->Process(LoopingStep(i));
+    ASSERT_TRUE(r.status.ok());
+    for (const core::Isam2Result& u : r.updates) deferred += u.relinearization_deferred > 0;
+    ASSERT_FALSE(e->Rebuilding()) << "update " << i;
+  }
+  EXPECT_GT(deferred, 0);
+  // The window catches up; then a deferral starts a rebuild again.
+  EXPECT_GT(e->ApplyPoseWindow().keys.size(), 40u);
+  EXPECT_FALSE(e->WindowBehind());
+  for (int k = 0; k < 200 && !e->Rebuilding(); ++k, ++i) {
+    ASSERT_TRUE(e->Process(LoopingStep(i)).status.ok());
+    (void)e->ApplyPoseWindow();
+  }
+  EXPECT_TRUE(e->Rebuilding());
+}
+
 }  // namespace
 }  // namespace slamd::server
