@@ -63,6 +63,7 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
   if (q.has_depth()) p->queue.depth = q.depth();
   if (q.has_block_timeout_s()) p->queue.block_timeout_s = q.block_timeout_s();
   if (q.has_coalesce_s()) p->queue.coalesce_s = q.coalesce_s();
+  if (q.has_max_per_update()) p->queue.max_per_update = q.max_per_update();
   const proto::PublishConfig& pub = config.publish();
   if (pub.has_status_rate_hz()) p->publish.status_rate_hz = pub.status_rate_hz();
   if (pub.has_map_rate_hz()) p->publish.map_rate_hz = pub.map_rate_hz();
@@ -264,6 +265,8 @@ std::string DefaultConfigText() {
       << "  # a full queue blocks intake this long, then rejects [s], 0..10\n"
       << "  coalesce_s: " << Num(d.queue.coalesce_s)
       << "  # a camera robot's messages this close make one update [s], 0..0.01\n"
+      << "  max_per_update: " << d.queue.max_per_update
+      << "  # queued messages one update takes at most, 1..1e7\n"
       << "}\n\n"
       << "publish {\n"
       << "  status_rate_hz: " << Num(d.publish.status_rate_hz) << "  # status_t [Hz], 0 = never\n"

@@ -48,6 +48,8 @@ core::Status ServerParams::Validate() const {
   SLAMD_CONFIG_CHECK(queue.block_timeout_s, <=, 10.0);
   SLAMD_CONFIG_CHECK(queue.coalesce_s, >=, 0.0);
   SLAMD_CONFIG_CHECK(queue.coalesce_s, <=, 0.01);
+  SLAMD_CONFIG_CHECK(queue.max_per_update, >=, 1);
+  SLAMD_CONFIG_CHECK(queue.max_per_update, <=, 10000000);
   SLAMD_CONFIG_CHECK(publish.status_rate_hz, >=, 0.0);
   SLAMD_CONFIG_CHECK(publish.status_rate_hz, <=, 1000.0);
   SLAMD_CONFIG_CHECK(publish.map_rate_hz, >=, 0.0);

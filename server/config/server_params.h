@@ -41,6 +41,10 @@ struct ServerParams {
     // for the quiet at most four times this [s]; 0 = take what is queued at once; 0..0.01.
     // Robots that send no frames are not waited for.
     double coalesce_s = 0.0003;
+    // An update takes at most this many of the queued messages, the rest the next updates
+    // [messages]; 1..10'000'000. Under a sustained load the queue stays full, and updates that
+    // each took all of it (up to `depth`) grew to seconds and gigabytes.
+    int max_per_update = 1000;
   };
   Queue queue = {};
 

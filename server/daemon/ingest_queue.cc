@@ -48,10 +48,12 @@ bool IngestQueue::WaitForRoom(double timeout_s, int count) {
                     [&] { return static_cast<int>(queue_.size()) + count <= capacity_; });
 }
 
-int IngestQueue::TakeAllLocked(std::vector<Inbound>* out) {
-  const int n = static_cast<int>(queue_.size());
-  for (Inbound& in : queue_) out->push_back(std::move(in));
-  queue_.clear();
+int IngestQueue::TakeLocked(std::vector<Inbound>* out, int max) {
+  const int n = std::min(static_cast<int>(queue_.size()), std::max(max, 0));
+  for (int i = 0; i < n; ++i) {
+    out->push_back(std::move(queue_.front()));
+    queue_.pop_front();
+  }
   if (n > 0) {
     saturated_ = false;
     not_full_.notify_all();
@@ -59,27 +61,29 @@ int IngestQueue::TakeAllLocked(std::vector<Inbound>* out) {
   return n;
 }
 
-int IngestQueue::PopAll(std::vector<Inbound>* out, double timeout_s) {
+int IngestQueue::PopAll(std::vector<Inbound>* out, double timeout_s, int max) {
+  SLAMD_CHECK(max >= 1) << "IngestQueue::PopAll max " << max;
   std::unique_lock lock(mutex_);
   not_empty_.wait_for(lock, ToDuration(timeout_s), [&] { return closed_ || !queue_.empty(); });
-  return TakeAllLocked(out);
+  return TakeLocked(out, max);
 }
 
-int IngestQueue::PopRestOfBurst(std::vector<Inbound>* out, double quiet_s, double max_wait_s) {
+int IngestQueue::PopRestOfBurst(std::vector<Inbound>* out, double quiet_s, double max_wait_s,
+                                int max) {
   using Clock = std::chrono::steady_clock;
   std::int64_t newest_us = 0;
   for (const Inbound& in : *out) newest_us = std::max(newest_us, in.received_us);
   const Clock::time_point until = Clock::now() + ToDuration(max_wait_s);
   int added = 0;
   std::unique_lock lock(mutex_);
-  for (;;) {
+  while (static_cast<int>(out->size()) < max) {
     const Clock::time_point quiet_end = std::min(
         Clock::time_point(std::chrono::microseconds(newest_us)) + ToDuration(quiet_s), until);
     const bool more =
         not_empty_.wait_until(lock, quiet_end, [&] { return closed_ || !queue_.empty(); });
     if (!more || queue_.empty()) break;  // quiet (or closed)
     for (const Inbound& in : queue_) newest_us = std::max(newest_us, in.received_us);
-    added += TakeAllLocked(out);
+    added += TakeLocked(out, max - static_cast<int>(out->size()));
   }
   return added;
 }

@@ -5,8 +5,8 @@
 // burst is waited out once, but a sustained overload is answered with rejects at once, since a
 // producer blocked again and again cannot read its transport, which then loses messages
 // unanswered (UDP multicast has no back-pressure).
-// PopAll hands the consumer everything queued at once (the estimator coalesces it into one
-// update). Thread-safe: any number of producers, one consumer.
+// PopAll hands the consumer what is queued, up to a bound, at once (the estimator coalesces it
+// into one update). Thread-safe: any number of producers, one consumer.
 #pragma once
 
 #include <condition_variable>
@@ -32,15 +32,16 @@ class IngestQueue {
   // after a true result cannot fail for lack of room. count >= 1 (checked).
   bool WaitForRoom(double timeout_s, int count = 1);
 
-  // Waits up to timeout_s for a message, then moves every queued message (in arrival order) to
-  // the end of *out. Returns how many; 0 on timeout or when closed and empty.
-  int PopAll(std::vector<Inbound>* out, double timeout_s);
+  // Waits up to timeout_s for a message, then moves the queued messages (in arrival order), at
+  // most `max` (>= 1, checked), to the end of *out. Returns how many; 0 on timeout or when
+  // closed and empty.
+  int PopAll(std::vector<Inbound>* out, double timeout_s, int max);
 
   // After PopAll: while the newest message in *out was received (Inbound::received_us, steady
   // clock) less than quiet_s ago, waits for more and moves them to *out too, for at most
-  // max_wait_s in all, so that messages sent back to back come out together. Returns how many
-  // it added.
-  int PopRestOfBurst(std::vector<Inbound>* out, double quiet_s, double max_wait_s);
+  // max_wait_s in all and until *out holds `max`, so that messages sent back to back come out
+  // together. Returns how many it added.
+  int PopRestOfBurst(std::vector<Inbound>* out, double quiet_s, double max_wait_s, int max);
 
   // Refuses further pushes and wakes every waiter; queued messages can still be popped.
   void Close();
@@ -53,8 +54,9 @@ class IngestQueue {
   bool saturated() const;
 
  private:
-  // Moves everything queued to the end of *out and wakes blocked pushers; mutex_ held.
-  int TakeAllLocked(std::vector<Inbound>* out);
+  // Moves the oldest queued messages, at most `max`, to the end of *out and wakes blocked
+  // pushers; mutex_ held.
+  int TakeLocked(std::vector<Inbound>* out, int max);
   // Waits until `has_room` or the queue is closed, up to timeout_s unless saturated_, and sets
   // saturated_ when a wait of timeout_s > 0 ends without room; mutex_ held by `lock`. Whether
   // there is room and the queue is open.

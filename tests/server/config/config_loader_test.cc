@@ -28,6 +28,7 @@ TEST(ConfigLoaderTest, DefaultConfigTextParsesToDefaults) {
   EXPECT_EQ(v.queue.depth, d.queue.depth);
   EXPECT_EQ(v.queue.block_timeout_s, d.queue.block_timeout_s);
   EXPECT_EQ(v.queue.coalesce_s, d.queue.coalesce_s);
+  EXPECT_EQ(v.queue.max_per_update, d.queue.max_per_update);
   EXPECT_EQ(v.publish.status_rate_hz, d.publish.status_rate_hz);
   EXPECT_EQ(v.refine.enabled, d.refine.enabled);
   EXPECT_EQ(v.refine.budget_s, d.refine.budget_s);
@@ -46,7 +47,7 @@ TEST(ConfigLoaderTest, SetFieldsOverrideDefaults) {
   const core::Result<ServerParams> p = ParseConfigText(R"(
 lcm_url: "memq://"
 channel_prefix: "TEST_"
-queue { depth: 7 block_timeout_s: 0.5 coalesce_s: 0.002 }
+queue { depth: 7 block_timeout_s: 0.5 coalesce_s: 0.002 max_per_update: 5 }
 refine { enabled: false }
 isam2 { relinearization { skip: 1 rotation_threshold: 0.01 error_threshold: 0 }
         wildfire_threshold: 0 threads: 1 refine_max_variables: 17 trust_region: true
@@ -62,6 +63,7 @@ publish { latency_window: 64 }
   EXPECT_EQ(v.queue.depth, 7);
   EXPECT_EQ(v.queue.block_timeout_s, 0.5);
   EXPECT_EQ(v.queue.coalesce_s, 0.002);
+  EXPECT_EQ(v.queue.max_per_update, 5);
   EXPECT_FALSE(v.refine.enabled);
   EXPECT_EQ(v.refine.budget_s, ServerParams{}.refine.budget_s);
   EXPECT_EQ(v.isam2.relinearization.skip, 1);

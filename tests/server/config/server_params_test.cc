@@ -20,6 +20,7 @@ TEST(ServerParamsTest, EachViolationNamesItsField) {
       {[](ServerParams* p) { p->queue.depth = 0; }, "queue.depth"},
       {[](ServerParams* p) { p->queue.block_timeout_s = -1; }, "queue.block_timeout_s"},
       {[](ServerParams* p) { p->queue.coalesce_s = 0.5; }, "queue.coalesce_s"},
+      {[](ServerParams* p) { p->queue.max_per_update = 0; }, "queue.max_per_update"},
       {[](ServerParams* p) { p->publish.status_rate_hz = -1; }, "publish.status_rate_hz"},
       {[](ServerParams* p) { p->publish.map_rate_hz = 1000; }, "publish.map_rate_hz"},
       {[](ServerParams* p) { p->publish.latency_window = 8; }, "publish.latency_window"},

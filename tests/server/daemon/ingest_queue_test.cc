@@ -15,6 +15,8 @@ Inbound Msg(std::int64_t utime, std::int64_t received_us = 0) {
           received_us};
 }
 
+constexpr int kAll = 1000;  // more than any of these queues holds
+
 std::int64_t NowMicros() {
   return std::chrono::duration_cast<std::chrono::microseconds>(
              std::chrono::steady_clock::now().time_since_epoch())
@@ -25,14 +27,33 @@ TEST(IngestQueueTest, PopAllTakesEverythingInOrder) {
   IngestQueue q(4);
   for (int i = 0; i < 3; ++i) ASSERT_TRUE(q.Push(Msg(i), 0.0));
   std::vector<Inbound> out;
-  EXPECT_EQ(q.PopAll(&out, 0.0), 3);
+  EXPECT_EQ(q.PopAll(&out, 0.0, kAll), 3);
   ASSERT_EQ(out.size(), 3u);
   for (int i = 0; i < 3; ++i) EXPECT_EQ(MessageUtime(out[i]), i);
   EXPECT_EQ(q.size(), 0);
-  EXPECT_EQ(q.PopAll(&out, 0.01), 0);  // times out
+  EXPECT_EQ(q.PopAll(&out, 0.01, kAll), 0);  // times out
   EXPECT_EQ(q.peak(), 3);              // the longest it was, not its size now
   ASSERT_TRUE(q.Push(Msg(3), 0.0));
   EXPECT_EQ(q.peak(), 3);
+}
+
+// An update takes at most `max` messages, the oldest; the rest wait in order for the next. A
+// take that leaves room ends the saturation, as taking everything does.
+TEST(IngestQueueTest, PopTakesAtMostMaxOldestFirst) {
+  IngestQueue q(5);
+  for (int i = 0; i < 5; ++i) ASSERT_TRUE(q.Push(Msg(i, NowMicros()), 0.0));
+  EXPECT_FALSE(q.WaitForRoom(0.01));
+  ASSERT_TRUE(q.saturated());
+  std::vector<Inbound> out;
+  EXPECT_EQ(q.PopAll(&out, 0.0, 2), 2);
+  EXPECT_FALSE(q.saturated());
+  EXPECT_EQ(q.size(), 3);
+  // The rest of a burst stops once the batch holds `max`.
+  EXPECT_EQ(q.PopRestOfBurst(&out, 1.0, 1.0, 3), 1);
+  EXPECT_EQ(q.size(), 2);
+  EXPECT_EQ(q.PopAll(&out, 0.0, 10), 2);
+  ASSERT_EQ(out.size(), 5u);
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(MessageUtime(out[i]), i);
 }
 
 TEST(IngestQueueTest, FullQueueBlocksForTheTimeoutThenRefuses) {
@@ -59,13 +80,13 @@ TEST(IngestQueueTest, AfterATimedOutWaitAFullQueueRefusesAtOnceUntilTaken) {
   EXPECT_FALSE(q.WaitForRoom(5.0));
   EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(2));
   std::vector<Inbound> out;
-  ASSERT_EQ(q.PopAll(&out, 0.0), 1);
+  ASSERT_EQ(q.PopAll(&out, 0.0, kAll), 1);
   EXPECT_FALSE(q.saturated());
   ASSERT_TRUE(q.Push(Msg(3), 0.0));
   std::thread consumer([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     std::vector<Inbound> taken;
-    q.PopAll(&taken, 0.0);
+    q.PopAll(&taken, 0.0, kAll);
   });
   EXPECT_TRUE(q.Push(Msg(4), 5.0));  // waits for the consumer again
   consumer.join();
@@ -79,7 +100,7 @@ TEST(IngestQueueTest, BlockedPushSucceedsWhenTheConsumerDrains) {
   std::thread consumer([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     std::vector<Inbound> out;
-    q.PopAll(&out, 0.0);
+    q.PopAll(&out, 0.0, kAll);
   });
   EXPECT_TRUE(q.Push(Msg(1), 5.0));
   consumer.join();
@@ -97,7 +118,7 @@ TEST(IngestQueueTest, WaitForRoomCountsTheMessagesAskedFor) {
   ASSERT_TRUE(q.Push(Msg(1), 0.0));
   EXPECT_FALSE(q.WaitForRoom(0.01, 3));  // times out
   std::vector<Inbound> out;
-  q.PopAll(&out, 0.0);
+  q.PopAll(&out, 0.0, kAll);
   EXPECT_TRUE(q.WaitForRoom(0.0, 4));
 }
 
@@ -115,8 +136,8 @@ TEST(IngestQueueTest, PopRestOfBurstTakesWhatComesUntilQuiet) {
     ASSERT_TRUE(q.Push(Msg(3, NowMicros()), 0.0));
   });
   std::vector<Inbound> out;
-  ASSERT_EQ(q.PopAll(&out, 1.0), 1);
-  EXPECT_EQ(q.PopRestOfBurst(&out, 0.2, 0.5), 2);
+  ASSERT_EQ(q.PopAll(&out, 1.0, kAll), 1);
+  EXPECT_EQ(q.PopRestOfBurst(&out, 0.2, 0.5, kAll), 2);
   producer.join();
   ASSERT_EQ(out.size(), 3u);
   for (int i = 0; i < 3; ++i) EXPECT_EQ(MessageUtime(out[i]), i);
@@ -129,7 +150,7 @@ TEST(IngestQueueTest, PopRestOfBurstDoesNotWaitForOldMessages) {
   std::vector<Inbound> out = {Msg(0, NowMicros() - 10'000'000)};
   ASSERT_TRUE(q.Push(Msg(1, NowMicros() - 9'000'000), 0.0));
   const auto start = std::chrono::steady_clock::now();
-  EXPECT_EQ(q.PopRestOfBurst(&out, 5.0, 5.0), 1);  // takes what is queued, waits for nothing
+  EXPECT_EQ(q.PopRestOfBurst(&out, 5.0, 5.0, kAll), 1);  // takes what is queued, waits for nothing
   EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(4));
   // A continuous stream is cut after max_wait_s.
   out = {Msg(2, NowMicros())};
@@ -141,7 +162,7 @@ TEST(IngestQueueTest, PopRestOfBurstDoesNotWaitForOldMessages) {
     }
   });
   const auto stream_start = std::chrono::steady_clock::now();
-  EXPECT_GT(q.PopRestOfBurst(&out, 1.0, 0.05), 0);
+  EXPECT_GT(q.PopRestOfBurst(&out, 1.0, 0.05, kAll), 0);
   EXPECT_LT(std::chrono::steady_clock::now() - stream_start, std::chrono::milliseconds(900));
   stop = true;
   producer.join();
@@ -154,8 +175,8 @@ TEST(IngestQueueTest, CloseRefusesPushesButKeepsQueued) {
   EXPECT_TRUE(q.closed());
   EXPECT_FALSE(q.Push(Msg(1), 1.0));
   std::vector<Inbound> out;
-  EXPECT_EQ(q.PopAll(&out, 1.0), 1);
-  EXPECT_EQ(q.PopAll(&out, 1.0), 0);  // closed and empty: no wait
+  EXPECT_EQ(q.PopAll(&out, 1.0, kAll), 1);
+  EXPECT_EQ(q.PopAll(&out, 1.0, kAll), 0);  // closed and empty: no wait
 }
 
 }  // namespace

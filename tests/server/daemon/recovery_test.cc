@@ -274,6 +274,7 @@ TEST(RecoveryTest, SnapshotsTakeAtMostFivePercentOfTheTime) {
   ServerParams p = Params(dir.str());
   p.refine.enabled = false;
   p.queue.depth = 100000;
+  p.queue.max_per_update = 100000;  // the chain below in one update
   p.journal.snapshot_every_updates = 1;
   p.journal.keep_snapshots = 1000;
   auto d = Daemon::Create(p, &bus).value();
