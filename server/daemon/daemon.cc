@@ -162,7 +162,7 @@ Daemon::~Daemon() { Stop(); }
 int Daemon::StepEstimator(double timeout_s) {
   std::vector<Inbound> popped, batch;
   std::vector<QueryRequest> queries;
-  int n = queue_.PopAll(&popped, timeout_s, params_.queue.max_per_update);
+  int n = queue_.Pop(&popped, timeout_s, params_.queue.max_per_update);
   if (n > 0 && params_.queue.coalesce_s > 0.0 && FromCameraRobot(popped)) {
     // The rest of a camera robot's burst (a frame's odometry and observations) joins this
     // update: otherwise the observations wait for the odometry's update.

@@ -5,11 +5,12 @@
 //                     journal.sync ALWAYS a burst of messages that arrived together is pushed
 //                     together (a bad message, or a full queue after queue.block_timeout_s, gets
 //                     a reject_t at once; nothing is dropped silently)
-//   estimator thread: queue.PopAll -> Estimator::Process (ONE Isam2 update for everything
-//                     queued) -> reject_t for stateful rejections, estimate_t for each robot whose
-//                     newest pose moved, status_t at publish.status_rate_hz; while refine.enabled,
-//                     Isam2::Refine(refine.budget_s) until settled, when the RefineSchedule sees
-//                     room: in a steady stream's gaps, else after refine.idle_s without a message.
+//   estimator thread: queue.Pop -> Estimator::Process (ONE Isam2 update for what is queued,
+//                     up to queue.max_per_update) -> reject_t for stateful rejections, estimate_t
+//                     for each robot whose newest pose moved, status_t at publish.status_rate_hz;
+//                     while refine.enabled, Isam2::Refine(refine.budget_s) until settled, when the
+//                     RefineSchedule sees room: in a steady stream's gaps, else after refine.idle_s
+//                     without a message.
 //
 // Inbound channels: one per message spec (server/messages/inbound.h), all through the queue;
 // measurements and retractions into Estimator::Process, queries (so a query sees everything

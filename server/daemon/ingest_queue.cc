@@ -61,8 +61,8 @@ int IngestQueue::TakeLocked(std::vector<Inbound>* out, int max) {
   return n;
 }
 
-int IngestQueue::PopAll(std::vector<Inbound>* out, double timeout_s, int max) {
-  SLAMD_CHECK(max >= 1) << "IngestQueue::PopAll max " << max;
+int IngestQueue::Pop(std::vector<Inbound>* out, double timeout_s, int max) {
+  SLAMD_CHECK(max >= 1) << "IngestQueue::Pop max " << max;
   std::unique_lock lock(mutex_);
   not_empty_.wait_for(lock, ToDuration(timeout_s), [&] { return closed_ || !queue_.empty(); });
   return TakeLocked(out, max);

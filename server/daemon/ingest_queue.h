@@ -5,7 +5,7 @@
 // burst is waited out once, but a sustained overload is answered with rejects at once, since a
 // producer blocked again and again cannot read its transport, which then loses messages
 // unanswered (UDP multicast has no back-pressure).
-// PopAll hands the consumer what is queued, up to a bound, at once (the estimator coalesces it
+// Pop hands the consumer what is queued, up to a bound, at once (the estimator coalesces it
 // into one update). Thread-safe: any number of producers, one consumer.
 #pragma once
 
@@ -35,9 +35,9 @@ class IngestQueue {
   // Waits up to timeout_s for a message, then moves the queued messages (in arrival order), at
   // most `max` (>= 1, checked), to the end of *out. Returns how many; 0 on timeout or when
   // closed and empty.
-  int PopAll(std::vector<Inbound>* out, double timeout_s, int max);
+  int Pop(std::vector<Inbound>* out, double timeout_s, int max);
 
-  // After PopAll: while the newest message in *out was received (Inbound::received_us, steady
+  // After Pop: while the newest message in *out was received (Inbound::received_us, steady
   // clock) less than quiet_s ago, waits for more and moves them to *out too, for at most
   // max_wait_s in all and until *out holds `max`, so that messages sent back to back come out
   // together. Returns how many it added.

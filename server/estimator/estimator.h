@@ -282,9 +282,9 @@ class Estimator {
   mutable ReducedGraphState reduced_;  // NearNode rebuilds its grid
   std::int64_t sequence_ = 0;
   std::int64_t window_sequence_ = 0;  // the update sequence the window last ran at
-  // The last pass left poses behind the window (kMaxRemovedPerPass): a pass runs at the next
+  // The last pass stopped at its bound with poses left to remove: a pass runs at the next
   // update, not after every_updates.
-  bool window_behind_ = false;
+  bool window_unfinished_ = false;
   ShardBoundary shard_boundary_{params_.shards, registry_};  // what ShardSummary is on
   std::int64_t num_factors_ = 0;
   std::int64_t residual_dimension_ = 0;

@@ -27,7 +27,7 @@ NodeRemovalRecord Estimator::ApplyPoseWindow() {
                    std::any_of(params_.robot_windows.begin(), params_.robot_windows.end(),
                                [](const auto& r) { return r.window.keep_poses > 0; });
   if (!any || sequence_ == window_sequence_ ||
-      (sequence_ < window_sequence_ + params_.window.every_updates && !window_behind_)) {
+      (sequence_ < window_sequence_ + params_.window.every_updates && !window_unfinished_)) {
     return {};
   }
   FinishUpdate();
@@ -43,9 +43,9 @@ NodeRemovalRecord Estimator::ApplyPoseWindow() {
   }
   std::erase_if(removed, [&](core::Key k) { return anchors.count(k) != 0; });
   const std::size_t most = std::max(kMaxRemovedPerPass, removed.size() / 2);
-  window_behind_ = removed.size() > most;
+  window_unfinished_ = removed.size() > most;
   if (removed.empty()) return {};
-  if (window_behind_) removed.resize(most);
+  if (window_unfinished_) removed.resize(most);
   // A chunk that fails (nothing of it changed) ends the pass; the next tries again.
   NodeRemovalRecord done;
   // A Chow-Liu tree's root: a keyframe, which the window keeps, not a pose a later chunk or

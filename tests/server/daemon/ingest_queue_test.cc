@@ -23,15 +23,15 @@ std::int64_t NowMicros() {
       .count();
 }
 
-TEST(IngestQueueTest, PopAllTakesEverythingInOrder) {
+TEST(IngestQueueTest, PopTakesEverythingInOrder) {
   IngestQueue q(4);
   for (int i = 0; i < 3; ++i) ASSERT_TRUE(q.Push(Msg(i), 0.0));
   std::vector<Inbound> out;
-  EXPECT_EQ(q.PopAll(&out, 0.0, kAll), 3);
+  EXPECT_EQ(q.Pop(&out, 0.0, kAll), 3);
   ASSERT_EQ(out.size(), 3u);
   for (int i = 0; i < 3; ++i) EXPECT_EQ(MessageUtime(out[i]), i);
   EXPECT_EQ(q.size(), 0);
-  EXPECT_EQ(q.PopAll(&out, 0.01, kAll), 0);  // times out
+  EXPECT_EQ(q.Pop(&out, 0.01, kAll), 0);  // times out
   EXPECT_EQ(q.peak(), 3);              // the longest it was, not its size now
   ASSERT_TRUE(q.Push(Msg(3), 0.0));
   EXPECT_EQ(q.peak(), 3);
@@ -45,13 +45,13 @@ TEST(IngestQueueTest, PopTakesAtMostMaxOldestFirst) {
   EXPECT_FALSE(q.WaitForRoom(0.01));
   ASSERT_TRUE(q.saturated());
   std::vector<Inbound> out;
-  EXPECT_EQ(q.PopAll(&out, 0.0, 2), 2);
+  EXPECT_EQ(q.Pop(&out, 0.0, 2), 2);
   EXPECT_FALSE(q.saturated());
   EXPECT_EQ(q.size(), 3);
   // The rest of a burst stops once the batch holds `max`.
   EXPECT_EQ(q.PopRestOfBurst(&out, 1.0, 1.0, 3), 1);
   EXPECT_EQ(q.size(), 2);
-  EXPECT_EQ(q.PopAll(&out, 0.0, 10), 2);
+  EXPECT_EQ(q.Pop(&out, 0.0, 10), 2);
   ASSERT_EQ(out.size(), 5u);
   for (int i = 0; i < 5; ++i) EXPECT_EQ(MessageUtime(out[i]), i);
 }
@@ -80,13 +80,13 @@ TEST(IngestQueueTest, AfterATimedOutWaitAFullQueueRefusesAtOnceUntilTaken) {
   EXPECT_FALSE(q.WaitForRoom(5.0));
   EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(2));
   std::vector<Inbound> out;
-  ASSERT_EQ(q.PopAll(&out, 0.0, kAll), 1);
+  ASSERT_EQ(q.Pop(&out, 0.0, kAll), 1);
   EXPECT_FALSE(q.saturated());
   ASSERT_TRUE(q.Push(Msg(3), 0.0));
   std::thread consumer([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     std::vector<Inbound> taken;
-    q.PopAll(&taken, 0.0, kAll);
+    q.Pop(&taken, 0.0, kAll);
   });
   EXPECT_TRUE(q.Push(Msg(4), 5.0));  // waits for the consumer again
   consumer.join();
@@ -100,7 +100,7 @@ TEST(IngestQueueTest, BlockedPushSucceedsWhenTheConsumerDrains) {
   std::thread consumer([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     std::vector<Inbound> out;
-    q.PopAll(&out, 0.0, kAll);
+    q.Pop(&out, 0.0, kAll);
   });
   EXPECT_TRUE(q.Push(Msg(1), 5.0));
   consumer.join();
@@ -118,7 +118,7 @@ TEST(IngestQueueTest, WaitForRoomCountsTheMessagesAskedFor) {
   ASSERT_TRUE(q.Push(Msg(1), 0.0));
   EXPECT_FALSE(q.WaitForRoom(0.01, 3));  // times out
   std::vector<Inbound> out;
-  q.PopAll(&out, 0.0, kAll);
+  q.Pop(&out, 0.0, kAll);
   EXPECT_TRUE(q.WaitForRoom(0.0, 4));
 }
 
@@ -136,7 +136,7 @@ TEST(IngestQueueTest, PopRestOfBurstTakesWhatComesUntilQuiet) {
     ASSERT_TRUE(q.Push(Msg(3, NowMicros()), 0.0));
   });
   std::vector<Inbound> out;
-  ASSERT_EQ(q.PopAll(&out, 1.0, kAll), 1);
+  ASSERT_EQ(q.Pop(&out, 1.0, kAll), 1);
   EXPECT_EQ(q.PopRestOfBurst(&out, 0.2, 0.5, kAll), 2);
   producer.join();
   ASSERT_EQ(out.size(), 3u);
@@ -175,8 +175,8 @@ TEST(IngestQueueTest, CloseRefusesPushesButKeepsQueued) {
   EXPECT_TRUE(q.closed());
   EXPECT_FALSE(q.Push(Msg(1), 1.0));
   std::vector<Inbound> out;
-  EXPECT_EQ(q.PopAll(&out, 1.0, kAll), 1);
-  EXPECT_EQ(q.PopAll(&out, 1.0, kAll), 0);  // closed and empty: no wait
+  EXPECT_EQ(q.Pop(&out, 1.0, kAll), 1);
+  EXPECT_EQ(q.Pop(&out, 1.0, kAll), 0);  // closed and empty: no wait
 }
 
 }  // namespace
