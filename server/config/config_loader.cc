@@ -186,6 +186,7 @@ void Apply(const proto::ServerConfig& config, ServerParams* p) {
     if (w.has_every_updates()) p->estimator.window.every_updates = w.every_updates();
     if (w.has_sparse_summaries()) p->estimator.window.sparse_summaries = w.sparse_summaries();
     if (w.has_summary_parents()) p->estimator.window.summary_parents = w.summary_parents();
+    if (w.has_keep_aliases()) p->estimator.window.keep_aliases = w.keep_aliases();
   }
   const auto read_reduced = [](const auto& in, EstimatorParams::ReducedGraph* out) {
     if (in.has_distance_m()) out->distance_m = in.distance_m();
@@ -364,6 +365,8 @@ std::string DefaultConfigText() {
       << "  # Chow-Liu trees; false: exact dense summaries, which grow with the area\n"
       << "    summary_parents: " << d.estimator.window.summary_parents
       << "  # sparse: a variable conditioned on 1 (a tree) or 2 others (closer, denser)\n"
+      << "    keep_aliases: " << d.estimator.window.keep_aliases
+      << "  # removed poses this far behind held for closures naming them; 0 = none\n"
       << "  }\n"
       << "  # robot_window { robot: \"car\" keep_poses: 500 keyframe_spacing_m: 2 }  # one "
          "robot's\n"

@@ -272,6 +272,9 @@ void Daemon::ApplyPoseWindow() {
   record.mutable_keys()->Add(removed.keys.begin(), removed.keys.end());
   EncodeValues(removed.at, record.mutable_at());
   record.mutable_roots()->Add(removed.roots.begin(), removed.roots.end());
+  for (const auto& [pose, alias] : removed.aliases) {
+    EncodeAlias(pose, alias, record.add_aliases());
+  }
   const core::Status s = journal_->AppendRemoval(record);
   if (!s.ok()) NoteJournalError(s);
 }

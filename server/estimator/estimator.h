@@ -38,7 +38,8 @@
 // sent again. Origin anchors (kAnchorAtOrigin) cannot be removed.
 //
 // Background relinearisation swaps in a rebuilt solver (background_rebuild.h); the reduced pose
-// graph holds new poses in a mapped area as aliases of nodes (reduced_graph.h).
+// graph holds new poses in a mapped area as aliases of nodes (reduced_graph.h), the lifelong
+// window recently removed ones as aliases of keyframes (pose_window.h).
 //
 // Exactness: with refinement and background relinearisation off, each Process call is exactly one
 // Isam2::Update of the factors in message order and the values in creation order, so feeding the
@@ -129,12 +130,11 @@ class Estimator {
   // no rebuild starts, one in flight is to be hurried and swapped in. A function of the graph.
   bool WindowBehind() const;
   void HurryRebuild() { rebuild_->Hurry(); }
-  // Node removal (Isam2::RemoveVariables) in chunks, at `at` (a journaled record's values) or θ,
-  // summary trees rooted at `roots` (sorted: the window's keyframes, or a journaled record's)
-  // where they can be; FailedPrecondition while a rebuild is in flight. A chunk that fails
-  // leaves those before it removed (*done: the keys that were, their values and the roots).
-  core::Status RemoveVariables(std::span<const core::Key> keys, const std::vector<core::Key>& roots,
-                               NodeRemovalRecord* done = nullptr, const core::Values* at = nullptr);
+  // Node removal (Isam2::RemoveVariables) of what.keys in chunks at what.at (empty: θ), summary
+  // trees rooted at what.roots (sorted) where they can be, removed poses then held as
+  // what.aliases; FailedPrecondition while a rebuild is in flight. A chunk that fails leaves
+  // those before it removed (*done: what was, as a record).
+  core::Status RemoveVariables(const NodeRemovalRecord& what, NodeRemovalRecord* done = nullptr);
 
   // Isam2::Refine(budget_s, max_rounds); a new snapshot when anything moved. (While a rebuild is
   // in flight, the swap discards what it did: the daemon refines only when none is.)
@@ -224,9 +224,12 @@ class Estimator {
   core::Isam2UpdateOptions ProcessUpdateOptions() const;
   void StartRebuild();
   PoseWindowPlan WindowPlan() const;  // pose_window.h
+  // The aliases of the plan's removed poses within keep_aliases (sorted; from the marginals).
+  std::vector<std::pair<core::Key, PoseAlias>> WindowAliases(const PoseWindowPlan& plan);
   // RemoveVariables' steps; adds what it removed to *done (the roots a blanket held too).
-  core::Status RemoveChunk(std::span<const core::Key> keys, const std::vector<core::Key>& roots,
-                           const core::Values* at, NodeRemovalRecord* done);
+  core::Status RemoveChunk(std::span<const core::Key> keys, const NodeRemovalRecord& what,
+                           NodeRemovalRecord* done);
+  void ForgetAliases(std::uint8_t robot, std::uint64_t before);  // and what was merged on them
   // Reduced pose graph (estimator_reduced.cc): a robot's policy (nullptr: off); a pose's alias
   // (staged or committed; nullptr for a node or unknown pose) and its estimate (anchor ∘ offset).
   const EstimatorParams::ReducedGraph* ReducedFor(std::uint8_t robot) const;
@@ -266,9 +269,8 @@ class Estimator {
   int marginals_threads_;  // Isam2Params::threads as configured (a rebuilt solver has 1)
   std::unique_ptr<core::Isam2Marginals> marginals_;
   std::unique_ptr<BackgroundRebuild> rebuild_;
-  // The next update relinearises inline: the last rebuild failed, or none could start.
-  bool relinearize_inline_ = false;
-  std::thread retire_thread_;    // frees the solver a rebuild replaced
+  bool relinearize_inline_ = false;  // the last rebuild failed or none could start: inline
+  std::thread retire_thread_;        // frees the solver a rebuild replaced
   std::vector<int> last_swap_rounds_;
   bool replaying_ = false;  // SetReplaying
   // Process(batch, true) is running (its updates may finish later); what the update left for
@@ -282,17 +284,15 @@ class Estimator {
   mutable ReducedGraphState reduced_;  // NearNode rebuilds its grid
   std::int64_t sequence_ = 0;
   std::int64_t window_sequence_ = 0;  // the update sequence the window last ran at
-  // The last pass stopped at its bound with poses left to remove: a pass runs at the next
-  // update, not after every_updates.
+  // The last pass stopped at its bound with poses left: the next update runs a pass too.
   bool window_unfinished_ = false;
   ShardBoundary shard_boundary_{params_.shards, registry_};  // what ShardSummary is on
   std::int64_t num_factors_ = 0;
   std::int64_t residual_dimension_ = 0;
   bool settled_ = true;
   std::shared_ptr<const EstimateSnapshot> snapshot_;
-  // The latest status chi2 and its update sequence (-1: none yet), here or from a rebuild.
-  double chi2_ = 0.0;
-  std::int64_t chi2_sequence_ = -1;
+  double chi2_ = 0.0;                // the latest status chi2, here or from a rebuild
+  std::int64_t chi2_sequence_ = -1;  // its update sequence (-1: none yet)
   std::chrono::steady_clock::time_point chi2_time_;  // when chi2_ was last computed
   double chi2_cost_s_ = 0.0;                         // how long computing it here took [s]
 };

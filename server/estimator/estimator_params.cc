@@ -49,6 +49,7 @@ core::Status EstimatorParams::Validate() const {
   SLAMD_CONFIG_CHECK(estimator.window.every_updates, >=, 1);
   SLAMD_CONFIG_CHECK(estimator.window.summary_parents, >=, 1);
   SLAMD_CONFIG_CHECK(estimator.window.summary_parents, <=, 2);
+  SLAMD_CONFIG_CHECK(estimator.window.keep_aliases, >=, 0);
   for (std::size_t i = 0; i < robot_windows.size(); ++i) {
     const std::string at = "estimator.robot_window[" + std::to_string(i) + "]";
     const PoseWindow& w = robot_windows[i].window;

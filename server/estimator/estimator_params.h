@@ -112,12 +112,17 @@ struct EstimatorParams {
   // tree parent and, with 2, also on the one other variable that tells most about it beyond
   // that (NodeRemovalParams::tree_parents): closer to the exact summaries, for a little more
   // fill-in and update time (BENCHMARKS.md, lifelong soak).
+  // keep_aliases (>= 0): a robot's removed poses up to this many behind its window are held as
+  // aliases of the keyframe that replaced them (offset and covariance from the estimate and
+  // joint marginal before the removal), so that a loop closure naming one is composed onto the
+  // keyframe instead of being rejected; older ones are forgotten (0: none are kept).
   struct PoseWindow {
     int keep_poses = 0;
     double keyframe_spacing_m = 1.0;
     int every_updates = 100;
     bool sparse_summaries = true;
     int summary_parents = 2;
+    int keep_aliases = 2000;
   };
   PoseWindow window = {};
   // Per robot (by name): its own keep_poses and keyframe_spacing_m in place of window's (a

@@ -161,7 +161,9 @@ Outcome Estimator::AddReduced(core::FactorPtr factor, Key first, const Measureme
   if (IsRelativePoint(*factor) && aliased.size() == 1 && aliased[0] == keys[0]) {
     const ComposedMeasurement point =
         ComposePoint(resolve(keys[0]), {*factor->Measured(), factor->noise_model().Covariance()});
-    const bool link = ReducedFor(core::KeyRobot(keys[0]))->link_mapped_landmarks;
+    // A window's alias (no reduced graph policy) links as the reduced graph does by default.
+    const EstimatorParams::ReducedGraph* policy = ReducedFor(core::KeyRobot(keys[0]));
+    const bool link = policy == nullptr || policy->link_mapped_landmarks;
     if (!AddComposed(resolve(keys[0]).anchor, keys[1], 1, point, factor->robust_kernel(), s,
                      link)) {
       return fail("the composed point's covariance is not positive definite");
@@ -174,10 +176,10 @@ Outcome Estimator::AddReduced(core::FactorPtr factor, Key first, const Measureme
   for (Key k : aliased) {
     if (robots_[core::KeyRobot(k)].newest != core::KeyIndex(k)) {
       *v = {RejectReason::kUnknownPose,
-            core::KeyToString(k) + " was merged into " +
+            core::KeyToString(k) + " is no node but an alias of " +
                 core::KeyToString(FindAlias(k, *s)->anchor) +
-                " by the reduced pose graph (estimator.reduced); only odometry, loop closures "
-                "and relative-point landmarks compose onto an older pose"};
+                " (reduced pose graph or lifelong window, estimator.reduced / window); only "
+                "odometry, loop closures and relative-point landmarks compose onto an older pose"};
       return Outcome::kRejected;
     }
   }
@@ -273,17 +275,20 @@ void Estimator::CommitReduced(Staged* s) {
     if (policy == nullptr || !robots_[robot].anchored) continue;
     const std::uint64_t newest = robots_[robot].newest;
     const auto keep = static_cast<std::uint64_t>(policy->keep_aliases);
-    if (newest <= keep) continue;
-    const Key begin = core::MakeKey('x', 0, robot);
-    const Key end = core::MakeKey('x', newest - keep, robot);
-    reduced_.aliases.erase(reduced_.aliases.lower_bound(begin), reduced_.aliases.lower_bound(end));
-    const auto from = reduced_.merged_by_pose.lower_bound(begin);
-    const auto to = reduced_.merged_by_pose.lower_bound(end);
-    for (auto it = from; it != to; ++it) {
-      for (const MeasurementId& id : it->second) reduced_.merged.erase(id);
-    }
-    reduced_.merged_by_pose.erase(from, to);
+    if (newest > keep) ForgetAliases(robot, newest - keep);
   }
+}
+
+void Estimator::ForgetAliases(std::uint8_t robot, std::uint64_t before) {
+  const Key begin = core::MakeKey('x', 0, robot);
+  const Key end = core::MakeKey('x', before, robot);
+  reduced_.aliases.erase(reduced_.aliases.lower_bound(begin), reduced_.aliases.lower_bound(end));
+  const auto from = reduced_.merged_by_pose.lower_bound(begin);
+  const auto to = reduced_.merged_by_pose.lower_bound(end);
+  for (auto it = from; it != to; ++it) {
+    for (const MeasurementId& id : it->second) reduced_.merged.erase(id);
+  }
+  reduced_.merged_by_pose.erase(from, to);
 }
 
 }  // namespace slamd::server

@@ -1,5 +1,6 @@
 #include "server/estimator/journal_replay.h"
 
+#include <algorithm>
 #include <iterator>
 #include <limits>
 
@@ -45,14 +46,18 @@ core::Status JournalReplay::Apply(const journal::JournalRecord& record, const st
     ++refinements_;
   } else if (record.has_removal()) {
     const journal::Removal& removal = record.removal();
-    core::Values at;  // none in a journal written before they were kept: the replay's θ
-    core::Status removed = DecodeValues(removal.at(), "removal", &at);
-    if (removed.ok()) {
-      const std::vector<core::Key> roots(removal.roots().begin(), removal.roots().end());
-      removed = estimator_->RemoveVariables(
-          {removal.keys().data(), static_cast<size_t>(removal.keys_size())}, roots, nullptr,
-          at.empty() ? nullptr : &at);
+    NodeRemovalRecord what{.keys = {removal.keys().begin(), removal.keys().end()},
+                           .roots = {removal.roots().begin(), removal.roots().end()}};
+    // No values in a journal written before they were kept: the replay's θ.
+    core::Status removed = DecodeValues(removal.at(), "removal", &what.at);
+    for (const snapshot::PoseAlias& a : removal.aliases()) {
+      core::Result<PoseAlias> alias = DecodeAlias(a);
+      if (!alias.ok()) removed = alias.status();
+      if (alias.ok()) what.aliases.emplace_back(a.pose(), std::move(alias).value());
     }
+    std::sort(what.aliases.begin(), what.aliases.end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
+    if (removed.ok()) removed = estimator_->RemoveVariables(what);
     if (!removed.ok()) notes_.push_back(where + ": " + removed.message());
     if (removed.ok()) ++removals_;
   } else if (record.has_rebuild_swap()) {

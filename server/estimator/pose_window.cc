@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <set>
 
 #include "server/estimator/estimator.h"
@@ -47,11 +48,37 @@ NodeRemovalRecord Estimator::ApplyPoseWindow() {
   if (removed.empty()) return {};
   if (window_unfinished_) removed.resize(most);
   // A chunk that fails (nothing of it changed) ends the pass; the next tries again.
-  NodeRemovalRecord done;
   // A Chow-Liu tree's root: a keyframe, which the window keeps, not a pose a later chunk or
   // pass removes (that removal would take in the whole tree).
-  (void)RemoveVariables(removed, plan.keyframes, &done);
+  NodeRemovalRecord what{.keys = removed, .roots = std::move(plan.keyframes)};
+  what.aliases = WindowAliases(plan);
+  NodeRemovalRecord done;
+  (void)RemoveVariables(what, &done);
   return done;
+}
+
+std::vector<std::pair<core::Key, PoseAlias>> Estimator::WindowAliases(const PoseWindowPlan& plan) {
+  std::vector<std::pair<core::Key, PoseAlias>> aliases;
+  Eigen::MatrixXd joint;
+  for (core::Key pose : plan.removed) {
+    const std::uint8_t robot = core::KeyRobot(pose);
+    const EstimatorParams::PoseWindow& w = params_.WindowOf(registry_.Name(robot));
+    const auto anchor = plan.anchor_of.find(pose);
+    if (anchor == plan.anchor_of.end() ||
+        core::KeyIndex(pose) + static_cast<std::uint64_t>(w.keep_poses + w.keep_aliases) <
+            robots_[robot].newest) {
+      continue;  // no keyframe replaced it, or forgotten at once
+    }
+    const core::Key keys[] = {anchor->second, pose};
+    if (!marginals_->JointMarginal(keys, core::Isam2Marginals::Frame::kEstimate, &joint).ok()) {
+      continue;
+    }
+    aliases.emplace_back(pose, RelativeAlias(anchor->second, isam_->CalculateEstimate(keys[0]),
+                                             isam_->CalculateEstimate(pose), joint));
+  }
+  std::sort(aliases.begin(), aliases.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  return aliases;
 }
 
 bool Estimator::WindowBehind() const {
@@ -91,24 +118,30 @@ PoseWindowPlan Estimator::WindowPlan() const {
   // is kept when no pose kept before it lies within keyframe_spacing_m (a grid of cells that
   // size finds the neighbours), so driving through a mapped area again adds no keyframe and
   // the graph of a robot that stays in a bounded area stays bounded.
+  // A removed pose's nearest keyframe within keyframe_spacing_m is its alias's anchor.
   PoseWindowPlan plan;
   for (auto& [robot, indices] : behind) {
     const double d = params_.WindowOf(registry_.Name(robot)).keyframe_spacing_m;
     std::sort(indices.begin(), indices.end());
-    std::map<std::array<long, 3>, std::vector<core::Vector3>> grid;
-    const auto near_kept = [&](const core::Vector3& at, const std::array<long, 3>& cell) {
+    std::map<std::array<long, 3>, std::vector<std::pair<core::Key, core::Vector3>>> grid;
+    const auto nearest_kept = [&](const core::Vector3& at, const std::array<long, 3>& cell) {
+      std::optional<core::Key> nearest;
+      double best = d;
       for (long dx = -1; dx <= 1; ++dx) {
         for (long dy = -1; dy <= 1; ++dy) {
           for (long dz = -1; dz <= 1; ++dz) {
             const auto it = grid.find({cell[0] + dx, cell[1] + dy, cell[2] + dz});
             if (it == grid.end()) continue;
-            for (const core::Vector3& k : it->second) {
-              if ((k - at).norm() < d) return true;
+            for (const auto& [key, k] : it->second) {
+              if ((k - at).norm() < best) {
+                best = (k - at).norm();
+                nearest = key;
+              }
             }
           }
         }
       }
-      return false;
+      return nearest;
     };
     for (std::uint64_t index : indices) {
       const core::Key key = core::MakeKey('x', index, robot);
@@ -118,8 +151,10 @@ PoseWindowPlan Estimator::WindowPlan() const {
         const std::array<long, 3> cell = {std::lround(std::floor((*at)[0] / d)),
                                           std::lround(std::floor((*at)[1] / d)),
                                           std::lround(std::floor((*at)[2] / d))};
-        keep = !near_kept(*at, cell);
-        if (keep) grid[cell].push_back(*at);
+        const std::optional<core::Key> nearest = nearest_kept(*at, cell);
+        keep = !nearest;
+        if (keep) grid[cell].emplace_back(key, *at);
+        if (nearest) plan.anchor_of[key] = *nearest;
       }
       (keep ? plan.keyframes : plan.removed).push_back(key);
     }
@@ -128,15 +163,35 @@ PoseWindowPlan Estimator::WindowPlan() const {
   return plan;
 }
 
-core::Status Estimator::RemoveVariables(std::span<const core::Key> keys,
-                                        const std::vector<core::Key>& roots,
-                                        NodeRemovalRecord* done, const core::Values* at) {
+core::Status Estimator::RemoveVariables(const NodeRemovalRecord& what, NodeRemovalRecord* done) {
+  const std::span<const core::Key> keys = what.keys;
   NodeRemovalRecord local;
   if (!done) done = &local;
   *done = {};
   FinishUpdate();
   if (Rebuilding()) {
     return core::FailedPrecondition("node removal while a rebuild is in flight");
+  }
+  // An alias is of a pose removed here, anchored at a pose of its kind that stays.
+  const core::Values& theta = isam_->linearization_point();
+  std::vector<core::Key> sorted(keys.begin(), keys.end());
+  std::sort(sorted.begin(), sorted.end());
+  const auto removed = [&](core::Key k) {
+    return std::binary_search(sorted.begin(), sorted.end(), k);
+  };
+  for (const auto& [pose, alias] : what.aliases) {
+    if (!removed(pose) || removed(alias.anchor) || !PositionOf(alias.offset) ||
+        !theta.Contains(pose) || !theta.Contains(alias.anchor) ||
+        core::TypeOf(theta.Get(alias.anchor)) != core::TypeOf(alias.offset) ||
+        core::TypeOf(theta.Get(pose)) != core::TypeOf(alias.offset) ||
+        alias.covariance.rows() != core::TangentDim(core::TypeOf(alias.offset)) ||
+        alias.covariance.cols() != alias.covariance.rows()) {
+      return core::InvalidArgument(
+          "node removal: the alias of " + core::KeyToString(pose) + " (anchor " +
+          core::KeyToString(alias.anchor) +
+          ") is not of a removed pose anchored at a pose of its kind that stays, with an offset "
+          "covariance of its dimension");
+    }
   }
   // A chunk holds one robot's poses: the summary of several robots' would be one tree over
   // blankets that share nothing, its root in one robot's map and bridges of no information to
@@ -148,9 +203,18 @@ core::Status Estimator::RemoveVariables(std::span<const core::Key> keys,
            core::KeyRobot(keys[end]) == core::KeyRobot(keys[first])) {
       ++end;
     }
-    status = RemoveChunk(keys.subspan(first, end - first), roots, at, done);
+    status = RemoveChunk(keys.subspan(first, end - first), what, done);
   }
   if (done->keys.empty()) return status;
+  std::sort(done->aliases.begin(), done->aliases.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (std::uint8_t robot : registry_.ids()) {
+    const EstimatorParams::PoseWindow& w = params_.WindowOf(registry_.Name(robot));
+    const auto behind = static_cast<std::uint64_t>(w.keep_poses + w.keep_aliases);
+    if (w.keep_poses > 0 && robots_[robot].newest > behind) {
+      ForgetAliases(robot, robots_[robot].newest - behind);
+    }
+  }
   counters_.removed_variables += static_cast<std::int64_t>(done->keys.size());
   marginals_ = std::make_unique<core::Isam2Marginals>(
       isam_.get(), core::MarginalsParams{.threads = marginals_threads_});
@@ -159,12 +223,11 @@ core::Status Estimator::RemoveVariables(std::span<const core::Key> keys,
   return status;
 }
 
-core::Status Estimator::RemoveChunk(std::span<const core::Key> keys,
-                                    const std::vector<core::Key>& roots, const core::Values* at,
+core::Status Estimator::RemoveChunk(std::span<const core::Key> keys, const NodeRemovalRecord& what,
                                     NodeRemovalRecord* done) {
   std::vector<core::Key> used;
   const auto keyframe = [&](core::Key key) {
-    const bool preferred = std::binary_search(roots.begin(), roots.end(), key);
+    const bool preferred = std::binary_search(what.roots.begin(), what.roots.end(), key);
     if (preferred) used.push_back(key);
     return preferred;
   };
@@ -175,7 +238,7 @@ core::Status Estimator::RemoveChunk(std::span<const core::Key> keys,
        .prefer_root = keyframe,
        .edge_frame = core::TreeEdgeFrame::kParent,
        .tree_parents = params_.window.summary_parents},
-      at);
+      what.at.empty() ? nullptr : &what.at);
   if (!r.status.ok()) return r.status;
   done->keys.insert(done->keys.end(), keys.begin(), keys.end());
   for (core::Key key : used) {
@@ -198,9 +261,25 @@ core::Status Estimator::RemoveChunk(std::span<const core::Key> keys,
     if (it != applied_.end() && it->second == n) applied_.erase(it);
     numbers_.Release(n);
   }
-  // Aliases anchored at a removed pose go with it.
+  // A removed pose with an alias is held as it; aliases anchored at a removed pose follow its
+  // alias (composed onto it), or go with it.
+  std::map<core::Key, PoseAlias> held;
+  for (core::Key key : keys) {
+    const auto it = std::lower_bound(what.aliases.begin(), what.aliases.end(), key,
+                                     [](const auto& a, core::Key k) { return a.first < k; });
+    if (it != what.aliases.end() && it->first == key) held.insert(*it);
+  }
   const std::set<core::Key> gone(keys.begin(), keys.end());
-  std::erase_if(reduced_.aliases, [&](const auto& a) { return gone.count(a.second.anchor) != 0; });
+  for (auto it = reduced_.aliases.begin(); it != reduced_.aliases.end();) {
+    PoseAlias& alias = it->second;
+    const auto via = gone.count(alias.anchor) != 0 ? held.find(alias.anchor) : held.end();
+    if (via != held.end()) alias = ComposeAlias(via->second, {alias.offset, alias.covariance});
+    it = gone.count(alias.anchor) != 0 ? reduced_.aliases.erase(it) : std::next(it);
+  }
+  for (auto& [key, alias] : held) {
+    done->aliases.emplace_back(key, alias);
+    reduced_.aliases[key] = std::move(alias);
+  }
   num_factors_ -= static_cast<std::int64_t>(r.removed_factors.size());
   residual_dimension_ -= r.removed_dimension;
   for (int f : r.summary_factors) {

@@ -82,6 +82,23 @@ PoseAlias ComposeAlias(const PoseAlias& from, const ComposedMeasurement& z) {
   });
 }
 
+PoseAlias RelativeAlias(core::Key anchor, const core::Variable& anchor_pose,
+                        const core::Variable& pose, const Eigen::MatrixXd& joint) {
+  return WithPoseKind(anchor_pose, [&](auto kind) {
+    using P = decltype(kind);
+    constexpr int n = Kind<P>::Tangent::RowsAtCompileTime;
+    SLAMD_CHECK(joint.rows() == 2 * n && joint.cols() == 2 * n)
+        << "reduced pose graph: a joint marginal of two poses is " << 2 * n << "x" << 2 * n;
+    typename Kind<P>::Tangent H1, H2;
+    const P offset =
+        As<P>(anchor_pose, "the anchor").Between(As<P>(pose, "the aliased pose"), &H1, &H2);
+    Eigen::Matrix<double, n, 2 * n> H;
+    H << H1, H2;
+    Eigen::MatrixXd cov = H * joint * H.transpose();
+    return PoseAlias{anchor, offset, 0.5 * (cov + cov.transpose())};
+  });
+}
+
 ComposedMeasurement InverseRelative(const ComposedMeasurement& z) {
   return WithPoseKind(z.measured, [&](auto pose) {
     using P = decltype(pose);

@@ -53,6 +53,11 @@ PoseAlias ComposeAlias(const PoseAlias& from, const ComposedMeasurement& z);
 // anchors: from.offset ∘ z ∘ to.offset⁻¹.
 ComposedMeasurement ComposeBetween(const PoseAlias& from, const ComposedMeasurement& z,
                                    const PoseAlias& to);
+// The alias of `pose` held relative to the node `anchor` (offset anchor⁻¹ ∘ pose) given their
+// estimates and joint marginal covariance (blocks anchor then pose, each in its estimate's
+// tangent): the offset's covariance is the relative pose's, not the sum of their marginals'.
+PoseAlias RelativeAlias(core::Key anchor, const core::Variable& anchor_pose,
+                        const core::Variable& pose, const Eigen::MatrixXd& joint);
 // The inverse relative pose, with its covariance.
 ComposedMeasurement InverseRelative(const ComposedMeasurement& z);
 // A point p seen from the alias, in its anchor's frame: offset · p.

@@ -204,6 +204,31 @@ core::Status DecodeValues(const google::protobuf::RepeatedPtrField<snapshot::Key
   return core::Status::Ok();
 }
 
+void EncodeAlias(core::Key pose, const PoseAlias& alias, snapshot::PoseAlias* out) {
+  out->set_pose(pose);
+  out->set_anchor(alias.anchor);
+  WriteVariable(alias.offset, out->mutable_offset());
+  for (int row = 0; row < alias.covariance.rows(); ++row) {
+    for (int col = 0; col < alias.covariance.cols(); ++col) {
+      out->add_covariance(alias.covariance(row, col));
+    }
+  }
+}
+
+core::Result<PoseAlias> DecodeAlias(const snapshot::PoseAlias& in) {
+  const std::string what = "pose alias " + core::KeyToString(in.pose());
+  core::Result<core::Variable> offset = ReadVariable(in.offset(), what);
+  if (!offset.ok()) return offset.status();
+  const int n = core::TangentDim(core::TypeOf(offset.value()));
+  if (in.covariance_size() != n * n || !Plausible(in.covariance().data(), n * n)) {
+    return core::DataLoss("snapshot: " + what + ": covariance is not " + std::to_string(n) + "x" +
+                          std::to_string(n) + " finite numbers");
+  }
+  Eigen::MatrixXd cov(n, n);
+  for (int i = 0; i < n * n; ++i) cov(i / n, i % n) = in.covariance(i);
+  return PoseAlias{in.anchor(), std::move(offset).value(), std::move(cov)};
+}
+
 std::string EncodeState(const EstimatorState& state, const JournalPosition& position) {
   ChunkedWriter writer;
   pb::EstimatorState& out = *writer.message();
@@ -252,15 +277,7 @@ std::string EncodeState(const EstimatorState& state, const JournalPosition& posi
     writer.Added();
   }
   for (const auto& [pose, alias] : state.aliases) {
-    pb::PoseAlias* m = out.add_aliases();
-    m->set_pose(pose);
-    m->set_anchor(alias.anchor);
-    WriteVariable(alias.offset, m->mutable_offset());
-    for (int row = 0; row < alias.covariance.rows(); ++row) {
-      for (int col = 0; col < alias.covariance.cols(); ++col) {
-        m->add_covariance(alias.covariance(row, col));
-      }
-    }
+    EncodeAlias(pose, alias, out.add_aliases());
     writer.Added();
   }
   for (const EstimatorState::Merged& merged : state.merged) {
@@ -346,17 +363,9 @@ core::Result<EstimatorState> DecodeState(std::string_view bytes, JournalPosition
     state.track_observations.push_back({std::move(msg).value(), m.waited()});
   }
   for (const pb::PoseAlias& m : in.aliases()) {
-    const std::string what = "pose alias " + core::KeyToString(m.pose());
-    core::Result<core::Variable> offset = ReadVariable(m.offset(), what);
-    if (!offset.ok()) return offset.status();
-    const int n = core::TangentDim(core::TypeOf(offset.value()));
-    if (m.covariance_size() != n * n || !Plausible(m.covariance().data(), n * n)) {
-      return core::DataLoss("snapshot: " + what + ": covariance is not " + std::to_string(n) + "x" +
-                            std::to_string(n) + " finite numbers");
-    }
-    Eigen::MatrixXd cov(n, n);
-    for (int i = 0; i < n * n; ++i) cov(i / n, i % n) = m.covariance(i);
-    state.aliases.push_back({m.pose(), PoseAlias{m.anchor(), offset.value(), cov}});
+    core::Result<PoseAlias> alias = DecodeAlias(m);
+    if (!alias.ok()) return alias.status();
+    state.aliases.push_back({m.pose(), std::move(alias).value()});
   }
   for (int i = 0; i < in.merged_size(); ++i) {
     const pb::MergedMeasurement& m = in.merged(i);

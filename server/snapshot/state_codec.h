@@ -33,5 +33,10 @@ void EncodeValues(const core::Values& values,
                   google::protobuf::RepeatedPtrField<snapshot::KeyedVariable>* out);
 core::Status DecodeValues(const google::protobuf::RepeatedPtrField<snapshot::KeyedVariable>& in,
                           const char* what, core::Values* out);
+// A pose alias (reduced pose graph, lifelong window) as a snapshot stores it, and back
+// (DataLoss naming the pose: an unreadable offset, a covariance not n x n finite numbers):
+// also for the journal's node removals.
+void EncodeAlias(core::Key pose, const PoseAlias& alias, snapshot::PoseAlias* out);
+core::Result<PoseAlias> DecodeAlias(const snapshot::PoseAlias& in);
 
 }  // namespace slamd::server

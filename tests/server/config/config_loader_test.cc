@@ -135,7 +135,7 @@ TEST(ConfigLoaderTest, LifelongWindowAndJournalSegments) {
 estimator {
   window {
     keep_poses: 300 keyframe_spacing_m: 2.5 every_updates: 20 sparse_summaries: false
-    summary_parents: 1
+    summary_parents: 1 keep_aliases: 500
   }
   robot_window { robot: "car" keep_poses: 1000 }
 }
@@ -146,6 +146,8 @@ journal { segment_bytes: 1048576 delete_covered_segments: false snapshot_every_b
   EXPECT_EQ(p->estimator.window.every_updates, 20);
   EXPECT_FALSE(p->estimator.window.sparse_summaries);
   EXPECT_EQ(p->estimator.window.summary_parents, 1);
+  EXPECT_EQ(p->estimator.window.keep_aliases, 500);
+  EXPECT_EQ(p->estimator.WindowOf("car").keep_aliases, 500);
   EXPECT_TRUE(EstimatorParams{}.window.sparse_summaries);
   EXPECT_EQ(EstimatorParams{}.window.summary_parents, 2);
   const core::Result<ServerParams> three =
@@ -160,6 +162,8 @@ journal { segment_bytes: 1048576 delete_covered_segments: false snapshot_every_b
   EXPECT_FALSE(p->journal.delete_covered_segments);
   EXPECT_EQ(p->journal.snapshot_every_bytes, 8388608);
   for (const auto& [text, error] : std::vector<std::pair<std::string, std::string>>{
+           {"estimator { window { keep_aliases: -1 } }",
+            "estimator.window.keep_aliases = -1; violates >= 0"},
            {"journal { snapshot_every_bytes: -1 }",
             "journal.snapshot_every_bytes = -1; violates >= 0"},
            {"journal { segment_bytes: 100 }", "journal.segment_bytes = 100; violates >= 4096"}}) {

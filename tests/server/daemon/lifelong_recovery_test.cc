@@ -101,13 +101,15 @@ TEST(RecoveryTest, CoveredJournalSegmentsAreDeletedAndRecoveryStaysExact) {
 
 // The lifelong window removes each robot's old poses but keyframes as it goes, so the graph
 // stays bounded; the removals are journaled, and a restart replays them into exactly the same
-// state. A loop closure to a removed pose is rejected, not a failure.
+// state. The removed poses up to 200 behind the window are journaled as aliases and recovered:
+// a loop closure to one is applied, to an older removed pose rejected, not a failure.
 TEST(RecoveryTest, PoseWindowKeepsTheGraphBoundedAndReplaysExactly) {
   TempDir dir;
   InProcessBus bus;
   std::mt19937 rng(31);
   ServerParams p = Params(dir.str());
-  p.estimator.window = {.keep_poses = 30, .keyframe_spacing_m = 2.0, .every_updates = 10};
+  p.estimator.window = {
+      .keep_poses = 30, .keyframe_spacing_m = 2.0, .every_updates = 10, .keep_aliases = 200};
   core::Values before;
   std::int64_t removed = 0;
   {
@@ -137,11 +139,17 @@ TEST(RecoveryTest, PoseWindowKeepsTheGraphBoundedAndReplaysExactly) {
       EXPECT_GE((b - a).norm(), 2.0 - 0.5) << core::KeyToString(old[i]);  // estimates move on
     }
   }
-  int records = 0;
+  int records = 0, aliases = 0;
   const JournalContents journal = ReadJournal(dir.str()).value();
   for (const journal::JournalRecord& r : journal.records) {
     if (!r.has_removal()) continue;
     ++records;
+    const auto& keys = r.removal().keys();
+    for (const snapshot::PoseAlias& a : r.removal().aliases()) {
+      ++aliases;
+      EXPECT_NE(std::find(keys.begin(), keys.end(), a.pose()), keys.end()) << a.pose();
+      EXPECT_EQ(std::find(keys.begin(), keys.end(), a.anchor()), keys.end()) << a.anchor();
+    }
     // The values the removal marginalised at: the removed poses' and their blanket's.
     std::set<std::uint64_t> at;
     for (const auto& v : r.removal().at()) at.insert(v.key());
@@ -149,14 +157,26 @@ TEST(RecoveryTest, PoseWindowKeepsTheGraphBoundedAndReplaysExactly) {
     EXPECT_GT(at.size(), static_cast<size_t>(r.removal().keys_size()));
   }
   EXPECT_GT(records, 0) << journal.records.size() << " records";
+  EXPECT_GT(aliases, 100);
 
   auto d = Daemon::Create(p, &bus).value();
   ExpectSameValues(Estimate(*d), before, 0.0);
   EXPECT_EQ(d->snapshot()->counters.removed_variables, removed);
   std::vector<slamd::reject_t> rejects;
   Subscription sub = CollectRejects(bus, &rejects);
+  // Pose 300 was removed (a non-keyframe, 100 behind the window), pose 1 too long ago.
+  const std::uint8_t robot = core::KeyRobot(old.front());
+  std::uint64_t held = 300;
+  while (before.Contains(core::MakeKey('x', held, robot))) ++held;
+  ASSERT_LT(held, 360u);
+  const std::int64_t applied = d->snapshot()->counters.applied;
   slamd::loop_closure_t lc;
-  ToLcm(LoopClosureMeasurement{9, "r", 400, "r", 1, core::Pose2(), Noise(3, 0.1), {}}, &lc);
+  ToLcm(LoopClosureMeasurement{9, "r", 400, "r", held, core::Pose2(), Noise(3, 0.1), {}}, &lc);
+  ASSERT_TRUE(Publish(bus, "SLAMD_LOOP_CLOSURE", lc).ok());
+  Drive(*d, rng);
+  EXPECT_TRUE(rejects.empty()) << rejects[0].detail;
+  EXPECT_EQ(d->snapshot()->counters.applied, applied + 1);
+  ToLcm(LoopClosureMeasurement{10, "r", 400, "r", 1, core::Pose2(), Noise(3, 0.1), {}}, &lc);
   ASSERT_TRUE(Publish(bus, "SLAMD_LOOP_CLOSURE", lc).ok());
   Drive(*d, rng);
   ASSERT_EQ(rejects.size(), 1u);

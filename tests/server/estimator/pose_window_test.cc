@@ -4,11 +4,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <set>
 #include <string>
 
 #include "core/factors/linear_container_factor.h"
 #include "server/estimator/estimator.h"
+#include "server/estimator/reduced_graph.h"
 #include "tests/server/estimator/estimator_test_messages.h"
 
 namespace slamd::server {
@@ -165,13 +167,131 @@ TEST(EstimatorTest, WindowBehindRemovesAtEveryUpdateUntilCaughtUp) {
             static_cast<std::int64_t>(removed[0] + removed[1] + removed[2] + removed[3]));
 }
 
+// keep_aliases: a removed pose up to 30 behind the window is held as an alias of the keyframe
+// that replaced it, where its estimate was; older ones are forgotten. A loop closure to a held
+// pose is composed onto its keyframe (one factor); to a forgotten one it is rejected. A replay
+// that applies the live removals' records (the journal's) gets the same estimates bit for bit.
+// A keyframe removed with an alias of its own takes the aliases anchored at it along; one
+// removed without takes them out.
+TEST(EstimatorTest, WindowHoldsRecentlyRemovedPosesAsAliasesOfKeyframes) {
+  const Pose2 step(1.0, 0.0, 2 * M_PI / 21);  // a ring of 21 poses
+  const auto truth = [&](std::uint64_t i) {
+    Pose2 pose;
+    for (std::uint64_t k = 0; k < i % 21; ++k) pose = pose * step;
+    return pose;
+  };
+  EstimatorParams p{.chi2_interval_s = 0.0};
+  p.window = {.keep_poses = 10, .keyframe_spacing_m = 3.0, .every_updates = 5, .keep_aliases = 30};
+  auto live = Make(p);
+  auto replay = Make(p);
+  const auto both = [&](const std::vector<Inbound>& batch) {
+    for (Estimator* e : {live.get(), replay.get()}) {
+      const ProcessResult r = e->Process(batch);
+      ASSERT_TRUE(r.status.ok());
+      ASSERT_TRUE(r.rejections.empty()) << r.rejections[0].verdict.message;
+    }
+  };
+  const auto estimate = [](Estimator& e, std::uint64_t i) -> std::optional<Pose2> {
+    const core::Result<core::Variable> v = e.PoseEstimate("r", i);
+    return v.ok() ? std::optional<Pose2>(std::get<Pose2>(v.value())) : std::nullopt;
+  };
+  both({Prior("r", 0, Pose2())});
+  int held = 0;
+  constexpr std::uint64_t kNewest = 84;
+  for (std::uint64_t i = 0; i < kNewest; ++i) {
+    both({Odo("r", i, i + 1, step)});
+    std::vector<std::optional<Pose2>> before;
+    for (std::uint64_t k = 0; k <= i + 1; ++k) before.push_back(estimate(*live, k));
+    const NodeRemovalRecord removal = live->ApplyPoseWindow();
+    if (!removal.keys.empty()) ASSERT_TRUE(replay->RemoveVariables(removal).ok());
+    EXPECT_TRUE(std::is_sorted(removal.aliases.begin(), removal.aliases.end(),
+                               [](const auto& a, const auto& b) { return a.first < b.first; }));
+    for (const auto& [pose, alias] : removal.aliases) {
+      ++held;
+      EXPECT_NE(std::find(removal.keys.begin(), removal.keys.end(), pose), removal.keys.end());
+      EXPECT_TRUE(live->solver().linearization_point().Contains(alias.anchor));
+      EXPECT_EQ(alias.covariance.llt().info(), Eigen::Success) << alias.covariance;
+      const std::optional<Pose2> now = estimate(*live, core::KeyIndex(pose));
+      ASSERT_TRUE(now && before[core::KeyIndex(pose)]);
+      EXPECT_LT(core::LocalCoordinates(*now, *before[core::KeyIndex(pose)]).norm(), 1e-9);
+    }
+  }
+  EXPECT_GT(held, 20);
+  const auto key = [&](std::uint64_t i) {
+    return core::MakeKey('x', i, *live->registry().Find("r"));
+  };
+  // Forgotten beyond 10 + 30 behind (the last pass may have trimmed up to 5 updates before).
+  for (std::uint64_t k = 0; k <= kNewest; ++k) {
+    const bool node = live->solver().linearization_point().Contains(key(k));
+    if (k + 45 < kNewest) EXPECT_EQ(estimate(*live, k).has_value(), node) << k;
+    if (k + 40 >= kNewest) EXPECT_TRUE(estimate(*live, k).has_value()) << k;
+  }
+  const std::uint64_t h = kNewest - 25;
+  ASSERT_FALSE(live->solver().linearization_point().Contains(key(h)));
+  const std::int64_t factors = live->snapshot()->num_factors;
+  both({Loop("r", kNewest, "r", h, truth(kNewest).Between(truth(h)))});
+  EXPECT_EQ(live->snapshot()->num_factors, factors + 1);
+  for (std::uint64_t k = 0; k <= kNewest; ++k) {
+    const std::optional<Pose2> a = estimate(*live, k), b = estimate(*replay, k);
+    ASSERT_EQ(a.has_value(), b.has_value()) << k;
+    if (a) EXPECT_EQ(core::LocalCoordinates(*a, *b).norm(), 0.0) << k;
+  }
+  std::uint64_t forgotten = 0;
+  while (estimate(*live, forgotten)) ++forgotten;
+  const ProcessResult r =
+      live->Process({Loop("r", kNewest, "r", forgotten, truth(kNewest).Between(truth(forgotten)))});
+  EXPECT_EQ(OnlyRejection(r), RejectReason::kUnknownPose);
+
+  // Re-anchoring: the keyframe of h's alias removed with an alias of its own, relative to
+  // another keyframe: h stays where it was, now anchored there.
+  const auto alias_of = [&](core::Key pose) {
+    for (const auto& [key, alias] : live->ExportState().aliases) {
+      if (key == pose) return std::optional<PoseAlias>(alias);
+    }
+    return std::optional<PoseAlias>();
+  };
+  const core::Key hk = key(h);
+  const core::Key keyframe = alias_of(hk)->anchor;
+  core::Key other = 0;
+  for (core::Key k : live->solver().linearization_point().keys()) {
+    if (k != keyframe && core::KeyIndex(k) + 10 < kNewest) other = k;
+  }
+  ASSERT_NE(other, 0u);
+  Eigen::MatrixXd joint;
+  const core::Key pair[] = {other, keyframe};
+  ASSERT_TRUE(live->JointMarginal(pair, &joint).ok());
+  const Pose2 at = *estimate(*live, h);
+  NodeRemovalRecord what{.keys = {keyframe}};
+  what.aliases = {{keyframe, RelativeAlias(other, live->solver().CalculateEstimate(other),
+                                           live->solver().CalculateEstimate(keyframe), joint)}};
+  // Validated before anything is removed: an alias of a pose not removed, or anchored at one
+  // that is.
+  const std::int64_t variables = live->snapshot()->num_variables;
+  for (const NodeRemovalRecord& bad :
+       {NodeRemovalRecord{.keys = {keyframe}, .aliases = {{other, what.aliases[0].second}}},
+        NodeRemovalRecord{.keys = {keyframe, other}, .aliases = what.aliases}}) {
+    const core::Status status = live->RemoveVariables(bad);
+    EXPECT_EQ(status.code(), core::StatusCode::kInvalidArgument);
+    EXPECT_NE(status.message().find("the alias of"), std::string::npos) << status.message();
+    EXPECT_EQ(live->snapshot()->num_variables, variables);
+  }
+  ASSERT_TRUE(live->RemoveVariables(what).ok());
+  EXPECT_EQ(alias_of(hk)->anchor, other);
+  EXPECT_LT(core::LocalCoordinates(*estimate(*live, h), at).norm(), 1e-9);
+  ASSERT_TRUE(live->RemoveVariables({.keys = {other}}).ok());
+  EXPECT_FALSE(alias_of(hk).has_value());
+  EXPECT_FALSE(estimate(*live, h).has_value());
+}
+
 // A robot's own window (robot_windows) in place of the default one: robot "a" keeps its newest
 // 10 poses and keyframes 3 m apart, robot "b" (default window: off) keeps everything; the
-// counters and the graph say so, and a loop closure to one of a's removed poses is rejected.
+// counters and the graph say so, and a loop closure to one of a's removed poses (none held as
+// an alias) is rejected.
 TEST(EstimatorTest, RobotWindowRemovesOnlyThatRobotsOldPoses) {
   EstimatorParams p{.chi2_interval_s = 0.0};
   p.window.every_updates = 5;
-  p.robot_windows = {{.robot = "a", .window = {.keep_poses = 10, .keyframe_spacing_m = 3.0}}};
+  p.robot_windows = {
+      {.robot = "a", .window = {.keep_poses = 10, .keyframe_spacing_m = 3.0, .keep_aliases = 0}}};
   ASSERT_TRUE(p.Validate().ok());
   auto e = Make(p);
   ASSERT_TRUE(e->Process({Prior("a", 0, Pose2()), Prior("b", 0, Pose2(0, 5, 0))}).status.ok());
