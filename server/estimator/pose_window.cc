@@ -7,6 +7,7 @@
 #include <optional>
 #include <set>
 
+#include "core/base/timing.h"
 #include "server/estimator/estimator.h"
 
 namespace slamd::server {
@@ -20,6 +21,10 @@ namespace {
 // whose updates each bring thousands of poses.
 constexpr std::size_t kRemovalChunk = 16;
 constexpr std::size_t kMaxRemovedPerPass = 256;
+// A removed pose's alias costs a joint marginal (0.2 ms a pose in the lifelong soak at its
+// normal rate, 1-10 ms under a sustained overload, when the tree's top is large): a pass spends
+// at most this long on them, the robots' newest removed poses first, the rest removed without.
+constexpr double kAliasBudgetS = 0.05;
 
 }  // namespace
 
@@ -58,23 +63,33 @@ NodeRemovalRecord Estimator::ApplyPoseWindow() {
 }
 
 std::vector<std::pair<core::Key, PoseAlias>> Estimator::WindowAliases(const PoseWindowPlan& plan) {
+  // The candidates by robot, newest first: those within keep_aliases that a keyframe replaced.
+  std::map<std::uint8_t, std::vector<core::Key>> candidates;
+  for (auto it = plan.removed.rbegin(); it != plan.removed.rend(); ++it) {
+    const std::uint8_t robot = core::KeyRobot(*it);
+    const EstimatorParams::PoseWindow& w = params_.WindowOf(registry_.Name(robot));
+    if (plan.anchor_of.count(*it) != 0 &&
+        core::KeyIndex(*it) + static_cast<std::uint64_t>(w.keep_poses + w.keep_aliases) >=
+            robots_[robot].newest) {
+      candidates[robot].push_back(*it);
+    }
+  }
+  // The robots in turn, until the budget is spent.
   std::vector<std::pair<core::Key, PoseAlias>> aliases;
   Eigen::MatrixXd joint;
-  for (core::Key pose : plan.removed) {
-    const std::uint8_t robot = core::KeyRobot(pose);
-    const EstimatorParams::PoseWindow& w = params_.WindowOf(registry_.Name(robot));
-    const auto anchor = plan.anchor_of.find(pose);
-    if (anchor == plan.anchor_of.end() ||
-        core::KeyIndex(pose) + static_cast<std::uint64_t>(w.keep_poses + w.keep_aliases) <
-            robots_[robot].newest) {
-      continue;  // no keyframe replaced it, or forgotten at once
+  const core::Stopwatch timer;
+  for (std::size_t round = 0, left = 1; left > 0 && timer.Seconds() < kAliasBudgetS; ++round) {
+    left = 0;
+    for (const auto& [robot, poses] : candidates) {
+      if (round >= poses.size() || timer.Seconds() >= kAliasBudgetS) continue;
+      left += poses.size() - round - 1;
+      const core::Key pose = poses[round], anchor = plan.anchor_of.at(pose);
+      const core::Key keys[] = {anchor, pose};
+      if (marginals_->JointMarginal(keys, core::Isam2Marginals::Frame::kEstimate, &joint).ok()) {
+        aliases.emplace_back(pose, RelativeAlias(anchor, isam_->CalculateEstimate(anchor),
+                                                 isam_->CalculateEstimate(pose), joint));
+      }
     }
-    const core::Key keys[] = {anchor->second, pose};
-    if (!marginals_->JointMarginal(keys, core::Isam2Marginals::Frame::kEstimate, &joint).ok()) {
-      continue;
-    }
-    aliases.emplace_back(pose, RelativeAlias(anchor->second, isam_->CalculateEstimate(keys[0]),
-                                             isam_->CalculateEstimate(pose), joint));
   }
   std::sort(aliases.begin(), aliases.end(),
             [](const auto& a, const auto& b) { return a.first < b.first; });
