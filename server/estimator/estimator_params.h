@@ -115,7 +115,9 @@ struct EstimatorParams {
   // keep_aliases (>= 0): a robot's removed poses up to this many behind its window are held as
   // aliases of the keyframe that replaced them (offset and covariance from the estimate and
   // joint marginal before the removal), so that a loop closure naming one is composed onto the
-  // keyframe instead of being rejected; older ones are forgotten (0: none are kept).
+  // keyframe instead of being rejected; older ones are forgotten (0: none are kept). Each costs
+  // a joint marginal: a pass spends at most 50 ms on them, the newest removed poses first (under
+  // a sustained overload some are removed without).
   struct PoseWindow {
     int keep_poses = 0;
     double keyframe_spacing_m = 1.0;

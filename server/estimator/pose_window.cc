@@ -187,7 +187,11 @@ core::Status Estimator::RemoveVariables(const NodeRemovalRecord& what, NodeRemov
   if (Rebuilding()) {
     return core::FailedPrecondition("node removal while a rebuild is in flight");
   }
-  // An alias is of a pose removed here, anchored at a pose of its kind that stays.
+  // An alias is of a pose removed here, anchored at a pose of its kind that stays; by pose.
+  if (!std::is_sorted(what.aliases.begin(), what.aliases.end(),
+                      [](const auto& a, const auto& b) { return a.first < b.first; })) {
+    return core::InvalidArgument("node removal: the aliases are not sorted by pose");
+  }
   const core::Values& theta = isam_->linearization_point();
   std::vector<core::Key> sorted(keys.begin(), keys.end());
   std::sort(sorted.begin(), sorted.end());
