@@ -55,11 +55,6 @@ bool Consistent(const Variable& x, const Eigen::MatrixXd& cov_x, const Variable&
   return m < (d.size() == 3 ? 16.27 : 22.46);  // χ²(3), χ²(6) at 0.999
 }
 
-bool IsRelativePoint(const core::Factor& f) {
-  const std::string_view name = f.Name();
-  return name == "RelativePoint2" || name == "RelativePoint3";
-}
-
 }  // namespace
 
 const EstimatorParams::ReducedGraph* Estimator::ReducedFor(std::uint8_t robot) const {

@@ -6,8 +6,10 @@
 #include <map>
 #include <optional>
 #include <set>
+#include <tuple>
 
 #include "core/base/timing.h"
+#include "core/factors/factor_registry.h"
 #include "server/estimator/estimator.h"
 
 namespace slamd::server {
@@ -250,6 +252,27 @@ core::Status Estimator::RemoveChunk(std::span<const core::Key> keys, const NodeR
     if (preferred) used.push_back(key);
     return preferred;
   };
+  // The poses of the chunk held as aliases, and the digests of the measurements naming them:
+  // kept with the alias (ReducedGraphState::merged, forgotten with it), so that one sent again
+  // is held already, not composed onto the keyframe as new information.
+  std::map<core::Key, PoseAlias> held;
+  for (core::Key key : keys) {
+    const auto it = std::lower_bound(what.aliases.begin(), what.aliases.end(), key,
+                                     [](const auto& a, core::Key k) { return a.first < k; });
+    if (it != what.aliases.end() && it->first == key) held.insert(*it);
+  }
+  // (Those that would not be composed, other kinds, are rejected when sent again.)
+  std::vector<std::tuple<core::Key, MeasurementId, std::uint64_t>> known;
+  for (int n = 0; n < static_cast<int>(numbers_.size()) && !held.empty(); ++n) {
+    const FactorNumbers::Entry& e = numbers_.entry(n);
+    if (numbers_.slot(n) < 0 || e.dim == 0 || std::get<0>(e.id) == 'r') continue;  // 'r': composed
+    const core::Factor& f = *isam_->factor_slots()[numbers_.slot(n)];
+    for (core::Key on : {std::get<1>(e.id), std::get<2>(e.id)}) {
+      if (held.count(on) == 0 || !Composable(f)) continue;
+      known.emplace_back(on, e.id, core::MeasurementDigest(f));
+      break;
+    }
+  }
   const core::Isam2RemovalResult r = isam_->RemoveVariables(
       keys,
       {.form = params_.window.sparse_summaries ? core::NodeRemovalParams::Form::kChowLiu
@@ -282,12 +305,6 @@ core::Status Estimator::RemoveChunk(std::span<const core::Key> keys, const NodeR
   }
   // A removed pose with an alias is held as it; aliases anchored at a removed pose follow its
   // alias (composed onto it), or go with it.
-  std::map<core::Key, PoseAlias> held;
-  for (core::Key key : keys) {
-    const auto it = std::lower_bound(what.aliases.begin(), what.aliases.end(), key,
-                                     [](const auto& a, core::Key k) { return a.first < k; });
-    if (it != what.aliases.end() && it->first == key) held.insert(*it);
-  }
   const std::set<core::Key> gone(keys.begin(), keys.end());
   for (auto it = reduced_.aliases.begin(); it != reduced_.aliases.end();) {
     PoseAlias& alias = it->second;
@@ -298,6 +315,10 @@ core::Status Estimator::RemoveChunk(std::span<const core::Key> keys, const NodeR
   for (auto& [key, alias] : held) {
     done->aliases.emplace_back(key, alias);
     reduced_.aliases[key] = std::move(alias);
+  }
+  for (const auto& [on, id, digest] : known) {
+    reduced_.merged_by_pose[on].push_back(id);
+    reduced_.merged[id] = digest;
   }
   num_factors_ -= static_cast<std::int64_t>(r.removed_factors.size());
   residual_dimension_ -= r.removed_dimension;

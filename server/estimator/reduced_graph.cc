@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string_view>
 
 #include "core/base/check.h"
 #include "core/geometry/pose2.h"
@@ -97,6 +98,15 @@ PoseAlias RelativeAlias(core::Key anchor, const core::Variable& anchor_pose,
     Eigen::MatrixXd cov = H * joint * H.transpose();
     return PoseAlias{anchor, offset, 0.5 * (cov + cov.transpose())};
   });
+}
+
+bool IsRelativePoint(const core::Factor& f) {
+  const std::string_view name = f.Name();
+  return name == "RelativePoint2" || name == "RelativePoint3";
+}
+
+bool Composable(const core::Factor& f) {
+  return core::MeasuredRelativePose(f).has_value() || IsRelativePoint(f);
 }
 
 ComposedMeasurement InverseRelative(const ComposedMeasurement& z) {

@@ -58,6 +58,11 @@ ComposedMeasurement ComposeBetween(const PoseAlias& from, const ComposedMeasurem
 // tangent): the offset's covariance is the relative pose's, not the sum of their marginals'.
 PoseAlias RelativeAlias(core::Key anchor, const core::Variable& anchor_pose,
                         const core::Variable& pose, const Eigen::MatrixXd& joint);
+// A relative point factor (a landmark seen as a point in the pose's frame).
+bool IsRelativePoint(const core::Factor& f);
+// Whether a measurement naming an alias is composed onto its anchor: a relative pose (odometry,
+// loop closure) or a relative point; other kinds need the pose as a node.
+bool Composable(const core::Factor& f);
 // The inverse relative pose, with its covariance.
 ComposedMeasurement InverseRelative(const ComposedMeasurement& z);
 // A point p seen from the alias, in its anchor's frame: offset · p.

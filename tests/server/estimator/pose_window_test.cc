@@ -169,7 +169,8 @@ TEST(EstimatorTest, WindowBehindRemovesAtEveryUpdateUntilCaughtUp) {
 
 // keep_aliases: a removed pose up to 30 behind the window is held as an alias of the keyframe
 // that replaced it, where its estimate was; older ones are forgotten. A loop closure to a held
-// pose is composed onto its keyframe (one factor); to a forgotten one it is rejected. A replay
+// pose is composed onto its keyframe (one factor), its measurements sent again are held
+// already; to a forgotten one it is rejected. A replay
 // that applies the live removals' records (the journal's) gets the same estimates bit for bit.
 // A keyframe removed with an alias of its own takes the aliases anchored at it along; one
 // removed without takes them out.
@@ -236,6 +237,14 @@ TEST(EstimatorTest, WindowHoldsRecentlyRemovedPosesAsAliasesOfKeyframes) {
     ASSERT_EQ(a.has_value(), b.has_value()) << k;
     if (a) EXPECT_EQ(core::LocalCoordinates(*a, *b).norm(), 0.0) << k;
   }
+  // The measurements of a held pose stay known: the odometry into h sent again is held
+  // already (nothing added), a different one with its identity a duplicate.
+  ProcessResult again = live->Process({Odo("r", h - 1, h, step)});
+  EXPECT_TRUE(again.rejections.empty());
+  EXPECT_EQ(again.already_held_robots.count("r"), 1u);
+  EXPECT_EQ(live->snapshot()->num_factors, factors + 1);
+  again = live->Process({Odo("r", h - 1, h, step * step)});
+  EXPECT_EQ(OnlyRejection(again), RejectReason::kDuplicate);
   std::uint64_t forgotten = 0;
   while (estimate(*live, forgotten)) ++forgotten;
   const ProcessResult r =
