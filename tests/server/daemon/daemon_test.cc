@@ -352,7 +352,10 @@ bool AwaitEstimate(Client& client, std::int64_t pose) {
 }
 
 // Once a robot has sent a camera frame, its messages sent back to back make one update (a
-// frame's odometry and observations), not one each.
+// frame's odometry and observations), not one each. The burst is two messages 2 ms apart, in a
+// window of 10 ms: a loaded machine can stretch that pause past the window (the suite on two
+// cores did), so the burst is tried up to three times, and one must make one update (a robot
+// that sends no frames is not waited for: its bursts make two).
 TEST(DaemonTest, CameraRobotsBurstsMakeOneUpdate) {
   InProcessBus bus;
   ServerParams p = Params();
@@ -384,13 +387,17 @@ TEST(DaemonTest, CameraRobotsBurstsMakeOneUpdate) {
     ASSERT_LT(std::chrono::steady_clock::now(), deadline);
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  const std::int64_t updates = daemon->snapshot()->counters.updates;
-  ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(1, 2)).ok());
-  std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(2, 3)).ok());
-  ASSERT_TRUE(AwaitEstimate(client, 3));
+  std::vector<std::int64_t> made;  // updates per burst
+  for (std::uint64_t pose = 1; pose < 7 && (made.empty() || made.back() != 1); pose += 2) {
+    const std::int64_t updates = daemon->snapshot()->counters.updates;
+    ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(pose, pose + 1)).ok());
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    ASSERT_TRUE(Publish(bus, "SLAMD_ODOMETRY", Odo(pose + 1, pose + 2)).ok());
+    ASSERT_TRUE(AwaitEstimate(client, static_cast<std::int64_t>(pose + 2)));
+    made.push_back(daemon->snapshot()->counters.updates - updates);
+  }
   daemon->Stop();
-  EXPECT_EQ(daemon->snapshot()->counters.updates, updates + 1);
+  EXPECT_EQ(made.back(), 1) << made.size() << " bursts";
 }
 
 TEST(DaemonTest, ThreadsProcessEverythingAndStopCleanly) {
