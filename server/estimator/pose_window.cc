@@ -252,16 +252,16 @@ core::Status Estimator::RemoveChunk(std::span<const core::Key> keys, const NodeR
     if (preferred) used.push_back(key);
     return preferred;
   };
-  // The poses of the chunk held as aliases, and the digests of the measurements naming them:
-  // kept with the alias (ReducedGraphState::merged, forgotten with it), so that one sent again
-  // is held already, not composed onto the keyframe as new information.
+  // The poses of the chunk held as aliases, and the digests of the measurements naming them that
+  // an alias composes (the other kinds are rejected when sent again): kept with the alias
+  // (ReducedGraphState::merged, forgotten with it), so that one sent again is held already, not
+  // composed onto the keyframe as new information.
   std::map<core::Key, PoseAlias> held;
   for (core::Key key : keys) {
     const auto it = std::lower_bound(what.aliases.begin(), what.aliases.end(), key,
                                      [](const auto& a, core::Key k) { return a.first < k; });
     if (it != what.aliases.end() && it->first == key) held.insert(*it);
   }
-  // (Those that would not be composed, other kinds, are rejected when sent again.)
   std::vector<std::tuple<core::Key, MeasurementId, std::uint64_t>> known;
   for (int n = 0; n < static_cast<int>(numbers_.size()) && !held.empty(); ++n) {
     const FactorNumbers::Entry& e = numbers_.entry(n);
