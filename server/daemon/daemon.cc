@@ -20,18 +20,6 @@
 #include "slamd_proto/journal.pb.h"
 
 namespace slamd::server {
-namespace {
-
-// Keeps the last `window` values in *ring (publish.latency_window).
-void Record(std::vector<double>* ring, size_t* next, size_t window, double value) {
-  if (ring->size() < window) {
-    ring->push_back(value);
-  } else {
-    (*ring)[(*next)++ % window] = value;
-  }
-}
-
-}  // namespace
 
 std::string Daemon::InboundChannel(const Inbound& in) const {
   return VisitSpec(in, [&](auto spec, const auto&) {
@@ -203,8 +191,7 @@ int Daemon::StepEstimator(double timeout_s) {
     for (size_t k = 0; k < r.updates.size(); ++k) {
       // The last update's time includes the back-substitution it left for FinishUpdate.
       const double extra = k + 1 == r.updates.size() ? finish_us : 0.0;
-      Record(&update_us_, &update_us_next_, LatencyWindow(),
-             r.updates[k].seconds.total * 1e6 + extra);
+      update_latency_.Record(r.updates[k].seconds.total * 1e6 + extra);
       log_->debug("update: {}", r.updates[k].Brief());
     }
     if (!r.status.ok()) log_->warn("solver update failed: {}", r.status.ToString());
@@ -286,8 +273,7 @@ void Daemon::PublishEstimatesAndLatencies(std::span<const std::int64_t> applied_
   // shared an update waited longest.
   for (std::int64_t received_us : applied_received_us) {
     if (received_us > 0) {
-      Record(&publish_us_, &publish_us_next_, LatencyWindow(),
-             static_cast<double>(published_us - received_us));
+      publish_latency_.Record(static_cast<double>(published_us - received_us));
     }
   }
 }

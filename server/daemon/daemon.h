@@ -56,6 +56,7 @@
 
 #include "server/config/server_params.h"
 #include "server/daemon/ingest_queue.h"
+#include "server/daemon/latency_window.h"
 #include "server/daemon/refine_schedule.h"
 #include "server/daemon/shard_exchange.h"
 #include "server/daemon/snapshot_writer.h"
@@ -223,7 +224,6 @@ class Daemon {
   int PublishMaps(Bus& out, const std::string& robot, bool marginals, std::int64_t request_id,
                   std::int64_t update_sequence, bool* partial);
   bool RefineDue() const;  // refinement enabled and the estimate not settled
-  size_t LatencyWindow() const { return static_cast<size_t>(params_.publish.latency_window); }
   void IntakeLoop();
   void EstimatorLoop();
 
@@ -269,11 +269,9 @@ class Daemon {
   std::int64_t published_sequence_ = 0;
   std::int64_t last_status_us_ = 0;
   bool last_status_settled_ = true;
-  // Recent update and ingest-to-publish latencies for status_t (publish.latency_window rings).
-  std::vector<double> update_us_;
-  size_t update_us_next_ = 0;
-  std::vector<double> publish_us_;
-  size_t publish_us_next_ = 0;
+  // Recent update and ingest-to-publish latencies for status_t [µs].
+  LatencyWindow update_latency_{static_cast<size_t>(params_.publish.latency_window)};
+  LatencyWindow publish_latency_{static_cast<size_t>(params_.publish.latency_window)};
   std::int64_t last_map_us_ = 0, last_map_sequence_ = -1;
   RefineSchedule refine_schedule_;
   std::set<std::string> camera_robots_;  // robots whose frame_observations_t came

@@ -17,27 +17,6 @@
 #include "slamd/status_t.hpp"
 
 namespace slamd::server {
-namespace {
-
-// The q-quantiles of v for ascending qs, from one copy: each nth_element works on the part
-// above the previous one (windows can be large, see publish.latency_window).
-template <size_t N>
-std::array<std::int64_t, N> Percentiles(std::vector<double> v, const std::array<double, N>& qs) {
-  std::array<std::int64_t, N> out{};
-  if (v.empty()) return out;
-  auto from = v.begin();
-  for (size_t i = 0; i < N; ++i) {
-    const size_t k =
-        std::min(v.size() - 1, static_cast<size_t>(qs[i] * static_cast<double>(v.size())));
-    const auto kth = v.begin() + static_cast<std::ptrdiff_t>(k);
-    std::nth_element(from, kth, v.end());
-    out[i] = static_cast<std::int64_t>(*kth);
-    from = kth;
-  }
-  return out;
-}
-
-}  // namespace
 
 void Daemon::AnswerAndPublish(const QueryRequest& query, std::int64_t update_sequence) {
   // Several shards answer (QuerySpec::AnsweringShards): each its own robots' keys and maps, and
@@ -203,12 +182,12 @@ void Daemon::PublishStatus(const EstimateSnapshot& snap) {
   out.queue_depth = queue_.size();
   out.queue_peak = queue_.peak();
   out.queue_capacity = queue_.capacity();
-  const auto update = Percentiles<4>(update_us_, {0.5, 0.9, 0.99, 1.0});
+  const auto update = update_latency_.Percentiles<4>({0.5, 0.9, 0.99, 1.0});
   out.update_latency_p50_us = update[0];
   out.update_latency_p90_us = update[1];
   out.update_latency_p99_us = update[2];
   out.update_latency_max_us = update[3];
-  const auto publish = Percentiles<2>(publish_us_, {0.5, 0.99});
+  const auto publish = publish_latency_.Percentiles<2>({0.5, 0.99});
   out.publish_latency_p50_us = publish[0];
   out.publish_latency_p99_us = publish[1];
   out.journal_records = journal_ ? journal_->records() : 0;
